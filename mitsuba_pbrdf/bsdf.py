@@ -1,0 +1,438 @@
+"""The ``pbrdf`` plugin: three-component polarized BRDF for metals.
+
+.. list-table::
+   :header-rows: 1
+
+   * - Parameter
+     - Type
+     - Description
+     - Default
+     - Differentiable
+   * - ``material``
+     - string
+     - Named conductor from Mitsuba's tabulated spectra (``Al``, ``Cu``, ``Au``,
+       ``Ag``, ...). Mutually exclusive with ``eta``/``k``.
+     - ``Al``
+     - no
+   * - ``eta``, ``k``
+     - spectrum or texture
+     - Complex index of refraction N = n + ik of the metal (dimensionless).
+     - from ``material``
+     - yes
+   * - ``sigma``
+     - float or texture
+     - RMS microfacet slope per axis of the specular lobe (paper Eq. 3);
+       Beckmann width alpha = sqrt(2) * sigma. Must be > 0.
+     - 0.1
+     - yes
+   * - ``ks``
+     - spectrum or texture
+     - Weight of the specular (polarizing) lobe.
+     - 1.0
+     - yes
+   * - ``kdd``
+     - spectrum or texture
+     - Weight of the directional diffuse (depolarized) lobe.
+     - 0.0
+     - yes
+   * - ``sigma_dd``
+     - float or texture
+     - RMS slope of the directional diffuse lobe (alpha_dd = sqrt(2) * sigma_dd). > 0.
+     - 0.5
+     - yes
+   * - ``kid``
+     - spectrum or texture
+     - Weight of the ideal (Lambertian, depolarized) diffuse lobe.
+     - 0.0
+     - yes
+   * - ``shadowing``
+     - string
+     - ``vgroove`` (Torrance-Sparrow/Blinn, the paper's) or ``smith`` (Beckmann
+       Smith, as Mitsuba's ``roughconductor``).
+     - ``vgroove``
+     - no
+   * - ``dd_distribution``
+     - string
+     - Normal distribution of the directional diffuse lobe: ``beckmann`` or ``ggx``.
+     - ``beckmann``
+     - no
+
+The model (paper Eq. 2, 5, 6; ``MODEL.md``)::
+
+    F(wi, wr) = ks * D(h) G F_mueller(beta) / (4 cos_i cos_r)            (specular)
+              + [kdd * Ddd(h) G / (4 cos_i cos_r) + kid / pi] * D0       (depolarized)
+
+with h the half vector, beta the angle between the light and h, F_mueller the
+Mueller matrix of Fresnel reflection on a facet of index n + ik rotated from the
+facet's s/p frame into Mitsuba's implicit Stokes bases, and D0 the ideal
+depolarizer. In unpolarized variants only the intensity (M00) is computed.
+
+The surface is one-sided: directions below the horizon give zero. A lobe whose
+weight is exactly zero at load time is dropped entirely (not evaluated, not
+sampled, not in the flags, not traversed); give it a small non-zero weight to
+optimize it. Components, in order of the lobes present: specular
+(GlossyReflection), directional diffuse (GlossyReflection), ideal diffuse
+(DiffuseReflection).
+
+Sampling picks a lobe with probabilities proportional to an estimate of each
+lobe's albedo for the current direction (ks times the unpolarized Fresnel
+reflectance at the incidence angle, kdd, kid; averaged over wavelengths),
+then samples the specular and directional diffuse lobes by Beckmann/GGX
+visible-normal sampling and the ideal diffuse lobe by cosine-weighted
+hemisphere sampling. The returned pdf is the mixture pdf (one-sample MIS).
+
+XML::
+
+    <bsdf type="pbrdf">
+        <string name="material" value="Cu"/>
+        <float name="sigma" value="0.1"/>
+        <spectrum name="kdd" value="0.2"/>
+        <float name="sigma_dd" value="0.5"/>
+        <spectrum name="kid" value="0.05"/>
+    </bsdf>
+"""
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+
+from . import params
+from .ior import complex_ior_textures
+
+# Lobe names, in component order.
+SPECULAR, DIRECTIONAL_DIFFUSE, IDEAL_DIFFUSE = "specular", "directional_diffuse", "ideal_diffuse"
+
+_INV_PI = 1.0 / math.pi
+_SQRT2 = math.sqrt(2.0)
+
+
+class _PolarizedBRDFMethods:
+    """Variant-independent body of the plugin; :func:`plugin_class` copies it
+    into a subclass of the active variant's ``mi.BSDF`` (``_base``)."""
+
+    _base = None
+
+    def __init__(self, props):
+        self._base.__init__(self, props)
+        tex = params.texture
+
+        has_ior = "eta" in props or "k" in props
+        if has_ior and "material" in props:
+            raise ValueError("pbrdf: give either 'material' or 'eta'/'k', not both")
+        if has_ior:
+            if "eta" not in props or "k" not in props:
+                raise ValueError("pbrdf: 'eta' and 'k' must be given together")
+            self.material = None
+            self.eta = tex(props, "eta", 0.0, spectral=True, positive=True)
+            self.k = tex(props, "k", 0.0, spectral=True)
+        else:
+            if "material" in props and props.type("material") != mi.Properties.Type.String:
+                raise TypeError("pbrdf: parameter 'material' must be a string such as 'Al'")
+            self.material = props["material"] if "material" in props else "Al"
+            self.eta, self.k = complex_ior_textures(self.material)
+
+        self.sigma = tex(props, "sigma", 0.1, spectral=False, positive=True)
+        self.ks = tex(props, "ks", 1.0, spectral=True)
+        self.kdd = tex(props, "kdd", 0.0, spectral=True)
+        self.sigma_dd = tex(props, "sigma_dd", 0.5, spectral=False, positive=True)
+        self.kid = tex(props, "kid", 0.0, spectral=True)
+        self.shadowing = params.choice(props, "shadowing", ("vgroove", "smith"), "vgroove")
+        self.dd_distribution = params.choice(props, "dd_distribution", ("beckmann", "ggx"), "beckmann")
+        self._dd_type = (mi.MicrofacetType.Beckmann if self.dd_distribution == "beckmann"
+                         else mi.MicrofacetType.GGX)
+
+        weights = {SPECULAR: self.ks, DIRECTIONAL_DIFFUSE: self.kdd, IDEAL_DIFFUSE: self.kid}
+        self.lobes = [lobe for lobe, w in weights.items() if not params.is_constant_zero(w)]
+        self._lobe_type = {
+            SPECULAR: mi.BSDFFlags.GlossyReflection,
+            DIRECTIONAL_DIFFUSE: mi.BSDFFlags.GlossyReflection,
+            IDEAL_DIFFUSE: mi.BSDFFlags.DiffuseReflection,
+        }
+        self.m_components = [self._lobe_type[lobe] | mi.BSDFFlags.FrontSide for lobe in self.lobes]
+        self.m_flags = mi.BSDFFlags.Empty
+        for flags in self.m_components:
+            self.m_flags = self.m_flags | flags
+
+    # ------------------------------------------------------------------ traversal
+
+    def _parameter_table(self):
+        """name -> (texture, flags, positive) of every exposed parameter."""
+        diff = mi.ParamFlags.Differentiable
+        disc = mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous
+        table = {"eta": (self.eta, disc, True), "k": (self.k, disc, False)}
+        if SPECULAR in self.lobes:
+            table.update(sigma=(self.sigma, disc, True), ks=(self.ks, diff, False))
+        if DIRECTIONAL_DIFFUSE in self.lobes:
+            table.update(kdd=(self.kdd, diff, False), sigma_dd=(self.sigma_dd, disc, True))
+        if IDEAL_DIFFUSE in self.lobes:
+            table.update(kid=(self.kid, diff, False))
+        return table
+
+    def traverse(self, callback):
+        for name, (texture, flags, _) in self._parameter_table().items():
+            callback.put(name, texture, flags)
+
+    def parameters_changed(self, keys):
+        # Textures refresh their own state; re-check values an update may have broken.
+        for name, (texture, _, positive) in self._parameter_table().items():
+            if not keys or any(k == name or k.startswith(name + ".") for k in keys):
+                params.check_texture_values(name, texture, positive)
+
+    def to_string(self):
+        ior = f"material = {self.material!r}" if self.material else f"eta = {self.eta},\n  k = {self.k}"
+        return (f"PolarizedBRDF[\n  {ior},\n  lobes = {self.lobes},\n"
+                f"  sigma = {self.sigma},\n  ks = {self.ks},\n  kdd = {self.kdd},\n"
+                f"  sigma_dd = {self.sigma_dd},\n  kid = {self.kid},\n"
+                f"  shadowing = {self.shadowing!r},\n  dd_distribution = {self.dd_distribution!r}\n]")
+
+    # ------------------------------------------------------------------ BSDF API
+
+    def eval(self, ctx, si, wo, active=True):
+        value, _ = self._eval_pdf(ctx, si, wo, active, want_pdf=False)
+        return value
+
+    def pdf(self, ctx, si, wo, active=True):
+        _, pdf = self._eval_pdf(ctx, si, wo, active, want_value=False)
+        return pdf
+
+    def eval_pdf(self, ctx, si, wo, active=True):
+        return self._eval_pdf(ctx, si, wo, active)
+
+    def sample(self, ctx, si, sample1, sample2, active=True):
+        cos_i = mi.Frame3f.cos_theta(si.wi)
+        active = mi.Bool(active) & (cos_i > 0)
+        probs = self._lobe_probabilities(ctx, si, active)
+
+        # Pick a lobe with sample1, then draw a direction from it with sample2.
+        wo = mi.Vector3f(0.0, 0.0, 1.0)
+        component = mi.UInt32(0)
+        sampled_type = mi.UInt32(0)
+        cdf = mi.Float(0.0)
+        for index, lobe in enumerate(self.lobes):
+            chosen = active & (sample1 >= cdf) & (sample1 < cdf + probs[lobe])
+            if index == len(self.lobes) - 1:  # guard against rounding at the top of the cdf
+                chosen = active & (sample1 >= cdf) & (probs[lobe] > 0)
+            cdf = cdf + probs[lobe]
+            wo = dr.select(chosen, self._sample_lobe(lobe, si, sample2, chosen), wo)
+            component = dr.select(chosen, index, component)
+            sampled_type = dr.select(chosen, int(self.m_components[index]), sampled_type)
+
+        value, pdf = self._eval_pdf(ctx, si, wo, active)
+        active &= pdf > 0
+
+        bs = dr.zeros(mi.BSDFSample3f)
+        bs.wo = wo
+        bs.pdf = dr.select(active, pdf, 0.0)
+        bs.eta = 1.0
+        bs.sampled_component = component
+        bs.sampled_type = sampled_type
+        weight = value * dr.select(active, dr.rcp(pdf), 0.0)
+        return bs, weight
+
+    # ------------------------------------------------------------------ internals
+
+    def _enabled(self, ctx, lobe):
+        return ctx.is_enabled(self._lobe_type[lobe], self.lobes.index(lobe))
+
+    def _alpha(self, texture, si, active):
+        """Beckmann width alpha = sqrt(2) sigma (paper Eq. 3 -> MODEL.md)."""
+        return _SQRT2 * texture.eval_1(si, active)
+
+    def _lobe_probabilities(self, ctx, si, active):
+        """Lobe selection probabilities (scalar per sample), proportional to each
+        lobe's estimated albedo for direction ``si.wi``."""
+        estimates = {}
+        for lobe in self.lobes:
+            if not self._enabled(ctx, lobe):
+                continue
+            if lobe == SPECULAR:
+                fresnel = _fresnel_unpolarized(mi.Frame3f.cos_theta(si.wi),
+                                               self.eta.eval(si, active), self.k.eval(si, active))
+                estimate = self.ks.eval(si, active) * fresnel
+            else:
+                estimate = (self.kdd if lobe == DIRECTIONAL_DIFFUSE else self.kid).eval(si, active)
+            estimates[lobe] = dr.maximum(dr.mean(estimate, axis=0), 0.0)
+        total = mi.Float(0.0)
+        for e in estimates.values():
+            total = total + e
+        uniform = 1.0 / max(len(estimates), 1)
+        return {lobe: (dr.select(total > 0, estimates[lobe] / total, uniform)
+                       if lobe in estimates else mi.Float(0.0))
+                for lobe in self.lobes}
+
+    def _distribution(self, lobe, si, active):
+        if lobe == SPECULAR:
+            return mi.MicrofacetDistribution(mi.MicrofacetType.Beckmann,
+                                             self._alpha(self.sigma, si, active), True)
+        return mi.MicrofacetDistribution(self._dd_type, self._alpha(self.sigma_dd, si, active), True)
+
+    def _sample_lobe(self, lobe, si, sample2, active):
+        if lobe == IDEAL_DIFFUSE:
+            return mi.warp.square_to_cosine_hemisphere(sample2)
+        m, _ = self._distribution(lobe, si, active).sample(si.wi, sample2)
+        return mi.reflect(si.wi, m)
+
+    def _shadowing(self, distribution, wi, wo, h, cos_h, cos_beta):
+        if self.shadowing == "smith":
+            return distribution.G(wi, wo, h)
+        # V-groove (Torrance-Sparrow/Blinn): min(1, 2 cos_h cos_o / cos_b, 2 cos_h cos_i / cos_b)
+        two_cos_h = 2.0 * cos_h / cos_beta
+        return dr.minimum(1.0, two_cos_h * dr.minimum(mi.Frame3f.cos_theta(wi),
+                                                       mi.Frame3f.cos_theta(wo)))
+
+    def _eval_pdf(self, ctx, si, wo, active, want_value=True, want_pdf=True):
+        polarized = mi.is_polarized
+        wi = si.wi
+        cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
+        active = mi.Bool(active) & (cos_i > 0) & (cos_o > 0)
+        h = dr.normalize(wi + wo)
+        cos_h = mi.Frame3f.cos_theta(h)
+        cos_beta = dr.dot(wi, h)  # = dot(wo, h): angle of incidence on the facet
+        inv_4cos_i = dr.select(active, dr.rcp(4.0 * cos_i), 0.0)  # f * cos_o = ... / (4 cos_i)
+
+        zero = dr.zeros(mi.Spectrum) if polarized else mi.UnpolarizedSpectrum(0.0)
+        value, pdf = zero, mi.Float(0.0)
+        probs = self._lobe_probabilities(ctx, si, active) if want_pdf else None
+
+        for lobe in self.lobes:
+            if not self._enabled(ctx, lobe):
+                continue
+            if lobe == IDEAL_DIFFUSE:
+                if want_value:
+                    value = value + _depolarized(self.kid.eval(si, active) * (_INV_PI * cos_o), polarized)
+                if want_pdf:
+                    pdf = pdf + probs[lobe] * mi.warp.square_to_cosine_hemisphere_pdf(wo)
+                continue
+
+            distribution = self._distribution(lobe, si, active)
+            D = distribution.eval(h)
+            if want_pdf:
+                # Visible-normal sampling density, mapped through the reflection Jacobian.
+                pdf = pdf + probs[lobe] * D * distribution.smith_g1(wi, h) * inv_4cos_i
+            if not want_value:
+                continue
+            scale = D * self._shadowing(distribution, wi, wo, h, cos_h, cos_beta) * inv_4cos_i
+            if lobe == DIRECTIONAL_DIFFUSE:
+                value = value + _depolarized(self.kdd.eval(si, active) * scale, polarized)
+            else:
+                weight = self.ks.eval(si, active) * scale
+                eta, k = self.eta.eval(si, active), self.k.eval(si, active)
+                if polarized:
+                    value = value + _specular_mueller(ctx, si, wo, h, cos_beta, eta, k, weight)
+                else:
+                    value = value + weight * _fresnel_unpolarized(cos_beta, eta, k)
+
+        value = dr.select(active, value, zero)
+        pdf = dr.select(active & dr.isfinite(pdf), pdf, 0.0)
+        return value, pdf
+
+
+def _depolarized(value, polarized):
+    return mi.depolarizer(value) if polarized else value
+
+
+# ---------------------------------------------------------------------- Fresnel
+
+def _fresnel_amplitudes(cos_beta, eta, k):
+    """Complex reflection amplitudes (a_s, a_p) as (re, im) pairs, vectorized over
+    wavelengths, for a facet of index N = eta + i k seen at ``cos_beta``.
+
+    a_s = (cos - w) / (cos + w),  a_p = (w - N^2 cos) / (w + N^2 cos),
+    w = sqrt(N^2 - sin^2) = N cos_t on the principal branch (Im w >= 0: the
+    transmitted wave decays), Fresnel's sign convention for a_p as in Mitsuba
+    (a_p = a_s at normal incidence).
+    """
+    c = dr.clip(cos_beta, 0.0, 1.0)
+    n2_re = eta * eta - k * k  # N^2
+    n2_im = 2.0 * eta * k
+    u_re = n2_re - (1.0 - c * c)  # N^2 - sin^2
+    u_im = n2_im
+    # Numerically stable principal square root of u.
+    modulus = dr.sqrt(dr.fma(u_re, u_re, u_im * u_im))
+    t = dr.sqrt(dr.maximum(0.5 * (modulus + dr.abs(u_re)), 0.0))
+    safe_t = dr.select(t > 0, t, 1.0)
+    w_re = dr.select(u_re >= 0, t, dr.abs(u_im) / (2.0 * safe_t))
+    w_im = dr.select(u_re >= 0, u_im / (2.0 * safe_t), dr.copysign(t, u_im))
+
+    def ratio(a_re, a_im, b_re, b_im):  # (a - b) / (a + b) as (re, im)
+        num_re, num_im = a_re - b_re, a_im - b_im
+        den_re, den_im = a_re + b_re, a_im + b_im
+        inv = dr.rcp(dr.maximum(den_re * den_re + den_im * den_im, 1e-30))
+        return ((num_re * den_re + num_im * den_im) * inv,
+                (num_im * den_re - num_re * den_im) * inv)
+
+    a_s = ratio(c, 0.0 * c, w_re, w_im)
+    a_p = ratio(w_re, w_im, n2_re * c, n2_im * c)
+    return a_s, a_p
+
+
+def _fresnel_unpolarized(cos_beta, eta, k):
+    """Unpolarized reflectance (R_s + R_p) / 2."""
+    (s_re, s_im), (p_re, p_im) = _fresnel_amplitudes(cos_beta, eta, k)
+    return 0.5 * (s_re * s_re + s_im * s_im + p_re * p_re + p_im * p_im)
+
+
+def _fresnel_mueller_entries(cos_beta, eta, k):
+    """Entries (A, B, C, S) of the facet's reflection Mueller matrix in its s/p frame,
+
+        [[A, B, 0,  0],
+         [B, A, 0,  0],
+         [0, 0, C, -S],
+         [0, 0, S,  C]],
+
+    A = (R_s + R_p)/2, B = (R_s - R_p)/2, C + iS = r_p conj(r_s) in Mitsuba 3.9's
+    convention: N = n - ik (time factor exp(+i w t)) and the Verdet sign of r_p
+    (r_p = -r_s at normal incidence), i.e. r_s = conj(a_s), r_p = -conj(a_p)
+    with the amplitudes of :func:`_fresnel_amplitudes`."""
+    (s_re, s_im), (p_re, p_im) = _fresnel_amplitudes(cos_beta, eta, k)
+    r_s = s_re * s_re + s_im * s_im
+    r_p = p_re * p_re + p_im * p_im
+    return (0.5 * (r_s + r_p), 0.5 * (r_s - r_p),
+            -(p_re * s_re + p_im * s_im), p_im * s_re - p_re * s_im)
+
+
+def _specular_mueller(ctx, si, wo, h, cos_beta, eta, k, weight):
+    """``weight`` x Fresnel Mueller matrix of the facet with normal ``h``, rotated
+    from the facet's s/p frames into Mitsuba's implicit Stokes bases."""
+    A, B, C, S = (weight * e for e in _fresnel_mueller_entries(cos_beta, eta, k))
+    M = dr.zeros(mi.Spectrum, dr.width(weight))
+    M[0, 0] = A
+    M[0, 1] = B
+    M[1, 0] = B
+    M[1, 1] = A
+    M[2, 2] = C
+    M[2, 3] = -S
+    M[3, 2] = S
+    M[3, 3] = C
+
+    # Light arrives along -wo_hat and leaves along wi_hat.
+    radiance = ctx.mode == mi.TransportMode.Radiance
+    wo_hat = wo if radiance else si.wi
+    wi_hat = si.wi if radiance else wo
+
+    # The facet's s axis is perpendicular to its plane of reflection.
+    s_in = dr.cross(h, -wo_hat)
+    s_out = dr.cross(h, wi_hat)
+    # At normal incidence on the facet (retro-reflection) any s axis
+    # perpendicular to h serves, as long as input and output share it.
+    collinear = dr.squared_norm(s_in) < 1e-12
+    s_any = mi.coordinate_system(h)[0]
+    s_in = dr.select(collinear, s_any, dr.normalize(s_in))
+    s_out = dr.select(collinear, s_any, dr.normalize(s_out))
+    return mi.mueller.rotate_mueller_basis(M, -wo_hat, s_in, mi.mueller.stokes_basis(-wo_hat),
+                                           wi_hat, s_out, mi.mueller.stokes_basis(wi_hat))
+
+
+_classes = {}
+
+
+def plugin_class():
+    """The ``pbrdf`` BSDF class for the active Mitsuba variant."""
+    variant = mi.variant()
+    if variant not in _classes:
+        body = {k: v for k, v in vars(_PolarizedBRDFMethods).items()
+                if k not in ("__dict__", "__weakref__")}
+        body.update(__doc__=__doc__, _base=mi.BSDF)
+        _classes[variant] = type("PolarizedBRDF", (mi.BSDF,), body)
+    return _classes[variant]
