@@ -319,7 +319,7 @@ class _PolarizedBRDFMethods:
                 weight = self.ks.eval(si, active) * scale
                 eta, k = self.eta.eval(si, active), self.k.eval(si, active)
                 if polarized:
-                    value = value + _specular_mueller(ctx, si, wo, h, cos_beta, eta, k, weight)
+                    value = value + _specular_mueller(ctx, si, wo, h, eta, k, weight)
                 else:
                     value = value + weight * _fresnel_unpolarized(cos_beta, eta, k)
 
@@ -392,10 +392,17 @@ def _fresnel_mueller_entries(cos_beta, eta, k):
             -(p_re * s_re + p_im * s_im), p_im * s_re - p_re * s_im)
 
 
-def _specular_mueller(ctx, si, wo, h, cos_beta, eta, k, weight):
+def _specular_mueller(ctx, si, wo, h, eta, k, weight):
     """``weight`` x Fresnel Mueller matrix of the facet with normal ``h``, rotated
     from the facet's s/p frames into Mitsuba's implicit Stokes bases."""
-    A, B, C, S = (weight * e for e in _fresnel_mueller_entries(cos_beta, eta, k))
+    # Light arrives along -wo_hat and leaves along wi_hat.
+    radiance = ctx.mode == mi.TransportMode.Radiance
+    wo_hat = wo if radiance else si.wi
+    wi_hat = si.wi if radiance else wo
+
+    # cos(beta) from the incident side, as roughconductor computes it (same
+    # value, same float32 rounding).
+    A, B, C, S = (weight * e for e in _fresnel_mueller_entries(dr.dot(wo_hat, h), eta, k))
     M = dr.zeros(mi.Spectrum, dr.width(weight))
     M[0, 0] = A
     M[0, 1] = B
@@ -405,11 +412,6 @@ def _specular_mueller(ctx, si, wo, h, cos_beta, eta, k, weight):
     M[2, 3] = -S
     M[3, 2] = S
     M[3, 3] = C
-
-    # Light arrives along -wo_hat and leaves along wi_hat.
-    radiance = ctx.mode == mi.TransportMode.Radiance
-    wo_hat = wo if radiance else si.wi
-    wi_hat = si.wi if radiance else wo
 
     # The facet's s axis is perpendicular to its plane of reflection.
     s_in = dr.cross(h, -wo_hat)
