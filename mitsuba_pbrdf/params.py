@@ -14,8 +14,8 @@ import numpy as np
 # Texture parameters holding values (as opposed to wavelengths or UV transforms).
 _VALUE_KEYS = ("value", "values", "data", "color")
 
-_TEXTURE_TYPES = (mi.Properties.Type.Float, mi.Properties.Type.Integer,
-                  mi.Properties.Type.Color, mi.Properties.Type.Object)
+_TEXTURE_TYPES = (mi.Properties.Type.Float, mi.Properties.Type.Integer, mi.Properties.Type.Color,
+                  mi.Properties.Type.Spectrum, mi.Properties.Type.Object)
 
 
 def choice(props, name, options, default):
