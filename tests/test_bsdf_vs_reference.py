@@ -3,7 +3,7 @@
 Each configuration: >= 10,000 random direction pairs (half of them near the
 specular direction) x 4 wavelengths, both transport modes, all 16 Mueller
 elements, the plugin's matrices rotated from Mitsuba's implicit Stokes bases
-into the reference's global s/p frames (tests/mitsuba_frames.py).
+into the reference's global s/p frames (mitsuba_pbrdf.frames).
 
 Tolerance per element: |dM_ij| <= 1e-4 M00 + 1e-7 max(M00). The plugin runs in
 float32 (~6e-8 relative rounding per operation); the Beckmann exponent
@@ -24,7 +24,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-import mitsuba_frames as mf
+from mitsuba_pbrdf import frames as mf
 from conftest import WAVELENGTHS, use_variant
 from mitsuba_pbrdf import reference as ref
 

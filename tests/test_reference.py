@@ -18,7 +18,7 @@ import zlib
 import numpy as np
 import pytest
 
-from mitsuba_frames import mitsuba_beckmann_G1
+from mitsuba_pbrdf.frames import mitsuba_beckmann_G1
 from mitsuba_pbrdf import reference as ref
 
 METALS = ("Al", "Cu", "Au", "Ag")
@@ -463,7 +463,7 @@ def test_normal_incidence_frame_is_surface_x_axis():
 @pytest.fixture
 def frames():
     mitsuba_variant("llvm_ad_spectral_polarized")
-    import mitsuba_frames
+    from mitsuba_pbrdf import frames as mitsuba_frames
     return mitsuba_frames
 
 
@@ -535,7 +535,7 @@ def test_mitsuba_frames_other_variants():
     eta, k = 1.2, 7.0
     alpha = float(np.float32(0.3))
     rng = np.random.default_rng(9)
-    import mitsuba_frames as mf
+    from mitsuba_pbrdf import frames as mf
 
     for variant, n_dirs in [("scalar_spectral_polarized", 40), ("llvm_ad_mono_polarized", 2000),
                             ("llvm_ad_rgb", 2000), ("llvm_ad_spectral", 2000)]:

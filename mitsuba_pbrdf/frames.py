@@ -1,4 +1,4 @@
-"""Evaluate any Mitsuba BSDF in the reference evaluator's frames (test utility).
+"""Evaluate any Mitsuba BSDF in the reference evaluator's frames.
 
 ``mitsuba_pbrdf.reference.pbrdf`` returns BRDF Mueller matrices (1/sr, no
 cosine) in the *global s/p frames* (see its module docstring): the incident
