@@ -306,7 +306,9 @@ class _PolarizedBRDFMethods:
                 continue
 
             distribution = self._distribution(lobe, si, active)
-            D = distribution.eval(h)
+            # cos(beta) > 0 whenever both directions are above the horizon; only
+            # float rounding (nearly opposite grazing directions) can break it.
+            D = dr.select(cos_beta > 0, distribution.eval(h), 0.0)
             if want_pdf:
                 # Visible-normal sampling density, mapped through the reflection Jacobian.
                 pdf = pdf + probs[lobe] * D * distribution.smith_g1(wi, h) * inv_4cos_i
