@@ -218,7 +218,7 @@ class _PolarizedBRDFMethods:
             component = dr.select(chosen, index, component)
             sampled_type = dr.select(chosen, int(self.m_components[index]), sampled_type)
 
-        value, pdf = self._eval_pdf(ctx, si, wo, active)
+        value, pdf = self._eval_pdf(ctx, si, wo, active, probs=probs)
         active &= pdf > 0
 
         bs = dr.zeros(mi.BSDFSample3f)
@@ -281,7 +281,7 @@ class _PolarizedBRDFMethods:
         return dr.minimum(1.0, two_cos_h * dr.minimum(mi.Frame3f.cos_theta(wi),
                                                        mi.Frame3f.cos_theta(wo)))
 
-    def _eval_pdf(self, ctx, si, wo, active, want_value=True, want_pdf=True):
+    def _eval_pdf(self, ctx, si, wo, active, want_value=True, want_pdf=True, probs=None):
         polarized = mi.is_polarized
         wi = si.wi
         cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
@@ -293,7 +293,8 @@ class _PolarizedBRDFMethods:
 
         zero = dr.zeros(mi.Spectrum) if polarized else mi.UnpolarizedSpectrum(0.0)
         value, pdf = zero, mi.Float(0.0)
-        probs = self._lobe_probabilities(ctx, si, active) if want_pdf else None
+        if want_pdf and probs is None:
+            probs = self._lobe_probabilities(ctx, si, active)
 
         for lobe in self.lobes:
             if not self._enabled(ctx, lobe):
