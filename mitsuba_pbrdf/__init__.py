@@ -73,7 +73,7 @@ def _importing_a_submodule():
             name = frame.f_locals.get("name")
             if isinstance(name, str) and name.startswith(__name__ + "."):
                 return True
-        elif filename.endswith("runpy.py"):
+        elif filename.endswith("runpy.py") or filename == "<frozen runpy>":
             return True
         else:  # the importing statement itself: `from mitsuba_pbrdf import x, y`?
             return _from_import_names(frame) <= _SUBMODULES and bool(_from_import_names(frame))

@@ -207,7 +207,8 @@ BAD_INPUT = [
     ({"ks": -0.5}, ValueError, "'ks'"),
     ({"kdd": float("nan")}, ValueError, "'kdd'"),
     ({"kid": -1e-3}, ValueError, "'kid'"),
-    ({"kid": {"type": "rgb", "value": [0.2, -0.1, 0.3]}}, ValueError, "'kid'"),
+    ({"kid": mi.ScalarColor3f(0.2, -0.1, 0.3)}, ValueError, "'kid'"),
+    ({"kid": {"type": "uniform", "value": -0.3}}, ValueError, "'kid'"),
     ({"kdd": {"type": "checkerboard", "color0": -0.5, "color1": 0.2}}, ValueError, "'kdd'"),
     ({"ks": "shiny"}, TypeError, "'ks'"),
     ({"sigma": True}, TypeError, "'sigma'"),
@@ -241,6 +242,19 @@ def test_bad_input_in_xml_names_the_parameter():
     xml = """<bsdf version="3.0.0" type="pbrdf"><float name="sigma" value="-2"/></bsdf>"""
     with pytest.raises(Exception, match="'sigma'"):
         mi.load_string(xml)
+
+
+def test_valid_rgb_and_bitmap_weights_load_in_spectral_variants():
+    """Spectral variants store RGB colours and bitmaps as spectral-upsampling
+    coefficients, which may be negative for valid colours: they must pass."""
+    use_variant("llvm_ad_spectral_polarized")
+    bitmap = mi.Bitmap(np.full((4, 4, 3), [0.5, 0.2, 0.05], dtype=np.float32))
+    bsdf = mi.load_dict({"type": "pbrdf", "kdd": {"type": "rgb", "value": [0.2, 0.1, 0.05]},
+                         "kid": mi.ScalarColor3f(0.1, 0.05, 0.02),
+                         "ks": {"type": "bitmap", "bitmap": bitmap}})
+    assert bsdf.component_count() == 3
+    xml = """<bsdf version="3.0.0" type="pbrdf"><rgb name="kdd" value="0.2, 0.1, 0.05"/></bsdf>"""
+    assert mi.load_string(xml).component_count() == 2
 
 
 def test_explicit_ior_and_options_load():
