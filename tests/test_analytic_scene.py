@@ -78,16 +78,9 @@ def camera_rays(scene):
 def rotation_to_camera(forward, current, target):
     """Mitsuba's rotate_stokes_basis: Mueller rotator taking a Stokes vector
     from basis `current` to basis `target` (both perpendicular to `forward`)."""
-    cos = np.clip(np.sum(current * target, axis=-1), -1.0, 1.0)
-    theta = np.arccos(cos)
+    theta = np.arccos(np.clip(np.sum(current * target, axis=-1), -1.0, 1.0))
     theta = np.where(np.sum(forward * np.cross(current, target), axis=-1) < 0, -theta, theta)
-    c, s = np.cos(2 * theta), np.sin(2 * theta)
-    R = np.zeros(theta.shape + (4, 4))
-    R[..., 0, 0] = R[..., 3, 3] = 1.0
-    R[..., 1, 1] = R[..., 2, 2] = c
-    R[..., 1, 2] = s
-    R[..., 2, 1] = -s
-    return R
+    return reference.rotator(theta)
 
 
 def expected_stokes(scene, case, light_dir):
