@@ -202,6 +202,9 @@ class _PolarizedBRDFMethods:
     def sample(self, ctx, si, sample1, sample2, active=True):
         cos_i = mi.Frame3f.cos_theta(si.wi)
         active = mi.Bool(active) & (cos_i > 0)
+        enabled = self._enabled_lobes(ctx)
+        if len(enabled) == 1:
+            return self._sample_single_lobe(ctx, si, sample2, active, enabled[0])
         probs = self._lobe_probabilities(ctx, si, active)
 
         # Pick a lobe with sample1, then draw a direction from it with sample2.
@@ -209,31 +212,80 @@ class _PolarizedBRDFMethods:
         component = mi.UInt32(0)
         sampled_type = mi.UInt32(0)
         cdf = mi.Float(0.0)
-        for index, lobe in enumerate(self.lobes):
+        for lobe in enabled:
             chosen = active & (sample1 >= cdf) & (sample1 < cdf + probs[lobe])
-            if index == len(self.lobes) - 1:  # guard against rounding at the top of the cdf
+            if lobe == enabled[-1]:  # guard against rounding at the top of the cdf
                 chosen = active & (sample1 >= cdf) & (probs[lobe] > 0)
             cdf = cdf + probs[lobe]
             wo = dr.select(chosen, self._sample_lobe(lobe, si, sample2, chosen), wo)
-            component = dr.select(chosen, index, component)
-            sampled_type = dr.select(chosen, int(self.m_components[index]), sampled_type)
+            component = dr.select(chosen, self.lobes.index(lobe), component)
+            sampled_type = dr.select(chosen, self._component_flags(lobe), sampled_type)
 
+        # One-sample MIS: the weight is the full value over the mixture pdf.
         value, pdf = self._eval_pdf(ctx, si, wo, active, probs=probs)
-        active &= pdf > 0
+        return self._sample_record(wo, pdf, component, sampled_type, active, value)
 
+    # ------------------------------------------------------------------ sampling
+
+    def _sample_single_lobe(self, ctx, si, sample2, active, lobe):
+        """Sampling when one lobe is enabled: its own pdf, and a weight in
+        closed form (for microfacet lobes D cancels: value/pdf = G / G1(wi))."""
+        polarized = mi.is_polarized
+        if lobe == IDEAL_DIFFUSE:
+            wo = mi.warp.square_to_cosine_hemisphere(sample2)
+            pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
+            value = _depolarized(self.kid.eval(si, active) * pdf * math.pi, polarized)  # kid cos/pi
+        else:
+            distribution = self._distribution(lobe, si, active)
+            m, pdf_m = distribution.sample(si.wi, sample2)
+            wo = mi.reflect(si.wi, m)
+            cos_beta = dr.dot(si.wi, m)
+            active &= (pdf_m > 0) & (mi.Frame3f.cos_theta(wo) > 0) & (cos_beta > 0)
+            pdf = pdf_m * dr.rcp(4.0 * cos_beta)  # Jacobian of the reflection mapping
+            shadowing = self._shadowing(distribution, si.wi, wo, m, mi.Frame3f.cos_theta(m), cos_beta)
+            # value = D G / (4 cos_i), pdf = D G1(wi) / (4 cos_i): keep pdf * (G / G1(wi))
+            g = shadowing * dr.rcp(distribution.smith_g1(si.wi, m)) * pdf
+            if lobe == DIRECTIONAL_DIFFUSE:
+                value = _depolarized(self.kdd.eval(si, active) * g, polarized)
+            else:
+                value = self._specular_value(ctx, si, wo, m, self.ks.eval(si, active) * g, active)
+        index = self.lobes.index(lobe)
+        return self._sample_record(wo, pdf, mi.UInt32(index), mi.UInt32(self._component_flags(lobe)),
+                                   active, value)
+
+    @staticmethod
+    def _sample_record(wo, pdf, component, sampled_type, active, value):
+        active = active & (pdf > 0) & dr.isfinite(pdf)
         bs = dr.zeros(mi.BSDFSample3f)
         bs.wo = wo
         bs.pdf = dr.select(active, pdf, 0.0)
         bs.eta = 1.0
         bs.sampled_component = component
         bs.sampled_type = sampled_type
-        weight = value * dr.select(active, dr.rcp(pdf), 0.0)
+        zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
+        weight = dr.select(active, value * dr.rcp(pdf), zero)
         return bs, weight
 
     # ------------------------------------------------------------------ internals
 
     def _enabled(self, ctx, lobe):
         return ctx.is_enabled(self._lobe_type[lobe], self.lobes.index(lobe))
+
+    def _enabled_lobes(self, ctx):
+        """The lobes that exist and that ``ctx`` selects (a Python-level choice:
+        nothing else is traced)."""
+        return [lobe for lobe in self.lobes if self._enabled(ctx, lobe)]
+
+    def _component_flags(self, lobe):
+        return int(self.m_components[self.lobes.index(lobe)])
+
+    def _specular_value(self, ctx, si, wo, h, weight, active):
+        """``weight`` x the facet's Fresnel reflection: a Mueller matrix in
+        polarized variants, the unpolarized reflectance otherwise."""
+        eta, k = self.eta.eval(si, active), self.k.eval(si, active)
+        if mi.is_polarized:
+            return _specular_mueller(ctx, si, wo, h, eta, k, weight)
+        return weight * _fresnel_unpolarized(dr.dot(si.wi, h), eta, k)
 
     def _alpha(self, texture, si, active):
         """Beckmann width alpha = sqrt(2) sigma (paper Eq. 3 -> MODEL.md)."""
@@ -242,10 +294,11 @@ class _PolarizedBRDFMethods:
     def _lobe_probabilities(self, ctx, si, active):
         """Lobe selection probabilities (scalar per sample), proportional to each
         lobe's estimated albedo for direction ``si.wi``."""
+        enabled = self._enabled_lobes(ctx)
+        if len(enabled) <= 1:  # nothing to choose: no estimate to trace
+            return {lobe: mi.Float(1.0 if lobe in enabled else 0.0) for lobe in self.lobes}
         estimates = {}
-        for lobe in self.lobes:
-            if not self._enabled(ctx, lobe):
-                continue
+        for lobe in enabled:
             if lobe == SPECULAR:
                 fresnel = _fresnel_unpolarized(mi.Frame3f.cos_theta(si.wi),
                                                self.eta.eval(si, active), self.k.eval(si, active))
@@ -319,12 +372,8 @@ class _PolarizedBRDFMethods:
             if lobe == DIRECTIONAL_DIFFUSE:
                 value = value + _depolarized(self.kdd.eval(si, active) * scale, polarized)
             else:
-                weight = self.ks.eval(si, active) * scale
-                eta, k = self.eta.eval(si, active), self.k.eval(si, active)
-                if polarized:
-                    value = value + _specular_mueller(ctx, si, wo, h, eta, k, weight)
-                else:
-                    value = value + weight * _fresnel_unpolarized(cos_beta, eta, k)
+                value = value + self._specular_value(ctx, si, wo, h, self.ks.eval(si, active) * scale,
+                                                     active)
 
         value = dr.select(active, value, zero)
         pdf = dr.select(active & dr.isfinite(pdf), pdf, 0.0)

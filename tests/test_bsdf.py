@@ -63,11 +63,18 @@ def test_sample_weight_is_eval_over_pdf(name, mode):
     pdf_np, weight_np, value_np = as_numpy(bs.pdf), as_numpy(weight), as_numpy(value)
     valid = pdf_np > 0
     assert valid.mean() > 0.4  # not vacuous (very rough lobes reflect ~half below the horizon)
-    np.testing.assert_allclose(as_numpy(pdf)[valid], pdf_np[valid], rtol=1e-6)
-    np.testing.assert_allclose(as_numpy(bsdf.pdf(ctx, si, bs.wo))[valid], pdf_np[valid], rtol=1e-6)
+    # With one lobe, sample() takes the pdf and weight from the sampled facet
+    # normal m, eval_pdf from h = normalize(wi + wo): the same vector up to a few
+    # float32 ulps, which the Beckmann exponent amplifies (rtol 2e-5, measured
+    # 1.3e-6). With several lobes the same eval_pdf call produces both.
+    np.testing.assert_allclose(as_numpy(pdf)[valid], pdf_np[valid], rtol=2e-5)
+    np.testing.assert_allclose(as_numpy(bsdf.pdf(ctx, si, bs.wo))[valid], pdf_np[valid], rtol=2e-5)
+    # Near the horizon the shadowing term depends on cos(theta_o), whose float32
+    # rounding (6e-8 absolute) the two paths reach differently: + 1e-6 / cos_o.
     expected = value_np[valid] / pdf_np[valid, None, None, None]
     m00 = np.abs(expected[..., :1, :1])
-    assert np.all(np.abs(weight_np[valid] - expected) <= 1e-5 * m00 + 1e-12)
+    cos_o = as_numpy(bs.wo)[valid, 2, None, None, None]
+    assert np.all(np.abs(weight_np[valid] - expected) <= (2e-5 + 1e-6 / cos_o) * m00 + 1e-12)
     assert np.all(weight_np[~valid] == 0)
     assert np.all(np.isfinite(weight_np))
 
