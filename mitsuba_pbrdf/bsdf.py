@@ -56,6 +56,12 @@
      - Normal distribution of the directional diffuse lobe: ``beckmann`` or ``ggx``.
      - ``beckmann``
      - no
+   * - ``sampling``
+     - string
+     - ``mixture`` (lobe mixture, see below) or ``cosine`` (cosine-weighted
+       hemisphere sampling only: the baseline benchmarks compare against).
+     - ``mixture``
+     - no
 
 The model (paper Eq. 2, 5, 6; ``MODEL.md``)::
 
@@ -141,6 +147,7 @@ class _PolarizedBRDFMethods:
         self.dd_distribution = params.choice(props, "dd_distribution", ("beckmann", "ggx"), "beckmann")
         self._dd_type = (mi.MicrofacetType.Beckmann if self.dd_distribution == "beckmann"
                          else mi.MicrofacetType.GGX)
+        self.sampling = params.choice(props, "sampling", ("mixture", "cosine"), "mixture")
 
         weights = {SPECULAR: self.ks, DIRECTIONAL_DIFFUSE: self.kdd, IDEAL_DIFFUSE: self.kid}
         self.lobes = [lobe for lobe, w in weights.items() if not params.is_constant_zero(w)]
@@ -184,7 +191,8 @@ class _PolarizedBRDFMethods:
         return (f"PolarizedBRDF[\n  {ior},\n  lobes = {self.lobes},\n"
                 f"  sigma = {self.sigma},\n  ks = {self.ks},\n  kdd = {self.kdd},\n"
                 f"  sigma_dd = {self.sigma_dd},\n  kid = {self.kid},\n"
-                f"  shadowing = {self.shadowing!r},\n  dd_distribution = {self.dd_distribution!r}\n]")
+                f"  shadowing = {self.shadowing!r},\n  dd_distribution = {self.dd_distribution!r},\n"
+                f"  sampling = {self.sampling!r}\n]")
 
     # ------------------------------------------------------------------ BSDF API
 
@@ -203,6 +211,15 @@ class _PolarizedBRDFMethods:
         cos_i = mi.Frame3f.cos_theta(si.wi)
         active = mi.Bool(active) & (cos_i > 0)
         enabled = self._enabled_lobes(ctx)
+        if not enabled:
+            return self._sample_record(si.wi, mi.Float(0.0), mi.UInt32(0), mi.UInt32(0),
+                                       mi.Bool(False), dr.zeros(mi.Spectrum))
+        if self.sampling == "cosine":
+            wo = mi.warp.square_to_cosine_hemisphere(sample2)
+            value, pdf = self._eval_pdf(ctx, si, wo, active)
+            lobe = enabled[0]
+            return self._sample_record(wo, pdf, mi.UInt32(self.lobes.index(lobe)),
+                                       mi.UInt32(self._component_flags(lobe)), active, value)
         if len(enabled) == 1:
             return self._sample_single_lobe(ctx, si, sample2, active, enabled[0])
         probs = self._lobe_probabilities(ctx, si, active)
@@ -346,6 +363,10 @@ class _PolarizedBRDFMethods:
 
         zero = dr.zeros(mi.Spectrum) if polarized else mi.UnpolarizedSpectrum(0.0)
         value, pdf = zero, mi.Float(0.0)
+        if want_pdf and self.sampling == "cosine":
+            if self._enabled_lobes(ctx):
+                pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
+            want_pdf = False
         if want_pdf and probs is None:
             probs = self._lobe_probabilities(ctx, si, active)
 

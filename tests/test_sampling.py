@@ -1,0 +1,55 @@
+"""Sampling strategies: the cosine-only baseline that benchmarks compare
+against, and a context that selects no lobe."""
+
+import mitsuba as mi
+import numpy as np
+import pytest
+
+from conftest import as_numpy, hemisphere_pairs, make_si, use_variant
+
+COSINE = {"type": "pbrdf", "material": "Cu", "sigma": 0.15, "kdd": 0.3, "kid": 0.2,
+          "sampling": "cosine"}
+
+
+def test_cosine_sampling_distribution_matches_pdf():
+    use_variant("llvm_ad_rgb")
+    sample_func, pdf_func = mi.chi2.BSDFAdapter("pbrdf", COSINE,
+                                                wi=mi.ScalarVector3f(0.5, 0.0, 0.8660254))
+    chi2 = mi.chi2.ChiSquareTest(domain=mi.chi2.SphericalDomain(), sample_func=sample_func,
+                                 pdf_func=pdf_func, sample_dim=3, sample_count=200_000)
+    assert chi2.run(), chi2.messages
+
+
+@pytest.mark.parametrize("mode", [mi.TransportMode.Radiance, mi.TransportMode.Importance])
+def test_cosine_sampling_weight_and_pdf(mode):
+    """pdf = cos(theta_o)/pi and weight = eval/pdf, element by element."""
+    use_variant("llvm_ad_spectral_polarized")
+    bsdf = mi.load_dict(COSINE)
+    wi, _ = hemisphere_pairs(5000, seed=12)
+    si, ctx = make_si(wi), mi.BSDFContext(mode)
+    rng = np.random.default_rng(13)
+    bs, weight = bsdf.sample(ctx, si, mi.Float(rng.random(len(wi)).astype(np.float32)),
+                             mi.Point2f(*rng.random((2, len(wi))).astype(np.float32)))
+    wo = as_numpy(bs.wo)
+    pdf = as_numpy(bs.pdf)
+    valid = pdf > 0
+    np.testing.assert_allclose(pdf[valid], wo[valid, 2] / np.pi, rtol=1e-6)
+    np.testing.assert_allclose(as_numpy(bsdf.pdf(ctx, si, bs.wo))[valid], pdf[valid], rtol=1e-6)
+    value = as_numpy(bsdf.eval(ctx, si, bs.wo))[valid]
+    expected = value / pdf[valid, None, None, None]
+    m00 = np.abs(expected[..., :1, :1])
+    assert np.all(np.abs(as_numpy(weight)[valid] - expected) <= 1e-5 * m00 + 1e-12)
+
+
+def test_a_context_selecting_no_lobe_gives_zero():
+    use_variant("llvm_ad_spectral_polarized")
+    bsdf = mi.load_dict({"type": "pbrdf", "kid": 0.3})
+    ctx = mi.BSDFContext()
+    ctx.type_mask = int(mi.BSDFFlags.DeltaReflection)  # pbrdf has no delta lobe
+    wi, wo = hemisphere_pairs(100, seed=14)
+    si = make_si(wi)
+    bs, weight = bsdf.sample(ctx, si, mi.Float(np.full(len(wi), 0.5)),
+                             mi.Point2f(np.full(len(wi), 0.3), np.full(len(wi), 0.7)))
+    assert np.all(as_numpy(weight) == 0) and np.all(as_numpy(bs.pdf) == 0)
+    value, pdf = bsdf.eval_pdf(ctx, si, mi.Vector3f(*wo.T.astype(np.float32)))
+    assert np.all(as_numpy(value) == 0) and np.all(as_numpy(pdf) == 0)
