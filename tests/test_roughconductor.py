@@ -8,6 +8,12 @@ wavelengths; Mitsuba's: dr::Complex arithmetic). Measured difference: at most
 7.6e-7 * M00 per element (float32 ulp level). Tolerance: 1e-5 * M00 per element
 (|M_ij| <= M00 for a physical Mueller matrix, so M00 sets the float32 scale),
 i.e. about 80 ulps of headroom for a dozen float32 operations.
+
+Sampling densities differ on purpose: Mitsuba samples Beckmann's visible normals
+exactly, but its pdf uses a rational approximation of Smith's G1 (< 0.35 %
+error), which biases roughconductor's sampling weights; pbrdf's pdf uses the
+exact G1. pdf and weights are therefore compared after multiplying Mitsuba's by
+G1_exact(wi) / G1_approx(wi) (resp. its inverse), evaluated in float64.
 """
 
 import math
@@ -17,6 +23,14 @@ import numpy as np
 import pytest
 
 from conftest import as_numpy, hemisphere_pairs, make_si, to_vector, use_variant
+from mitsuba_pbrdf import reference
+from mitsuba_pbrdf.frames import mitsuba_beckmann_G1
+
+
+def g1_correction(wi, alpha):
+    """G1_exact / G1_approx of Mitsuba's Beckmann distribution at directions wi."""
+    cos = np.asarray(wi, dtype=np.float64)[..., 2]
+    return reference.smith_G1(cos, alpha) / mitsuba_beckmann_G1(cos, alpha)
 
 VECTOR_VARIANTS = ["llvm_ad_spectral_polarized", "llvm_ad_mono_polarized",
                    "llvm_ad_rgb", "llvm_ad_spectral"]
@@ -53,7 +67,7 @@ def test_eval_and_pdf_match_roughconductor(variant, material):
             assert_close_mueller(as_numpy(rc.eval(ctx, si, w)), as_numpy(pb.eval(ctx, si, w)))
             value, pdf = pb.eval_pdf(ctx, si, w)
             assert_close_mueller(as_numpy(rc.eval(ctx, si, w)), as_numpy(value))
-            expected_pdf = as_numpy(rc.pdf(ctx, si, w))
+            expected_pdf = as_numpy(rc.pdf(ctx, si, w)) * g1_correction(wi, np.float32(alpha))
             for got in (as_numpy(pb.pdf(ctx, si, w)), as_numpy(pdf)):
                 np.testing.assert_allclose(got, expected_pdf, rtol=1e-5, atol=0)
 
@@ -67,7 +81,8 @@ def test_scalar_variant_matches_roughconductor(variant):
         for mode in MODES:
             ctx = mi.BSDFContext(mode)
             assert_close_mueller(as_numpy(rc.eval(ctx, si, w)), as_numpy(pb.eval(ctx, si, w)))
-            assert pb.pdf(ctx, si, w) == pytest.approx(rc.pdf(ctx, si, w), rel=1e-5)
+            assert pb.pdf(ctx, si, w) == pytest.approx(
+                rc.pdf(ctx, si, w) * g1_correction(a, np.float32(0.3)), rel=1e-5)
 
 
 @pytest.mark.parametrize("variant", ["llvm_ad_spectral_polarized"], indirect=True)
@@ -91,12 +106,14 @@ def test_sample_matches_roughconductor(variant):
     assert np.all(as_numpy(bs_pb.pdf)[as_numpy(bs_pb.wo)[:, 2] <= 0] == 0)
     # reflect(wi, m) is rounded differently in C++ (fmsub) and Python: a few ulps.
     np.testing.assert_allclose(as_numpy(bs_pb.wo)[valid], as_numpy(bs_rc.wo)[valid], atol=2e-6)
-    np.testing.assert_allclose(as_numpy(bs_pb.pdf)[valid], as_numpy(bs_rc.pdf)[valid], rtol=1e-4)
+    correction = g1_correction(wi, np.float32(0.25))
+    np.testing.assert_allclose(as_numpy(bs_pb.pdf)[valid], (as_numpy(bs_rc.pdf) * correction)[valid],
+                               rtol=1e-4)
     # roughconductor's weight is F * G1(wo); ours is eval/pdf: equal up to
     # float32 rounding, except within ~1e-2 of the horizon where G1(wo) depends
     # on cos(theta_o), whose float32 rounding (6e-8 absolute) the two sides
     # reach through different operations (relative error 6e-8/cos_o).
-    w_rc, w_pb = as_numpy(w_rc), as_numpy(w_pb)
+    w_rc, w_pb = as_numpy(w_rc) / correction[:, None, None, None], as_numpy(w_pb)
     m00 = np.abs(w_rc[..., 0, 0, None, None])
     cos_o = as_numpy(bs_rc.wo)[:, 2, None, None, None]
     tol = (1e-5 + 1e-6 / np.maximum(cos_o, 1e-30)) * m00 + 1e-7
@@ -104,10 +121,12 @@ def test_sample_matches_roughconductor(variant):
 
 
 def stokes_scene(bsdf):
-    """A rough metal sphere under a small area light, rendered to Stokes channels."""
+    """A rough metal sphere in a uniform environment (one emitter: Mitsuba 3.9
+    may order several emitters differently from one load to the next, which
+    changes the noise of a same-seed render), rendered to Stokes channels."""
     return mi.load_dict({
         "type": "scene",
-        "integrator": {"type": "stokes", "integrator": {"type": "path", "max_depth": 3}},
+        "integrator": {"type": "stokes", "integrator": {"type": "path", "max_depth": 2}},
         "sensor": {
             "type": "perspective", "fov": 30,
             "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 4], target=[0, 0, 0], up=[0, 1, 0]),
@@ -115,16 +134,15 @@ def stokes_scene(bsdf):
             "sampler": {"type": "independent"},
         },
         "sphere": {"type": "sphere", "bsdf": bsdf},
-        "light": {"type": "rectangle", "to_world": mi.ScalarTransform4f().look_at(
-            origin=[3, 2, 2], target=[0, 0, 0], up=[0, 1, 0]).scale(0.6),
-            "emitter": {"type": "area", "radiance": 20.0}},
-        "env": {"type": "constant", "radiance": 0.2},
+        "env": {"type": "constant", "radiance": 1.0},
     })
 
 
 def test_rendered_stokes_image_matches_roughconductor():
-    """Same scene, same seed: one lobe with the same sampling gives the same
-    paths, so the Stokes images agree up to float32 rounding."""
+    """Same scene, same seed, one lobe with the same visible-normal sampling:
+    the same paths. The weights differ only by roughconductor's approximate
+    G1 in its pdf (<= 0.35 %, also through the MIS weights), so each Stokes
+    component agrees within 4e-3 of the pixel's S0 (+1e-6 for float32)."""
     use_variant("llvm_ad_spectral_polarized")
     images = []
     for bsdf in ({"type": "roughconductor", "material": "Cu", "alpha": 0.2},
@@ -134,6 +152,7 @@ def test_rendered_stokes_image_matches_roughconductor():
     s0 = expected[..., 3:6]
     assert np.all(np.isfinite(got))
     assert s0.mean() > 0.05  # the scene is lit
-    # Per-pixel tolerance relative to the pixel's S0 (|S1..S3| <= S0).
+    dolp = np.hypot(expected[..., 6:9], expected[..., 9:12]) / np.maximum(s0, 1e-9)
+    assert dolp.max() > 0.1  # and polarized
     scale = np.concatenate([s0] * 4, axis=-1)
-    np.testing.assert_array_less(np.abs(got[..., 3:] - expected[..., 3:]), 1e-4 * scale + 1e-6)
+    np.testing.assert_array_less(np.abs(got[..., 3:] - expected[..., 3:]), 4e-3 * scale + 1e-6)
