@@ -22,7 +22,8 @@
    * - ``sigma``
      - float or texture
      - RMS microfacet slope per axis of the specular lobe (paper Eq. 3);
-       Beckmann width alpha = sqrt(2) * sigma. Must be > 0.
+       Beckmann width alpha = sqrt(2) * sigma. At least 7.07e-5 (Mitsuba's
+       microfacet distributions clamp alpha to 1e-4).
      - 0.1
      - yes
    * - ``ks``
@@ -37,7 +38,8 @@
      - yes
    * - ``sigma_dd``
      - float or texture
-     - RMS slope of the directional diffuse lobe (alpha_dd = sqrt(2) * sigma_dd). > 0.
+     - RMS slope of the directional diffuse lobe (alpha_dd = sqrt(2) * sigma_dd),
+       at least 7.07e-5.
      - 0.5
      - yes
    * - ``kid``
@@ -112,6 +114,10 @@ SPECULAR, DIRECTIONAL_DIFFUSE, IDEAL_DIFFUSE = "specular", "directional_diffuse"
 _INV_PI = 1.0 / math.pi
 _SQRT2 = math.sqrt(2.0)
 
+#: Smallest accepted sigma, sigma_dd: Mitsuba's microfacet distributions clamp
+#: the Beckmann/GGX width alpha = sqrt(2) sigma to 1e-4.
+MIN_SIGMA = 1e-4 / _SQRT2
+
 
 class _PolarizedBRDFMethods:
     """Variant-independent body of the plugin; :func:`plugin_class` copies it
@@ -138,10 +144,10 @@ class _PolarizedBRDFMethods:
             self.material = props["material"] if "material" in props else "Al"
             self.eta, self.k = complex_ior_textures(self.material)
 
-        self.sigma = tex(props, "sigma", 0.1, spectral=False, positive=True)
+        self.sigma = tex(props, "sigma", 0.1, spectral=False, positive=True, minimum=MIN_SIGMA)
         self.ks = tex(props, "ks", 1.0, spectral=True)
         self.kdd = tex(props, "kdd", 0.0, spectral=True)
-        self.sigma_dd = tex(props, "sigma_dd", 0.5, spectral=False, positive=True)
+        self.sigma_dd = tex(props, "sigma_dd", 0.5, spectral=False, positive=True, minimum=MIN_SIGMA)
         self.kid = tex(props, "kid", 0.0, spectral=True)
         self.shadowing = params.choice(props, "shadowing", ("vgroove", "smith"), "vgroove")
         self.dd_distribution = params.choice(props, "dd_distribution", ("beckmann", "ggx"), "beckmann")

@@ -39,7 +39,7 @@ def complex_ior_textures(material):
 
 
 def _spectrum_texture(filename):
-    wavelengths, values = mi.spectrum_from_file(filename)
+    wavelengths, values = _cover_spectral_range(*mi.spectrum_from_file(filename))
     if mi.is_spectral:
         return mi.load_dict({
             "type": "irregular",
@@ -52,3 +52,18 @@ def _spectrum_texture(filename):
         luminance = 0.212671 * r + 0.715160 * g + 0.072169 * b  # Mitsuba's luminance()
         return mi.load_dict({"type": "uniform", "value": luminance})
     return mi.load_dict({"type": "srgb", "color": [r, g, b], "unbounded": True})
+
+
+def _cover_spectral_range(wavelengths, values):
+    """Hold the end values out to Mitsuba's spectral range (360-830 nm): 27 of
+    the 71 tables stop short of it (e.g. Se at 689 nm), and an irregular
+    spectrum is zero outside its table, which would make n = k = 0 there.
+    (Mitsuba's roughconductor does not extend them.)"""
+    wavelengths, values = list(wavelengths), list(values)
+    if wavelengths[0] > mi.MI_CIE_MIN:
+        wavelengths.insert(0, mi.MI_CIE_MIN)
+        values.insert(0, values[0])
+    if wavelengths[-1] < mi.MI_CIE_MAX:
+        wavelengths.append(mi.MI_CIE_MAX)
+        values.append(values[-1])
+    return wavelengths, values

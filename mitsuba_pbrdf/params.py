@@ -31,9 +31,9 @@ def choice(props, name, options, default):
     return value
 
 
-def texture(props, name, default, *, spectral, positive=False):
+def texture(props, name, default, *, spectral, positive=False, minimum=None):
     """A float/spectrum/texture parameter, checked to be finite and >= 0
-    (> 0 when ``positive``) everywhere.
+    (> 0 when ``positive``, >= ``minimum`` when given) everywhere.
 
     ``spectral`` parameters may exceed 1 (unbounded textures); float parameters
     are evaluated with ``eval_1``.
@@ -47,71 +47,83 @@ def texture(props, name, default, *, spectral, positive=False):
             raise TypeError(f"pbrdf: parameter '{name}' must be a texture, "
                             f"got {type(props[name]).__name__}")
         if kind in (mi.Properties.Type.Float, mi.Properties.Type.Integer):
-            _check_number(name, props[name], positive)
+            _check_number(name, props[name], positive, minimum)
         elif kind == mi.Properties.Type.Color:  # <rgb>: check the colour as written
             for component in props[name]:
-                _check_number(name, float(component), positive)
-    tex = props.get_unbounded_texture(name, default) if spectral else props.get_texture(name, default)
-    check_texture_values(name, tex, positive)
+                _check_number(name, float(component), positive, minimum)
+    try:
+        tex = props.get_unbounded_texture(name, default) if spectral else props.get_texture(name, default)
+    except RuntimeError as error:  # e.g. an inline spectrum Mitsuba refuses
+        reason = str(error).strip().splitlines()[-1]
+        raise ValueError(f"pbrdf: parameter '{name}' is invalid: {reason}") from None
+    check_texture_values(name, tex, positive, minimum)
     return tex
 
 
-def check_texture_values(name, tex, positive=False):
+def check_texture_values(name, tex, positive=False, minimum=None):
     """Raise if texture ``tex`` holds or evaluates to a NaN, infinite or
-    negative value (or zero when ``positive``).
+    negative value (zero when ``positive``, below ``minimum`` when given).
 
-    Values stored as they are (uniform, tabulated spectra, RGB in non-spectral
-    variants) are checked exactly. Spectral variants store RGB colours and
-    bitmaps as spectral-upsampling coefficients, so such textures are checked
-    by evaluating them over a grid of UV positions and wavelengths instead.
+    Values stored as they are (uniform, tabulated spectra, one-channel bitmaps,
+    RGB in non-spectral variants) are checked exactly. Spectral variants store
+    RGB colours and three-channel bitmaps as spectral-upsampling coefficients;
+    those, and tabulated spectra (zero outside their wavelength range), are
+    also evaluated at every texel centre and at wavelengths spanning Mitsuba's
+    spectral range.
     """
-    stored, coefficients = _stored_values(tex)
-    arrays = list(stored)
-    if coefficients:
-        arrays.append(_evaluated_values(tex))
-    for values in arrays:
+    for values in texture_values(tex):
         if values.size == 0:
             continue
         if not np.all(np.isfinite(values)):
             raise ValueError(f"pbrdf: parameter '{name}' contains NaN or infinite values")
         low = float(values.min())
+        if minimum is not None and low < minimum:
+            raise ValueError(f"pbrdf: parameter '{name}' must be >= {minimum:.3g} everywhere, "
+                             f"found {low:g}")
         if low < 0 or (positive and low <= 0):
             bound = "> 0" if positive else ">= 0"
-            raise ValueError(f"pbrdf: parameter '{name}' must be {bound} everywhere, "
-                             f"found {low:g}")
+            raise ValueError(f"pbrdf: parameter '{name}' must be {bound} everywhere "
+                             f"(over the whole spectral range), found {low:g}")
 
 
 def texture_values(tex):
     """The values a texture holds or evaluates to, as float64 arrays."""
-    stored, coefficients = _stored_values(tex)
-    return stored + ([_evaluated_values(tex)] if coefficients else [])
-
-
-def _stored_values(tex):
-    """(arrays of values stored as they are, whether some leaves hold
-    spectral-upsampling coefficients instead)."""
     params = mi.traverse(tex)
-    stored, coefficients = [], False
+    stored, evaluate, resolution = [], False, 1
     for key in params.keys():
         if key.split(".")[-1] not in _VALUE_KEYS:
             continue
         node = params.properties[key][2]
-        if mi.is_spectral and node.class_name().startswith(_COEFFICIENT_CLASSES):
-            coefficients = True
-            continue
         value = params[key]
-        stored.append(np.asarray(dr.detach(value).numpy() if hasattr(value, "numpy")
-                                 else value, dtype=np.float64).ravel())
-    return stored, coefficients
+        array = np.asarray(dr.detach(value).numpy() if hasattr(value, "numpy") else value,
+                           dtype=np.float64)
+        cls = node.class_name()
+        if cls.startswith("BitmapTexture"):
+            resolution = min(max(resolution, *array.shape[:2]), _MAX_EVALUATED_RESOLUTION)
+        if mi.is_spectral and cls.startswith(_EVALUATED_CLASSES):
+            evaluate = True
+            coefficients = cls.startswith("SRGB") or (cls.startswith("BitmapTexture")
+                                                      and array.shape[-1] != 1)
+            if coefficients:
+                continue  # not values: only the evaluation tells
+        stored.append(array.ravel())
+    return stored + ([_evaluated_values(tex, resolution)] if evaluate else [])
 
 
-# Texture classes whose values are spectral-upsampling coefficients in spectral variants.
-_COEFFICIENT_CLASSES = ("SRGBReflectanceSpectrum", "BitmapTexture")
+# Bitmaps up to this size are evaluated at every texel centre, larger ones on
+# a grid this fine (one-channel bitmaps are checked exactly whatever their size).
+_MAX_EVALUATED_RESOLUTION = 1024
+
+# Texture classes checked by evaluation in spectral variants: spectral-upsampling
+# coefficients (RGB colours, bitmaps) and spectra that vanish outside their table.
+_EVALUATED_CLASSES = ("SRGBReflectanceSpectrum", "BitmapTexture", "IrregularSpectrum",
+                      "RegularSpectrum")
 
 
-def _evaluated_values(tex, resolution=64, wavelengths=(360.0, 830.0, 24)):
-    """The texture evaluated on a ``resolution``^2 grid of UV positions (texel
-    centres of a grid that fine) at wavelengths spanning the visible range."""
+def _evaluated_values(tex, resolution, wavelengths=(360.0, 830.0, 24)):
+    """The texture evaluated at the texel centres of a ``resolution``^2 grid
+    (every texel of a bitmap up to that size) at wavelengths spanning
+    Mitsuba's spectral range."""
     if mi.variant().startswith("scalar"):
         resolution = 1  # one lane per call: the centre only
     u = (np.arange(resolution) + 0.5) / resolution
@@ -123,8 +135,7 @@ def _evaluated_values(tex, resolution=64, wavelengths=(360.0, 830.0, 24)):
     for start in range(0, len(lambdas), 4):
         block = list(lambdas[start:start + 4]) + [lambdas[-1]] * (4 - len(lambdas[start:start + 4]))
         si.wavelengths = mi.UnpolarizedSpectrum(*(float(b) for b in block))
-        value = tex.eval(si)
-        out.append(np.asarray(value, dtype=np.float64).ravel())
+        out.append(np.asarray(tex.eval(si), dtype=np.float64).ravel())
     return np.concatenate(out)
 
 
@@ -134,9 +145,11 @@ def is_constant_zero(tex):
     return bool(values) and all(v.size > 0 and not np.any(v) for v in values)
 
 
-def _check_number(name, value, positive):
+def _check_number(name, value, positive, minimum=None):
     if not math.isfinite(value):
         raise ValueError(f"pbrdf: parameter '{name}' is {value}; it must be a finite number")
+    if minimum is not None and value < minimum:
+        raise ValueError(f"pbrdf: parameter '{name}' is {value:g}; it must be >= {minimum:.3g}")
     if value < 0 or (positive and value <= 0):
         bound = "> 0" if positive else ">= 0"
         raise ValueError(f"pbrdf: parameter '{name}' is {value:g}; it must be {bound}")
