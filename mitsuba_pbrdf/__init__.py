@@ -81,7 +81,8 @@ def _importing_a_submodule():
     return False
 
 
-_SUBMODULES = {"reference", "cli", "stokes_io", "visualize", "render", "__main__"}
+_SUBMODULES = {"reference", "cli", "stokes_io", "visualize", "render", "__main__", "fit", "plots",
+               "gallery"}
 
 
 def _from_import_names(frame):

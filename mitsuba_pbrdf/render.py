@@ -6,6 +6,18 @@
     image = render_scene("scenes/default.xml", spp=16, params={"width": 160})
     print(image.metadata["time_render_s"])
 
+Long renders run in *passes*: the samples per pixel are split into passes of
+equal size with different seeds, and the pass images are averaged with weights
+proportional to their sample counts (each pass is an independent estimate of
+the same pixel values, so the average is one too). This bounds the memory of a
+render (Dr.Jit traces all of a pass's samples as one wavefront) and drives the
+progress bar. Each pass costs about 0.15 s of tracing on top of its rendering
+time, so passes are only used when each holds at least
+:data:`SAMPLES_PER_PASS` samples (pixels × spp).
+
+The default variant is ``cuda_ad_spectral_polarized`` when a CUDA GPU is
+usable, else ``llvm_ad_spectral_polarized`` (:func:`default_variant`).
+
 The scene should wrap its integrator in Mitsuba's ``stokes`` integrator (around
 ``path``, ``direct`` or ``volpath``, not ``prb``, which ignores Mueller frame
 rotations) and be rendered in a ``*_polarized`` variant; otherwise the image
@@ -21,10 +33,18 @@ import time
 from dataclasses import asdict, dataclass
 from typing import Mapping, Optional
 
+import numpy as np
+
 from .stokes_io import StokesImage, from_mitsuba
 
 __all__ = [
     "DEFAULT_VARIANT",
+    "GPU_VARIANT",
+    "SAMPLES_PER_PASS",
+    "cuda_available",
+    "default_variant",
+    "plan_passes",
+    "pass_seeds",
     "RenderTimings",
     "UnknownVariantError",
     "SceneLoadError",
@@ -36,7 +56,15 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
+#: The CPU variant: the default where no CUDA GPU can be used.
 DEFAULT_VARIANT = "llvm_ad_spectral_polarized"
+#: The variant chosen when a CUDA GPU is present and usable.
+GPU_VARIANT = "cuda_ad_spectral_polarized"
+#: Automatic passes hold at least this many samples (pixels x spp) each:
+#: 2^23, about 2 s of rendering per pass for scenes/default.xml on 2 cores.
+SAMPLES_PER_PASS = 1 << 23
+#: At most this many automatic passes.
+MAX_AUTO_PASSES = 64
 
 
 class UnknownVariantError(ValueError):
@@ -67,6 +95,7 @@ class RenderTimings:
     kernels_cached: int = 0
 
     def summary(self) -> str:
+        """One line: load and render seconds, and the JIT compile / kernel split."""
         s = f"load {self.load:.2f} s, render {self.render:.2f} s"
         if self.kernels:
             s += (
@@ -74,6 +103,78 @@ class RenderTimings:
                 f"{self.kernels} kernels, {self.kernels_cached} from cache)"
             )
         return s
+
+
+def cuda_available() -> bool:
+    """True when Mitsuba has :data:`GPU_VARIANT` and it can be set here
+    (a CUDA driver and GPU are present).
+
+    Sets :data:`GPU_VARIANT` to find out; puts the previous variant back if
+    one was set."""
+    import mitsuba as mi
+
+    if GPU_VARIANT not in mi.variants():
+        return False
+    try:
+        import drjit as dr
+
+        if not dr.has_backend(dr.JitBackend.CUDA):
+            return False
+    except Exception:  # an older Dr.Jit without has_backend: try the variant
+        pass
+    previous = mi.variant()
+    try:
+        mi.set_variant(GPU_VARIANT)
+    except Exception:
+        return False
+    if previous is not None and previous != GPU_VARIANT:
+        mi.set_variant(previous)
+    return True
+
+
+def default_variant(probe=None) -> str:
+    """:data:`GPU_VARIANT` if *probe* (default :func:`cuda_available`) says a
+    GPU can be used, else :data:`DEFAULT_VARIANT`. A probe that raises counts
+    as no GPU."""
+    probe = cuda_available if probe is None else probe
+    try:
+        return GPU_VARIANT if probe() else DEFAULT_VARIANT
+    except Exception:
+        return DEFAULT_VARIANT
+
+
+def plan_passes(spp: int, passes: Optional[int] = None, pixels: int = 0) -> list:
+    """Samples per pixel of each pass, summing to *spp*.
+
+    *passes* None chooses automatically: one pass unless the render has more
+    than 2 x :data:`SAMPLES_PER_PASS` samples (``pixels * spp``), else about
+    ``pixels * spp / SAMPLES_PER_PASS`` passes (at most :data:`MAX_AUTO_PASSES`),
+    preferring a count that divides *spp* so that all passes have the same
+    size (one compiled kernel). Given, *passes* is capped at *spp*. Sizes
+    differ by at most one sample.
+    """
+    spp = int(spp)
+    if spp < 1:
+        raise ValueError(f"spp must be at least 1, got {spp}")
+    if passes is None:
+        total = int(pixels) * spp
+        if total <= 2 * SAMPLES_PER_PASS:
+            passes = 1
+        else:
+            target = min(max(2, round(total / SAMPLES_PER_PASS)), MAX_AUTO_PASSES, spp)
+            divisors = [p for p in range(max(2, target // 2), min(spp, 2 * target) + 1)
+                        if spp % p == 0]
+            passes = min(divisors, key=lambda p: abs(p - target)) if divisors else target
+    passes = max(1, min(int(passes), spp))
+    base, extra = divmod(spp, passes)
+    return [base + 1] * extra + [base] * (passes - extra)
+
+
+def pass_seeds(seed: int, n: int) -> list:
+    """Sampler seeds of *n* passes: *seed* for the first, then steps of the
+    32-bit golden ratio (all distinct, and distinct from the seeds of nearby
+    base seeds' first passes)."""
+    return [(int(seed) + k * 0x9E3779B9) & 0xFFFFFFFF for k in range(n)]
 
 
 def set_variant(variant: str):
@@ -125,6 +226,27 @@ def _condense(message: str) -> str:
     return " ".join(message.split())
 
 
+class _NoBar:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def update(self, n):
+        pass
+
+
+def _progress_bar(total_spp: int, n_passes: int, progress: bool):
+    """A tqdm bar over samples per pixel (one update per pass), or a stand-in."""
+    if not progress or n_passes < 2:
+        return _NoBar()
+    from tqdm import tqdm
+
+    return tqdm(total=total_spp, unit="spp", desc=f"rendering ({n_passes} passes)",
+                leave=False, dynamic_ncols=True)
+
+
 def _kernel_stats(history):
     compile_ms = run_ms = 0.0
     kernels = cached = 0
@@ -140,21 +262,25 @@ def _kernel_stats(history):
 def render_scene(
     scene_path,
     spp: Optional[int] = None,
-    variant: str = DEFAULT_VARIANT,
+    variant: Optional[str] = None,
     seed: int = 0,
     params: Optional[Mapping[str, object]] = None,
+    passes: Optional[int] = None,
+    progress: bool = False,
 ) -> StokesImage:
     """Render the scene file and return its Stokes image; see
     :func:`render_scene_timed`, which also returns the :class:`RenderTimings`."""
-    return render_scene_timed(scene_path, spp, variant, seed, params)[0]
+    return render_scene_timed(scene_path, spp, variant, seed, params, passes, progress)[0]
 
 
 def render_scene_timed(
     scene_path,
     spp: Optional[int] = None,
-    variant: str = DEFAULT_VARIANT,
+    variant: Optional[str] = None,
     seed: int = 0,
     params: Optional[Mapping[str, object]] = None,
+    passes: Optional[int] = None,
+    progress: bool = False,
 ):
     """Render the scene file; return its Stokes image and the timings.
 
@@ -165,34 +291,56 @@ def render_scene_timed(
     spp
         Samples per pixel; None keeps the scene's sampler setting.
     variant
-        Mitsuba variant; must be polarized for the result to have Stokes channels.
+        Mitsuba variant; must be polarized for the result to have Stokes
+        channels. None: :func:`default_variant` (CUDA if usable, else LLVM).
     seed
-        Sampler seed passed to ``mi.render``.
+        Sampler seed of the first pass (``mi.render(..., seed=...)``); the
+        other passes use :func:`pass_seeds`.
     params
         Overrides for the scene's ``$key`` defaults (``mi.load_file(path, **params)``).
+    passes
+        Number of sample passes (see the module docstring); None: automatic
+        (:func:`plan_passes`), 1: a single ``mi.render`` call.
+    progress
+        Show a progress bar (``tqdm``, on stderr) over the passes' samples.
 
-    The returned image's ``metadata`` holds the scene, variant, spp, seed,
-    parameters and timings (keys ``time_<stage>_s``). Returns
+    The returned image's ``metadata`` holds the scene, variant, spp, passes,
+    seed, parameters and timings (keys ``time_<stage>_s``). Returns
     ``(image, timings)``; the timings are also logged at INFO level.
     """
     import drjit as dr
 
+    if variant is None:
+        variant = default_variant()
     mi = set_variant(variant)
 
     t0 = time.perf_counter()
     scene = load_scene(scene_path, params)
     t1 = time.perf_counter()
 
+    sensor = scene.sensors()[0]
+    total_spp = int(spp or sensor.sampler().sample_count())
+    size = sensor.film().crop_size()
+    plan = plan_passes(total_spp, passes, pixels=int(size[0]) * int(size[1]))
+    seeds = pass_seeds(seed, len(plan))
+
     history_was_on = dr.flag(dr.JitFlag.KernelHistory)
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     dr.kernel_history()  # clear what earlier work left there
     try:
         t2 = time.perf_counter()
-        tensor = mi.render(scene, spp=spp or 0, seed=seed)
-        sensor = scene.sensors()[0]
-        image = from_mitsuba(tensor, sensor.film())  # reads the result back: runs the kernels
+        history = []
+        accumulated = None
+        with _progress_bar(total_spp, len(plan), progress) as bar:
+            for pass_spp, pass_seed in zip(plan, seeds):
+                tensor = mi.render(scene, spp=pass_spp, seed=pass_seed)
+                # reading the result back runs the kernels
+                array = np.array(tensor, dtype=np.float64) * (pass_spp / total_spp)
+                accumulated = array if accumulated is None else accumulated + array
+                history += dr.kernel_history()
+                bar.update(pass_spp)
+        image = from_mitsuba(accumulated.astype(np.float32), sensor.film())
         t3 = time.perf_counter()
-        history = dr.kernel_history()
     finally:
         dr.set_flag(dr.JitFlag.KernelHistory, history_was_on)
 
@@ -207,7 +355,8 @@ def render_scene_timed(
         {
             "scene": os.fspath(scene_path),
             "variant": variant,
-            "spp": str(spp or sensor.sampler().sample_count()),
+            "spp": str(total_spp),
+            "passes": str(len(plan)),
             "seed": str(seed),
             "mitsuba_version": mi.__version__,
         }

@@ -12,9 +12,24 @@ bare tensor (``mi.util.write_bitmap(path, mi.render(scene))``), whose channels
 lose their names (``ch00, ch01, ...``); those are read with the ``stokes``
 integrator's layout and a warning.
 
+Bands need not be colours: any names work (``S0.550nm``, ``S0.Y``, ...), e.g.
+for per-wavelength Stokes images assembled from several mono renders; the file
+records the band order (header attribute ``stokesBands``), so it survives
+OpenEXR's alphabetical channel order.
+
+NumPy API::
+
+    write_stokes_exr("a.exr", stokes)                 # (H, W, 4) or (H, W, 4, n_bands) array
+    write_stokes_exr("b.exr", stokes, bands=["450nm", "550nm", "650nm"])
+    image = read_stokes_exr("a.exr")                  # StokesImage
+    image.stokes, image.bands, image.s0, image.band("R"), dolp(image), aolp(image)
+
 Conventions (see ``shared/MODEL.md``): Stokes components are in the frame Mitsuba
-uses for the camera rays; S1 > 0 means more light polarized along the frame's
-x-axis. AoLP is ``0.5 * atan2(S2, S1)`` in radians, in ``(-pi/2, pi/2]``.
+uses for the camera rays: x-axis = cross(ray direction, camera up), i.e. the
+image's right, y-axis the image's up, for light travelling towards the camera.
+S1 > 0 means more light polarized along the x-axis (horizontal), S2 > 0 along
++45° (counter-clockwise in the picture). AoLP is ``0.5 * atan2(S2, S1)`` in
+radians, in ``(-pi/2, pi/2]``.
 
 Nothing here needs a Mitsuba variant: :func:`from_mitsuba` only reads the
 channel names off a film or bitmap that the caller already has.
@@ -34,6 +49,7 @@ __all__ = [
     "StokesImage",
     "StokesChannelError",
     "from_mitsuba",
+    "as_stokes_image",
     "channel_names",
     "write_stokes_exr",
     "read_stokes_exr",
@@ -53,6 +69,8 @@ _STOKES_NAME = re.compile(r"^S([0-3])\.(.+)$")
 _UNNAMED = re.compile(r"^ch\d+$")
 #: Keys of StokesImage.metadata that are written to / read from the EXR header.
 _HEADER_PREFIX = "pbrdf:"
+#: Header attribute holding the band order (comma-separated band names).
+_BANDS_ATTRIBUTE = "stokesBands"
 
 
 class StokesChannelError(ValueError):
@@ -105,10 +123,12 @@ class StokesImage:
 
     @property
     def height(self) -> int:
+        """Image height in pixels."""
         return self.stokes.shape[0]
 
     @property
     def width(self) -> int:
+        """Image width in pixels."""
         return self.stokes.shape[1]
 
     @property
@@ -118,14 +138,17 @@ class StokesImage:
 
     @property
     def s1(self) -> np.ndarray:
+        """S1 (horizontal minus vertical), shape (H, W, n_bands)."""
         return self.stokes[:, :, 1, :]
 
     @property
     def s2(self) -> np.ndarray:
+        """S2 (+45° minus -45°), shape (H, W, n_bands)."""
         return self.stokes[:, :, 2, :]
 
     @property
     def s3(self) -> np.ndarray:
+        """S3 (circular), shape (H, W, n_bands)."""
         return self.stokes[:, :, 3, :]
 
     def band(self, name: str) -> np.ndarray:
@@ -262,14 +285,38 @@ def from_mitsuba(image, channel_names_or_film=None) -> StokesImage:
 # EXR files
 
 
-def write_stokes_exr(path, image: StokesImage, compression: str = "zip") -> str:
-    """Write *image* as a float32 OpenEXR file with named channels
-    (``R, G, B`` when a preview is present, then ``S0.<band> ... S3.<band>``)
-    and ``image.metadata`` as string header attributes. Returns the path.
+def as_stokes_image(stokes, bands=None, rgb=None, metadata=None) -> StokesImage:
+    """A :class:`StokesImage` from a NumPy array of shape (H, W, 4) (one band)
+    or (H, W, 4, n_bands). *bands* defaults to ``["Y"]`` for one band,
+    ``["R", "G", "B"]`` for three, else ``["B0", "B1", ...]``."""
+    stokes = np.asarray(stokes, dtype=np.float32)
+    if stokes.ndim == 3:
+        stokes = stokes[..., None]
+    if bands is None:
+        n = stokes.shape[-1] if stokes.ndim == 4 else 0
+        bands = ["Y"] if n == 1 else ["R", "G", "B"] if n == 3 else [f"B{i}" for i in range(n)]
+    return StokesImage(stokes=stokes, bands=list(bands), rgb=rgb, metadata=dict(metadata or {}))
 
-    *compression* is ``"zip"`` (default, lossless), ``"piz"`` (lossless) or ``"none"``.
+
+def write_stokes_exr(path, image, compression: str = "zip", bands=None) -> str:
+    """Write a Stokes image as a float32 OpenEXR file with named channels
+    (``R, G, B`` when a preview is present, then ``S0.<band> ... S3.<band>``),
+    the band order, and ``image.metadata`` as string header attributes.
+    Returns the path.
+
+    *image* is a :class:`StokesImage` or a NumPy array (see
+    :func:`as_stokes_image`, which takes *bands*). *compression* is ``"zip"``
+    (default, lossless), ``"piz"`` (lossless) or ``"none"``.
     """
     import OpenEXR
+
+    if not isinstance(image, StokesImage):
+        image = as_stokes_image(image, bands)
+    elif bands is not None and list(bands) != image.bands:
+        raise ValueError("bands= is only for arrays; a StokesImage has its own bands")
+    bad = [b for b in image.bands if "," in b or not b]
+    if bad:
+        raise ValueError(f"band names must be non-empty and without commas, got {bad}")
 
     comp = {
         "zip": OpenEXR.ZIP_COMPRESSION,
@@ -284,7 +331,8 @@ def write_stokes_exr(path, image: StokesImage, compression: str = "zip") -> str:
     for i in range(4):
         for b, band in enumerate(image.bands):
             channels[f"S{i}.{band}"] = np.ascontiguousarray(image.stokes[:, :, i, b])
-    header = {"compression": comp, "type": OpenEXR.scanlineimage}
+    header = {"compression": comp, "type": OpenEXR.scanlineimage,
+              _BANDS_ATTRIBUTE: ",".join(image.bands)}
     for key, value in image.metadata.items():
         header[_HEADER_PREFIX + key] = str(value)
     parent = os.path.dirname(path)
@@ -328,6 +376,10 @@ def read_stokes_exr(path) -> StokesImage:
             channels = {layout[int(n[2:])]: channels[n] for n in names}
 
     image = _from_channels(channels, path)
+    order = str(header.get(_BANDS_ATTRIBUTE, "")).split(",")
+    if sorted(order) == sorted(image.bands) and order != image.bands:
+        index = [image.bands.index(b) for b in order]
+        image = StokesImage(image.stokes[..., index], order, image.rgb)
     image.metadata = {
         k[len(_HEADER_PREFIX):]: str(v)
         for k, v in header.items()

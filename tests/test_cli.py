@@ -11,9 +11,12 @@ import OpenEXR
 import pytest
 
 import mitsuba_pbrdf
+from mitsuba_pbrdf import render as render_module
 from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.stokes_io import read_stokes_exr
 
+#: The real GPU probe (the autouse fixture below replaces it).
+CUDA_AVAILABLE = render_module.cuda_available
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 STOKES_CHANNELS = sorted(["R", "G", "B"] + [f"S{i}.{b}" for i in range(4) for b in "RGB"])
 
@@ -47,6 +50,15 @@ TINY_SCENE = """<scene version="3.0.0">
     <emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>
 </scene>
 """
+
+
+@pytest.fixture(autouse=True)
+def cpu_default_variant(monkeypatch):
+    """Commands without --variant use the LLVM variant here even on a machine
+    with a GPU (the choice itself is tested with its probe below)."""
+    from mitsuba_pbrdf import render
+
+    monkeypatch.setattr(render, "cuda_available", lambda: False)
 
 
 @pytest.fixture(autouse=True)
@@ -213,3 +225,206 @@ def test_usage_error_exits_2():
     with pytest.raises(SystemExit) as e:
         main(["render"])
     assert e.value.code == 2
+
+
+# ---------------------------------------------------------------- passes, progress, variants
+
+
+def test_plan_passes():
+    from mitsuba_pbrdf.render import MAX_AUTO_PASSES, SAMPLES_PER_PASS, pass_seeds, plan_passes
+
+    assert plan_passes(64, pixels=320 * 240) == [64]  # small renders: one pass
+    assert plan_passes(10, passes=4) == [3, 3, 2, 2]
+    assert plan_passes(3, passes=8) == [1, 1, 1]
+    big = plan_passes(1024, pixels=640 * 480)  # 315 M samples
+    assert sum(big) == 1024 and len(set(big)) == 1  # equal passes: one kernel
+    assert 16 <= len(big) <= MAX_AUTO_PASSES
+    assert all(640 * 480 * s >= SAMPLES_PER_PASS / 2 for s in big)
+    with pytest.raises(ValueError):
+        plan_passes(0)
+    seeds = pass_seeds(7, 50)
+    assert seeds[0] == 7 and len(set(seeds)) == 50 and all(0 <= s < 2**32 for s in seeds)
+    assert not set(pass_seeds(8, 50)) & set(seeds)
+
+
+def test_passes_average_the_pass_images_weighted_by_their_samples():
+    """A 3-pass render (3 + 3 + 2 spp) is the spp-weighted mean of single-pass
+    renders with the pass seeds. analytic_plane.xml has one emitter, so renders
+    with the same seed are identical (with several emitters Mitsuba 3.9 may
+    list them in another order at each load, changing the sample realization)."""
+    from mitsuba_pbrdf.render import pass_seeds, render_scene
+
+    scene = os.path.join(ROOT, "scenes", "analytic_plane.xml")
+    small = {"width": 16, "height": 12}
+    image = render_scene(scene, spp=8, passes=3, seed=5, params=small)
+    assert image.metadata["passes"] == "3" and image.metadata["spp"] == "8"
+    seeds = pass_seeds(5, 3)
+    parts = [render_scene(scene, spp=n, passes=1, seed=s, params=small).stokes.astype(np.float64)
+             for n, s in zip([3, 3, 2], seeds)]
+    expected = (3 * parts[0] + 3 * parts[1] + 2 * parts[2]) / 8
+    np.testing.assert_allclose(image.stokes, expected, rtol=1e-5, atol=1e-7)
+    assert np.abs(parts[0] - parts[1]).max() > 1e-4  # the seeds differ
+
+
+def test_render_passes_and_progress_bar(scene, tmp_path, capsys):
+    out = tmp_path / "p"
+    assert main(["render", str(scene), "--spp", "4", "--passes", "2", "--progress",
+                 "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "rendering (2 passes)" in captured.err and "spp" in captured.err
+    assert read_stokes_exr(f"{out}.exr").metadata["passes"] == "2"
+    assert main(["render", str(scene), "--passes", "0"]) == 2
+    assert "--passes must be at least 1" in error_of(capsys)
+
+
+def test_default_variant_probe():
+    from mitsuba_pbrdf import render
+
+    assert render.default_variant(lambda: False) == "llvm_ad_spectral_polarized"
+    assert render.default_variant(lambda: True) == "cuda_ad_spectral_polarized"
+
+    def broken():
+        raise RuntimeError("no driver")
+
+    assert render.default_variant(broken) == "llvm_ad_spectral_polarized"
+
+
+def test_cuda_available_needs_the_variant_and_a_device(monkeypatch):
+    import drjit as dr
+
+    before = mi.variant()
+    with monkeypatch.context() as m:
+        m.setattr(mi, "variants", lambda: ["llvm_ad_spectral_polarized"])
+        assert CUDA_AVAILABLE() is False
+
+    # a backend that claims to exist but a variant that cannot be set: no GPU
+    monkeypatch.setattr(dr, "has_backend", lambda backend: True)
+    real_set_variant = mi.set_variant
+
+    def set_variant(name, *args):
+        if name.startswith("cuda"):
+            raise ImportError("the CUDA backend hasn't been initialized")
+        return real_set_variant(name, *args)
+
+    monkeypatch.setattr(mi, "set_variant", set_variant)
+    assert CUDA_AVAILABLE() is False
+    assert mi.variant() == before
+
+    # a variant that can be set: a GPU; the probe puts the previous variant back
+    calls = []
+    monkeypatch.setattr(mi, "set_variant", lambda name, *args: calls.append(name))
+    assert CUDA_AVAILABLE() is True
+    assert calls == ["cuda_ad_spectral_polarized", before]
+
+
+def test_render_without_variant_uses_the_probe(scene, tmp_path, monkeypatch):
+    from mitsuba_pbrdf import render
+
+    monkeypatch.setattr(render, "cuda_available", lambda: False)
+    assert main(["render", str(scene), "--spp", "1", "--out", str(tmp_path / "v")]) == 0
+    assert read_stokes_exr(tmp_path / "v.exr").metadata["variant"] == "llvm_ad_spectral_polarized"
+
+
+def test_gpu_variant_that_cannot_start_is_a_clear_error(scene, tmp_path, capsys, monkeypatch):
+    import drjit as dr
+
+    if dr.has_backend(dr.JitBackend.CUDA):
+        pytest.skip("a CUDA GPU is present")
+    from mitsuba_pbrdf import render
+
+    monkeypatch.setattr(render, "cuda_available", lambda: True)  # a probe that is wrong
+    assert main(["render", str(scene), "--spp", "1", "--out", str(tmp_path / "g")]) == 2
+    err = error_of(capsys)
+    assert "cuda_ad_spectral_polarized" in err and "cannot be used here" in err
+
+
+# ---------------------------------------------------------------- view options
+
+
+def test_view_sheet_band_and_greyscale(scene, tmp_path, capsys):
+    main(["render", str(scene), "--spp", "2", "--out", str(tmp_path / "r")])
+    capsys.readouterr()
+    exr = str(tmp_path / "r.exr")
+    assert main(["view", exr]) == 0  # default: the full sheet, next to the EXR
+    check_png(tmp_path / "r.png")
+    png = tmp_path / "g.png"
+    assert main(["view", exr, "--out", str(png), "--panels", "dolp,aolp,hsv", "--band", "B",
+                 "--dolp-cmap", "gray", "--dolp-max", "0.5", "--min-dolp", "0.05",
+                 "--exposure", "1.5"]) == 0
+    check_png(png)
+    capsys.readouterr()
+    assert main(["view", exr, "--band", "Q"]) == 2
+    assert "no band 'Q'" in error_of(capsys)
+    assert main(["view", exr, "--panels", "dolp,nope"]) == 2
+    err = error_of(capsys)
+    assert "nope" in err and "choose from" in err
+    assert main(["view", exr, "--dolp-max", "0"]) == 2
+    assert "--dolp-max" in error_of(capsys)
+
+
+# ---------------------------------------------------------------- plot
+
+
+def test_plot_writes_the_pbrdf_sheet(tmp_path, capsys):
+    png = tmp_path / "plot.png"
+    argv = ["plot", "--material", "Cu", "--sigma", "0.1", "--kdd", "0.2", "--theta-i", "40",
+            "--out", str(png)]
+    assert main(argv) == 0
+    assert "reference evaluator" in capsys.readouterr().out
+    pixels = check_png(png)
+    assert pixels.shape[0] > 500
+    assert main(["plot", "--eta", "1.5", "--k", "3", "--shadowing", "smith",
+                 "--dd-distribution", "ggx", "--kdd", "0.1", "--theta-i", "0",
+                 "--wavelengths", "500", "--out", str(tmp_path / "n.png")]) == 0
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--material", "Unobtainium"], "unknown material 'Unobtainium'"),
+    (["--sigma", "0"], "sigma must be > 0"),
+    (["--kid", "-1"], "kid must be >= 0"),
+    (["--theta-i", "95"], "theta_i must be in [0, 90)"),
+    (["--material", "Cu", "--eta", "1.5", "--k", "3"], "not both"),
+    (["--eta", "1.5"], "both eta and k"),
+    (["--wavelengths", "abc"], "comma-separated numbers"),
+    (["--material", "Cu", "--wavelengths", "100"], "outside the 'Cu' table range"),
+])
+def test_plot_errors(tmp_path, capsys, args, message):
+    assert main(["plot", *args, "--out", str(tmp_path / "x.png")]) == 2
+    assert message in error_of(capsys)
+    assert not (tmp_path / "x.png").exists()
+
+
+# ---------------------------------------------------------------- gallery
+
+
+def test_gallery_command(tmp_path, capsys):
+    assert main(["gallery", "--only", "plot", "--out", str(tmp_path / "g")]) == 0
+    assert "wrote" in capsys.readouterr().out
+    check_png(tmp_path / "g" / "pbrdf_plot.png")
+    assert main(["gallery", "--only", "plot,bogus"]) == 2
+    assert "unknown gallery item(s) bogus" in error_of(capsys)
+    assert main(["gallery", "--scenes", str(tmp_path / "nowhere"), "--only", "materials"]) == 2
+    assert "gallery scenes" in error_of(capsys)
+    assert main(["gallery", "--scale", "0"]) == 2
+    assert "--scale" in error_of(capsys)
+
+
+def test_help_lists_every_command(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    for command in ("render", "view", "plot", "gallery"):
+        assert command in out
+
+
+def test_render_mono_polarized_variant(scene, tmp_path):
+    """Mono variants: Mitsuba names the Stokes bands R, G, B (all equal) and
+    the preview Y; the EXR keeps them by name."""
+    out = tmp_path / "mono"
+    assert main(["render", str(scene), "--spp", "2", "--variant", "llvm_ad_mono_polarized",
+                 "--out", str(out)]) == 0
+    image = read_stokes_exr(f"{out}.exr")
+    assert image.bands == ["R", "G", "B"] and image.metadata["variant"] == "llvm_ad_mono_polarized"
+    np.testing.assert_array_equal(image.stokes[..., 0], image.stokes[..., 2])
+    assert image.s0.max() > 0

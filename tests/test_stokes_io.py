@@ -8,6 +8,7 @@ import pytest
 from mitsuba_pbrdf.stokes_io import (
     StokesChannelError,
     StokesImage,
+    as_stokes_image,
     aolp,
     docp,
     dolp,
@@ -207,3 +208,31 @@ def test_luminance_stokes_weights_rgb():
     lum = luminance_stokes(image)
     np.testing.assert_allclose(lum[0, 0], [0.7152, 0.7152, 0, 0], rtol=1e-6)
     assert dolp(lum, axis=-1)[0, 0] == pytest.approx(1.0)
+
+
+def test_numpy_arrays_and_wavelength_bands_round_trip_in_order(tmp_path):
+    """Per-wavelength bands (as assembled from mono renders) keep their order,
+    although OpenEXR stores channels alphabetically ("1000nm" < "450nm")."""
+    rng = np.random.default_rng(4)
+    stokes = rng.normal(size=(3, 5, 4, 3)).astype(np.float32)
+    bands = ["450nm", "550nm", "1000nm"]
+    path = write_stokes_exr(tmp_path / "w.exr", stokes, bands=bands)
+    assert exr_channel_names(path)[:3] == ["S0.1000nm", "S0.450nm", "S0.550nm"]
+    back = read_stokes_exr(path)
+    assert back.bands == bands
+    np.testing.assert_array_equal(back.stokes, stokes)
+    assert back.metadata == {}
+
+    single = rng.normal(size=(3, 5, 4)).astype(np.float32)  # one band: "Y"
+    back = read_stokes_exr(write_stokes_exr(tmp_path / "y.exr", single))
+    assert back.bands == ["Y"]
+    np.testing.assert_array_equal(back.stokes[..., 0], single)
+    assert as_stokes_image(np.zeros((1, 1, 4, 3))).bands == ["R", "G", "B"]
+    assert as_stokes_image(np.zeros((1, 1, 4, 2))).bands == ["B0", "B1"]
+
+
+def test_bad_band_names_and_arguments(tmp_path):
+    with pytest.raises(ValueError, match="commas"):
+        write_stokes_exr(tmp_path / "c.exr", np.zeros((1, 1, 4, 1)), bands=["a,b"])
+    with pytest.raises(ValueError, match="only for arrays"):
+        write_stokes_exr(tmp_path / "d.exr", random_image(), bands=["X", "Y", "Z"])

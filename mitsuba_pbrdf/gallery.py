@@ -1,0 +1,448 @@
+"""The scene gallery: renders ``scenes/gallery/*.xml`` and draws README's pictures.
+
+::
+
+    python -m mitsuba_pbrdf gallery                # all of it, into gallery/
+    python -m mitsuba_pbrdf gallery --only polarizer --spp 64
+
+Pictures (PNG, palette-quantized to stay small enough to commit):
+
+* ``materials.png``: the same sphere (``scenes/gallery/sphere.xml``) in
+  aluminium, copper, gold and silver; intensity, DoLP and AoLP.
+* ``roughness.png``: the copper sphere from polished to rough.
+* ``polarizer.png``: the sphere through a linear polarizer at 0°, 45°, 90° and
+  135° (``scenes/gallery/polarizer.xml``), as the four channels of a
+  polarization camera, and the DoLP and AoLP computed from them; with the
+  check of Malus's law against the Stokes render (:func:`polarizer_check`).
+* ``stokes_sheet.png``: every Stokes panel of ``scenes/default.xml`` (what
+  ``pbrdf view --panels all`` draws).
+* ``pbrdf_plot.png``: the model's lobes and DoP (what ``pbrdf plot`` draws).
+
+The Stokes EXRs go to ``out/gallery/`` (not committed). Each render is also
+one command of its own, e.g. ``pbrdf render scenes/gallery/sphere.xml -D
+material=Au``.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Dict, Optional, Sequence
+
+import numpy as np
+
+from .stokes_io import StokesImage, write_stokes_exr
+
+__all__ = [
+    "MATERIALS",
+    "ROUGHNESS",
+    "POLARIZER_ANGLES",
+    "GALLERY_ITEMS",
+    "find_scenes",
+    "montage_figure",
+    "polarization_camera_stokes",
+    "polarizer_check",
+    "render_materials",
+    "render_roughness",
+    "render_polarizer",
+    "render_stokes_sheet",
+    "render_pbrdf_plot",
+    "run_gallery",
+    "studio_envmap",
+    "write_studio_envmap",
+]
+
+#: Metals of ``materials.png`` (Mitsuba conductor names) and their labels.
+MATERIALS = (("Al", "aluminium"), ("Cu", "copper"), ("Au", "gold"), ("Ag", "silver"))
+#: Columns of ``roughness.png``: label and ``-D`` parameters of sphere.xml.
+ROUGHNESS = (
+    ("polished, σ = 0.02", dict(sigma=0.02, kdd=0.0, kid=0.0)),
+    ("σ = 0.08 (default)", dict(sigma=0.08, kdd=0.05, kid=0.01)),
+    ("rough, σ = 0.25, kdd = 0.3", dict(sigma=0.25, kdd=0.3, sigma_dd=0.6, kid=0.03)),
+)
+#: Polarizer angles of ``polarizer.png`` (degrees, counter-clockwise in the picture).
+POLARIZER_ANGLES = (0, 45, 90, 135)
+#: Everything ``run_gallery`` makes, in order.
+GALLERY_ITEMS = ("materials", "roughness", "polarizer", "sheet", "plot")
+
+#: Colour quantization of committed PNGs (see visualize.save_png).
+_PNG_COLOURS = 256
+
+
+def find_scenes(scenes_dir=None) -> Path:
+    """The folder holding the gallery scenes: *scenes_dir* if given, else
+    ``scenes/gallery`` under the current directory or the repository this
+    package was installed from. Raises ``FileNotFoundError`` saying where it
+    looked."""
+    if scenes_dir is not None:
+        candidates = [Path(scenes_dir)]
+    else:
+        candidates = [Path.cwd() / "scenes" / "gallery",
+                      Path(__file__).resolve().parent.parent / "scenes" / "gallery"]
+    for c in candidates:
+        if (c / "sphere.xml").is_file():
+            return c
+    raise FileNotFoundError(
+        "gallery scenes (sphere.xml, polarizer.xml) not found in "
+        + " or ".join(str(c) for c in candidates)
+        + "; run from the repository root or pass --scenes DIR"
+    )
+
+
+def studio_envmap(width: int = 256, height: int = 128, supersample: int = 4) -> np.ndarray:
+    """The gallery's environment map, linear RGB (height, width, 3) float32
+    in Mitsuba's lat-long convention (y up; u = atan2(x, −z) / 2π,
+    v = acos(y) / π): a sky graded from the horizon to a blue zenith, a dark
+    ground, and two soft boxes seen from the sphere: a key light high on the
+    front left (20° × 14°) and a wide rim light behind on the right
+    (36° × 12°)."""
+    n = supersample
+    u = (np.arange(width * n) + 0.5) / (width * n)
+    v = (np.arange(height * n) + 0.5) / (height * n)
+    theta, phi = np.meshgrid(v * np.pi, u * 2.0 * np.pi, indexing="ij")
+    d = np.stack([np.sin(theta) * np.sin(phi), np.cos(theta), -np.sin(theta) * np.cos(phi)], -1)
+    y = d[..., 1]
+    zenith, horizon = np.array([0.12, 0.2, 0.42]), np.array([0.5, 0.55, 0.6])
+    ground = np.array([0.06, 0.06, 0.065])
+    t = np.sqrt(np.clip(y, 0.0, 1.0))[..., None]
+    rgb = np.where((y >= 0)[..., None], horizon * (1 - t) + zenith * t, ground)
+    up = np.array([0.0, 1.0, 0.0])
+    for direction, half_w, half_h, radiance in (
+        ((-4.0, 4.0, 3.5), 10.0, 7.0, (9.0, 8.6, 8.0)),    # key light
+        ((4.5, 3.5, -4.0), 18.0, 6.0, (6.0, 6.0, 6.5)),    # rim light
+    ):
+        c = np.array(direction) / np.linalg.norm(direction)
+        e1 = np.cross(up, c)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(c, e1)
+        dc = d @ c
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a, b = (d @ e1) / dc, (d @ e2) / dc
+        inside = ((dc > 0) & (np.abs(a) < np.tan(np.radians(half_w)))
+                  & (np.abs(b) < np.tan(np.radians(half_h))))
+        rgb = np.where(inside[..., None], np.array(radiance), rgb)
+    return rgb.reshape(height, n, width, n, 3).mean(axis=(1, 3)).astype(np.float32)
+
+
+def write_studio_envmap(path) -> str:
+    """Write :func:`studio_envmap` as a half-float RGB EXR (how
+    ``scenes/gallery/studio.exr`` was made). Returns the path."""
+    import OpenEXR
+
+    rgb = studio_envmap()
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    channels = {c: np.ascontiguousarray(rgb[..., i].astype(np.float16)) for i, c in enumerate("RGB")}
+    with OpenEXR.File(header, channels) as f:
+        f.write(os.fspath(path))
+    return os.fspath(path)
+
+
+# ---------------------------------------------------------------------------
+# Figures
+
+
+def _shared_exposure(images: Sequence[StokesImage], percentile: float = 99.0) -> float:
+    from .visualize import _linear_rgb, auto_exposure
+
+    rgb = np.concatenate([_linear_rgb(im).reshape(-1, 3) for im in images], axis=0)
+    return auto_exposure(rgb[None], percentile)
+
+
+def montage_figure(
+    columns: Sequence[tuple],
+    rows: Sequence[str] = ("intensity", "dolp", "aolp"),
+    title: Optional[str] = None,
+    dolp_max: float = 0.5,
+    min_dolp: float = 0.02,
+    panel_width: float = 2.7,
+    exposure: Optional[float] = None,
+):
+    """A grid with one column per ``(label, StokesImage)`` and one row per
+    quantity (``intensity``, ``dolp``, ``aolp``, ``hsv``), all columns on the
+    same scales (one exposure, one DoLP range) with one colour bar per row."""
+    import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+    from matplotlib.figure import Figure
+
+    from .stokes_io import aolp, dolp
+    from .visualize import polarization_hsv, tonemap, _linear_rgb, pixel_stokes
+
+    images = [im for _, im in columns]
+    if exposure is None:
+        exposure = _shared_exposure(images)
+    first = images[0]
+    aspect = first.height / first.width
+    fig = Figure(figsize=(panel_width * len(columns) + 1.3,
+                          panel_width * aspect * len(rows) + 0.5 + (0.3 if title else 0.0)),
+                 layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(rows), len(columns), squeeze=False)
+    twilight = matplotlib.colormaps["twilight"].with_extremes(bad="black")
+    row_labels = {
+        "intensity": f"intensity ({np.log2(exposure):+.1f} EV)",
+        "dolp": "DoLP",
+        "aolp": f"AoLP (DoLP ≥ {min_dolp:g})",
+        "hsv": "AoLP·DoLP·S0",
+    }
+    for r, row in enumerate(rows):
+        mappable = None
+        for c, (label, image) in enumerate(columns):
+            ax = axes[r, c]
+            s = pixel_stokes(image)
+            if row == "intensity":
+                ax.imshow(tonemap(_linear_rgb(image), exposure)[0], interpolation="nearest")
+            elif row == "dolp":
+                mappable = ax.imshow(np.clip(dolp(s, axis=-1), 0, dolp_max), cmap="viridis",
+                                     vmin=0, vmax=dolp_max, interpolation="nearest")
+            elif row == "aolp":
+                angle = np.ma.masked_where(dolp(s, axis=-1) < min_dolp,
+                                           np.degrees(aolp(s, axis=-1)))
+                mappable = ax.imshow(angle, cmap=twilight, vmin=-90, vmax=90,
+                                     interpolation="nearest")
+            elif row == "hsv":
+                ax.imshow(polarization_hsv(image, dolp_max, exposure), interpolation="nearest")
+                hues = (np.linspace(-90.0, 90.0, 256) % 180.0) / 180.0
+                mappable = ScalarMappable(
+                    Normalize(-90, 90), matplotlib.colors.ListedColormap(
+                        matplotlib.colormaps["hsv"](hues)))
+            else:
+                raise ValueError(f"unknown row {row!r}")
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if r == 0:
+                ax.set_title(label, fontsize=9)
+            if c == 0:
+                ax.set_ylabel(row_labels[row], fontsize=8)
+        if mappable is not None:
+            ticks = [-90, -45, 0, 45, 90] if row in ("aolp", "hsv") else None
+            cb = fig.colorbar(mappable, ax=list(axes[r, :]), fraction=0.02, pad=0.01,
+                              ticks=ticks)
+            cb.ax.tick_params(labelsize=7)
+            cb.set_label({"dolp": "DoLP", "aolp": "AoLP (°)", "hsv": "AoLP (°)"}[row],
+                         fontsize=8)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig
+
+
+def polarization_camera_stokes(intensities: Dict[int, np.ndarray]) -> np.ndarray:
+    """Linear Stokes vectors from intensities behind a polarizer at 0°, 45°,
+    90° and 135° (what a division-of-focal-plane polarization camera computes):
+    S0 = (I0 + I45 + I90 + I135) / 2, S1 = I0 − I90, S2 = I45 − I135, S3 = 0.
+    Each intensity is (H, W, bands); returns (H, W, 4, bands)."""
+    i0, i45, i90, i135 = (np.asarray(intensities[a], dtype=np.float64) for a in (0, 45, 90, 135))
+    return np.stack([(i0 + i45 + i90 + i135) / 2, i0 - i90, i45 - i135,
+                     np.zeros_like(i0)], axis=-2)
+
+
+def polarizer_check(filtered: Dict[int, StokesImage], clear: StokesImage) -> dict:
+    """Malus's law on the renders: for each relation, the largest per-pixel
+    error divided by the largest S0 of the clear (unfiltered) render.
+
+    ``sum_0_90``: I0 + I90 vs S0; ``sum_45_135``: I45 + I135 vs S0;
+    ``s1``: I0 − I90 vs S1; ``s2``: I45 − I135 vs S2 (all bands)."""
+    i = {a: filtered[a].s0.astype(np.float64) for a in POLARIZER_ANGLES}
+    s = clear.stokes.astype(np.float64)
+    scale = float(np.abs(s[:, :, 0]).max()) or 1.0
+    return {
+        "sum_0_90": float(np.abs(i[0] + i[90] - s[:, :, 0]).max() / scale),
+        "sum_45_135": float(np.abs(i[45] + i[135] - s[:, :, 0]).max() / scale),
+        "s1": float(np.abs(i[0] - i[90] - s[:, :, 1]).max() / scale),
+        "s2": float(np.abs(i[45] - i[135] - s[:, :, 2]).max() / scale),
+    }
+
+
+def polarizer_figure(filtered: Dict[int, StokesImage], clear: StokesImage,
+                     title: Optional[str] = None, dolp_max: float = 0.5,
+                     min_dolp: float = 0.02):
+    """The polarizer picture: row 1, the four filtered intensities (one
+    exposure); row 2, the unfiltered intensity and the DoLP and AoLP a
+    polarization camera computes from the four, next to the DoLP of the
+    Stokes render."""
+    import matplotlib.cm
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from .visualize import _linear_rgb, plot_aolp, plot_dolp, plot_intensity, tonemap
+
+    exposure = 2.0 * _shared_exposure([clear])  # the filtered images are ~S0/2
+    camera = StokesImage(
+        polarization_camera_stokes({a: filtered[a].s0 for a in POLARIZER_ANGLES}),
+        bands=filtered[0].bands)
+    aspect = clear.height / clear.width
+    fig = Figure(figsize=(4 * 2.9 + 0.6, 2 * 2.9 * aspect + 1.1), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(2, 4)
+
+    for ax, a in zip(axes[0], POLARIZER_ANGLES):
+        ax.imshow(tonemap(_linear_rgb(filtered[a]), exposure)[0], interpolation="nearest")
+        ax.set_title(f"through a polarizer at {a}°", fontsize=9)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        # an invisible colour bar, so that the columns line up with the row below
+        fig.colorbar(matplotlib.cm.ScalarMappable(), ax=ax, fraction=0.046,
+                     pad=0.03).ax.set_visible(False)
+    plot_intensity(axes[1, 0], clear, exposure=exposure / 2.0,
+                   title=f"no filter (S0, {np.log2(exposure / 2.0):+.1f} EV)")
+    fig.colorbar(matplotlib.cm.ScalarMappable(), ax=axes[1, 0], fraction=0.046,
+                 pad=0.03).ax.set_visible(False)
+    plot_dolp(axes[1, 1], camera, dolp_max=dolp_max)
+    axes[1, 1].set_title("DoLP from the four pictures", fontsize=9)
+    plot_aolp(axes[1, 2], camera, min_dolp=min_dolp)
+    axes[1, 2].set_title("AoLP from the four pictures", fontsize=9)
+    plot_dolp(axes[1, 3], clear, dolp_max=dolp_max)
+    axes[1, 3].set_title("DoLP of the Stokes render (no filter)", fontsize=9)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig
+
+
+# ---------------------------------------------------------------------------
+# Rendering
+
+
+@dataclass
+class _Settings:
+    scenes: Path
+    out: Path
+    exr_dir: Optional[Path]
+    spp: Optional[int]
+    scale: float
+    variant: Optional[str]
+    progress: bool
+    seed: int = 0
+
+
+def _size_params(scale: float, width: int = 240, height: int = 180) -> dict:
+    return dict(width=max(8, int(round(width * scale))), height=max(6, int(round(height * scale))))
+
+
+def _render(settings: _Settings, scene: str, name: str, **params) -> StokesImage:
+    from .render import render_scene
+
+    params = {**_size_params(settings.scale), **params}
+    image = render_scene(settings.scenes / scene, spp=settings.spp, variant=settings.variant,
+                         seed=settings.seed, params=params, progress=settings.progress)
+    if settings.exr_dir is not None:
+        write_stokes_exr(settings.exr_dir / f"{name}.exr", image)
+    return image
+
+
+def _subtitle(image: StokesImage) -> str:
+    return f"{image.metadata.get('variant', '')}, {image.metadata.get('spp', '?')} spp"
+
+
+def render_materials(settings: _Settings) -> str:
+    """``materials.png``: sphere.xml in each of :data:`MATERIALS`."""
+    columns = [(f"{label} ({m})", _render(settings, "sphere.xml", f"sphere_{m}", material=m))
+               for m, label in MATERIALS]
+    fig = montage_figure(columns, title="One sphere, four metals (scenes/gallery/sphere.xml, "
+                         f"σ = 0.08; {_subtitle(columns[0][1])})")
+    from .visualize import save_png
+
+    return save_png(fig, settings.out / "materials.png", dpi=100, colors=_PNG_COLOURS)
+
+
+def render_roughness(settings: _Settings) -> str:
+    """``roughness.png``: sphere.xml in copper with each of :data:`ROUGHNESS`."""
+    columns = []
+    for k, (label, params) in enumerate(ROUGHNESS):
+        columns.append((label, _render(settings, "sphere.xml", f"sphere_rough{k}", material="Cu",
+                                       **params)))
+    fig = montage_figure(columns, title="Polished to rough copper (scenes/gallery/sphere.xml; "
+                         f"{_subtitle(columns[0][1])})")
+    from .visualize import save_png
+
+    return save_png(fig, settings.out / "roughness.png", dpi=100, colors=_PNG_COLOURS)
+
+
+def render_polarizer_images(settings: _Settings, **params):
+    """The four filtered renders and the clear one. With the same seed they
+    trace the same paths (the filter changes no direction, Russian roulette is
+    off and the scene has a single emitter, see polarizer.xml), so Malus's law
+    holds pixel by pixel without Monte Carlo noise (to about 0.3 % of the
+    largest S0 off axis, where rays cross the filter obliquely)."""
+    filtered = {a: _render(settings, "polarizer.xml", f"polarizer_{a}", angle=a, **params)
+                for a in POLARIZER_ANGLES}
+    clear = _render(settings, "polarizer.xml", "polarizer_clear", polarizing="false",
+                    transmittance=2, **params)
+    return filtered, clear
+
+
+def render_polarizer(settings: _Settings):
+    """``polarizer.png``; returns ``(path, polarizer_check(...))``."""
+    filtered, clear = render_polarizer_images(settings)
+    check = polarizer_check(filtered, clear)
+    fig = polarizer_figure(
+        filtered, clear,
+        title="A polarization camera's four channels: scenes/gallery/polarizer.xml -D angle=0, "
+              f"45, 90, 135 ({_subtitle(clear)}), one exposure\n"
+              "Malus's law on the renders, worst pixel / max S0: "
+              f"|I0 + I90 − S0| {check['sum_0_90']:.0e}, |I45 + I135 − S0| "
+              f"{check['sum_45_135']:.0e}, |I0 − I90 − S1| {check['s1']:.0e}, "
+              f"|I45 − I135 − S2| {check['s2']:.0e}")
+    from .visualize import save_png
+
+    return save_png(fig, settings.out / "polarizer.png", dpi=100, colors=_PNG_COLOURS), check
+
+
+def render_stokes_sheet(settings: _Settings) -> str:
+    """``stokes_sheet.png``: all panels of scenes/default.xml."""
+    from .render import render_scene
+    from .visualize import overview_figure, save_png
+
+    scene = settings.scenes.parent / "default.xml"
+    image = render_scene(scene, spp=settings.spp, variant=settings.variant, seed=settings.seed,
+                         params=_size_params(settings.scale, 320, 240),
+                         progress=settings.progress)
+    if settings.exr_dir is not None:
+        write_stokes_exr(settings.exr_dir / "default.exr", image)
+    fig = overview_figure(image, "all", panel_width=3.0, dolp_max=0.5,
+                          title=f"pbrdf view --panels all (scenes/default.xml; {_subtitle(image)})")
+    return save_png(fig, settings.out / "stokes_sheet.png", dpi=90, colors=_PNG_COLOURS)
+
+
+def render_pbrdf_plot(settings: _Settings) -> str:
+    """``pbrdf_plot.png``: pbrdf plot --material Cu --sigma 0.1 --kdd 0.2 --kid 0.05 --theta-i 40."""
+    from .plots import PBRDFParams, save_pbrdf_plot
+
+    return save_pbrdf_plot(settings.out / "pbrdf_plot.png",
+                           PBRDFParams(material="Cu", sigma=0.1, kdd=0.2, kid=0.05), 40.0,
+                           dpi=90, colors=_PNG_COLOURS)
+
+
+def run_gallery(out="gallery", scenes_dir=None, exr_dir="out/gallery", spp=None,
+                scale: float = 1.0, variant=None, only: Optional[Sequence[str]] = None,
+                progress: bool = False, seed: int = 0, log=print) -> dict:
+    """Render the gallery; returns {item: path} (and ``polarizer_check``).
+
+    *only* selects items of :data:`GALLERY_ITEMS`; *spp* None keeps each
+    scene's own; *scale* multiplies the image sizes (240×180, default.xml
+    320×240); *exr_dir* None writes no EXRs."""
+    items = list(only) if only else list(GALLERY_ITEMS)
+    unknown = [i for i in items if i not in GALLERY_ITEMS]
+    if unknown:
+        raise ValueError(f"unknown gallery item(s) {', '.join(unknown)}; "
+                         f"choose from {', '.join(GALLERY_ITEMS)}")
+    settings = _Settings(scenes=find_scenes(scenes_dir), out=Path(out),
+                         exr_dir=Path(exr_dir) if exr_dir else None, spp=spp, scale=scale,
+                         variant=variant, progress=progress, seed=seed)
+    result = {}
+    for item in items:
+        if item == "materials":
+            result[item] = render_materials(settings)
+        elif item == "roughness":
+            result[item] = render_roughness(settings)
+        elif item == "polarizer":
+            result[item], result["polarizer_check"] = render_polarizer(settings)
+            log("polarizer check (max error / max S0): " + ", ".join(
+                f"{k} {v:.1e}" for k, v in result["polarizer_check"].items()))
+        elif item == "sheet":
+            result[item] = render_stokes_sheet(settings)
+        elif item == "plot":
+            result[item] = render_pbrdf_plot(settings)
+        log(f"wrote {result[item]} ({os.path.getsize(result[item]) // 1024} KiB)")
+    return result

@@ -1,0 +1,211 @@
+"""Pictures of Stokes images (mitsuba_pbrdf.visualize) and pBRDF plots
+(mitsuba_pbrdf.plots): the figures are built, saved and opened again, and the
+numbers behind them are checked against the reference evaluator."""
+
+import math
+
+import matplotlib.image
+import numpy as np
+import pytest
+from PIL import Image
+
+from mitsuba_pbrdf import reference
+from mitsuba_pbrdf.plots import (
+    PBRDFParams,
+    dop_unpolarized,
+    hemisphere,
+    in_plane,
+    pbrdf_figure,
+    save_pbrdf_plot,
+)
+from mitsuba_pbrdf.stokes_io import StokesImage
+from mitsuba_pbrdf.visualize import (
+    PANEL_PRESETS,
+    overview_figure,
+    parse_panels,
+    polarization_hsv,
+    save_overview_png,
+    save_png,
+    tonemap,
+)
+
+
+def synthetic_image(h=24, w=32):
+    """A Stokes image whose AoLP turns with x and whose DoLP grows with y."""
+    y, x = np.mgrid[0:h, 0:w]
+    angle = np.pi * (x / w - 0.5)                     # AoLP from -90 to 90 degrees
+    p = y / (h - 1)                                   # DoLP from 0 to 1
+    s0 = 1.0 + 0.5 * np.sin(x / 5.0)
+    stokes = np.stack([s0, s0 * p * np.cos(2 * angle), s0 * p * np.sin(2 * angle),
+                       0.1 * s0 * p], axis=-1)[..., None].repeat(3, axis=-1)
+    return StokesImage(stokes.astype(np.float32), ["R", "G", "B"], metadata={"title": "synthetic"})
+
+
+# ---------------------------------------------------------------- Stokes pictures
+
+
+def test_parse_panels_presets_and_errors():
+    assert parse_panels("intensity, DoLP") == ("intensity", "dolp")
+    assert parse_panels("all") == PANEL_PRESETS["all"]
+    assert len(PANEL_PRESETS["all"]) == 8
+    with pytest.raises(ValueError, match="unknown panel.*bogus.*choose from"):
+        parse_panels("intensity,bogus")
+    with pytest.raises(ValueError, match="none"):
+        parse_panels(" , ")
+
+
+def test_full_sheet_has_every_panel_with_colour_bars(tmp_path):
+    image = synthetic_image()
+    fig = overview_figure(image, "all", title="t")
+    panels = [ax for ax in fig.axes if ax.get_title()]
+    titles = " | ".join(ax.get_title() for ax in panels)
+    for word in ("Intensity", "Degree of linear", "Angle of linear", "circular", "S1/S0",
+                 "S2/S0", "S3/S0", "AoLP (hue)"):
+        assert word in titles
+    colour_bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert len(colour_bars) == 7  # every panel but the intensity
+    path = save_overview_png(tmp_path / "sheet.png", image, panels="all")
+    pixels = matplotlib.image.imread(path)
+    assert pixels.shape[1] > pixels.shape[0] > 200  # two rows of four
+
+
+def test_dolp_greyscale_and_band_options(tmp_path):
+    image = synthetic_image()
+    fig = overview_figure(image, ["dolp", "aolp"], dolp_cmap="gray", band="G", dolp_max=0.5)
+    dolp_ax, aolp_ax = [ax for ax in fig.axes if ax.get_title()]
+    assert dolp_ax.images[0].get_cmap().name == "gray"
+    assert dolp_ax.images[0].get_clim() == (0.0, 0.5)
+    assert "[G]" in dolp_ax.get_title()
+    # AoLP is masked where DoLP < min_dolp: the first row has DoLP 0
+    angle = aolp_ax.images[0].get_array()
+    assert angle.mask[0].all() and not angle.mask[-1].any()
+    with pytest.raises(KeyError, match="no band 'X'"):
+        overview_figure(image, ["dolp"], band="X")
+
+
+def test_aolp_panel_values_follow_the_stokes_angle():
+    image = synthetic_image()
+    fig = overview_figure(image, ["aolp"])
+    angle = fig.axes[0].images[0].get_array()
+    w = image.width
+    expected = np.degrees(np.pi * (np.arange(w) / w - 0.5))
+    expected = (expected + 90.0) % 180.0 - 90.0  # -90 and 90 are the same angle
+    got = (np.asarray(angle[-1]) + 90.0) % 180.0 - 90.0
+    np.testing.assert_allclose(got, expected, atol=1e-3)
+
+
+def test_polarization_hsv_colours():
+    stokes = np.zeros((1, 4, 4, 1), np.float32)
+    stokes[0, :, 0, 0] = 1.0
+    stokes[0, 0, 1, 0] = 1.0        # horizontal, DoLP 1: hue 0, red
+    stokes[0, 1, 1, 0] = -1.0       # vertical, DoLP 1: hue 0.5, cyan
+    stokes[0, 2, 2, 0] = 1.0        # +45: hue 0.25, yellow-green
+    image = StokesImage(stokes, ["Y"])  # pixel 3: unpolarized, grey
+    rgb = polarization_hsv(image, exposure=1.0)
+    assert rgb.shape == (1, 4, 3)
+    r, g, b = rgb[0, 0]
+    assert r > 0.9 and g < 0.05 and b < 0.05
+    r, g, b = rgb[0, 1]
+    assert r < 0.05 and g > 0.9 and b > 0.9
+    r, g, b = rgb[0, 2]
+    assert r > 0.4 and g > 0.9 and b < 0.05
+    np.testing.assert_allclose(rgb[0, 3], rgb[0, 3, 0], atol=1e-6)  # grey
+
+
+def test_tonemap_exposure():
+    rgb = np.full((2, 2, 3), 0.25, np.float32)
+    srgb, exposure = tonemap(rgb)
+    assert exposure == pytest.approx(4.0) and np.allclose(srgb, 1.0)
+    srgb, exposure = tonemap(rgb, exposure=1.0)
+    assert exposure == 1.0 and np.allclose(srgb, 1.055 * 0.25 ** (1 / 2.4) - 0.055, atol=1e-6)
+    _, exposure = tonemap(np.zeros((2, 2, 3)))
+    assert exposure == 1.0
+
+
+def test_save_png_quantized_is_a_palette_png(tmp_path):
+    fig = overview_figure(synthetic_image(), "all")
+    full = save_png(fig, tmp_path / "full.png", dpi=80)
+    small = save_png(fig, tmp_path / "sub" / "small.png", dpi=80, colors=256)
+    with Image.open(small) as picture, Image.open(full) as unquantized:
+        assert picture.mode == "P" and len(picture.getcolors(256)) <= 256
+        assert picture.size == unquantized.size
+        difference = (np.asarray(picture.convert("RGB"), float)
+                      - np.asarray(unquantized.convert("RGB"), float))
+    h, w = (n // 8 * 8 for n in difference.shape[:2])
+    blocks = difference[:h, :w].reshape(h // 8, 8, w // 8, 8, 3).mean(axis=(1, 3))
+    assert np.abs(blocks).mean() < 6.0  # 2 % of full scale on average: not posterized
+
+
+# ---------------------------------------------------------------- pBRDF plots
+
+
+def test_params_validation_names_the_parameter():
+    with pytest.raises(ValueError, match="unknown material 'Unobtainium'.*Cu"):
+        PBRDFParams(material="Unobtainium").validate()
+    with pytest.raises(ValueError, match="sigma must be > 0"):
+        PBRDFParams(sigma=0.0).validate()
+    with pytest.raises(ValueError, match="kdd must be >= 0"):
+        PBRDFParams(kdd=-0.1).validate()
+    with pytest.raises(ValueError, match="sigma_dd"):
+        PBRDFParams(sigma_dd=float("nan")).validate()
+    with pytest.raises(ValueError, match="both eta and k"):
+        PBRDFParams(eta=1.5).validate()
+    with pytest.raises(ValueError, match="shadowing"):
+        PBRDFParams(shadowing="smooth").validate()
+    with pytest.raises(ValueError, match="theta_i"):
+        in_plane(PBRDFParams(), 90.0)
+    p = PBRDFParams(material="Cu", eta=1.2, k=7.0).validate()
+    assert p.material is None and "n=1.2" in p.label()
+
+
+def test_in_plane_mirror_direction_is_fresnel():
+    """Specular only, at the mirror direction (h = n, beta = theta_i): M is the
+    facet's Fresnel Mueller matrix times D G / (4 cos^2), so the normalized
+    elements and the DoP are Fresnel's, and S1 > 0 (s-polarized)."""
+    params = PBRDFParams(material="Au", sigma=0.05)
+    theta_i = 60.0
+    data = in_plane(params, theta_i, wavelengths=[550.0], n_angles=720)
+    k = np.argmin(np.abs(data.angles - theta_i))
+    theta_r = data.angles[k]
+    M = params.evaluate(math.radians(theta_i), 0.0, math.radians(theta_r), math.pi, [550.0])[0]
+    np.testing.assert_allclose(data.M[k, 0], M, rtol=1e-12)
+    n, kk = reference.conductor_ior("Au", 550.0)
+    F = reference.fresnel_mueller(math.cos(math.radians((theta_i + theta_r) / 2)), n, kk)
+    np.testing.assert_allclose(M / M[0, 0], F / F[0, 0], atol=2e-3)
+    dop = dop_unpolarized(data.M)[k, 0]
+    assert dop == pytest.approx(F[1, 0] / F[0, 0], abs=2e-3)
+    assert data.M[k, 0, 1, 0] > 0
+
+
+def test_in_plane_lobes_add_up():
+    params = PBRDFParams(material="Cu", sigma=0.1, kdd=0.2, kid=0.05)
+    data = in_plane(params, 30.0, wavelengths=[450.0, 650.0], n_angles=200)
+    assert data.M.shape == (200, 2, 4, 4)
+    assert set(data.lobes) == {"specular", "directional_diffuse", "ideal_diffuse"}
+    total = sum(data.lobes.values())
+    np.testing.assert_allclose(total, data.M[..., 0, 0], rtol=1e-12)
+    np.testing.assert_allclose(data.lobes["ideal_diffuse"], 0.05 / np.pi, rtol=1e-12)
+    assert 0.0 not in data.angles  # the global frame's switch at the normal is left out
+
+
+def test_hemisphere_orientation_mirror_on_the_right():
+    """The plots put the light on the left and the mirror direction on the
+    right, like the in-plane curves (positive angles on the specular side)."""
+    X, Y, M = hemisphere(PBRDFParams(material="Al", sigma=0.1), 40.0, resolution=80)
+    m00 = np.nan_to_num(M[..., 0, 0], nan=-1.0)
+    iy, ix = np.unravel_index(np.argmax(m00), m00.shape)
+    assert X[iy, ix] == pytest.approx(math.sin(math.radians(40.0)), abs=0.05)
+    assert abs(Y[iy, ix]) < 0.05
+    assert np.isnan(M[0, 0, 0, 0])  # outside the disk
+
+
+def test_pbrdf_figure_has_six_panels_and_saves(tmp_path):
+    params = PBRDFParams(material="Cu", sigma=0.1, kdd=0.2, kid=0.05)
+    fig = pbrdf_figure(params, 40.0, resolution=60)
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    assert len(titles) == 6
+    assert "reference evaluator" in fig.get_suptitle()
+    path = save_pbrdf_plot(tmp_path / "p.png", params, 40.0, colors=256)
+    pixels = matplotlib.image.imread(path)
+    assert pixels.shape[1] > pixels.shape[0] > 500
+    assert (tmp_path / "p.png").stat().st_size < 200_000
