@@ -364,9 +364,14 @@ class _PolarizedBRDFMethods:
         wi = si.wi
         cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
         active = mi.Bool(active) & (cos_i > 0) & (cos_o > 0)
-        h = dr.normalize(wi + wo)
+        # Half vector and cos(beta) = wi.h = wo.h = |wi + wo| / 2, the angle of
+        # incidence on the facet, in a form symmetric in wi and wo: for nearly
+        # opposite grazing directions dot(wi, h) depends on which of the two
+        # carries the larger float32 rounding (it differed 17x between modes).
+        half = wi + wo
+        h = dr.normalize(half)  # rounded as in roughconductor
         cos_h = mi.Frame3f.cos_theta(h)
-        cos_beta = dr.dot(wi, h)  # = dot(wo, h): angle of incidence on the facet
+        cos_beta = 0.5 * dr.norm(half)
         inv_4cos_i = dr.select(active, dr.rcp(4.0 * cos_i), 0.0)  # f * cos_o = ... / (4 cos_i)
 
         zero = dr.zeros(mi.Spectrum) if polarized else mi.UnpolarizedSpectrum(0.0)
@@ -389,8 +394,8 @@ class _PolarizedBRDFMethods:
                 continue
 
             distribution = self._distribution(lobe, si, active)
-            # cos(beta) > 0 whenever both directions are above the horizon; only
-            # float rounding (nearly opposite grazing directions) can break it.
+            # cos(beta) > 0 whenever both directions are above the horizon; it
+            # can only round to 0 (exactly opposite directions on the horizon).
             D = dr.select(cos_beta > 0, distribution.eval(h), 0.0)
             if want_pdf:
                 # Visible-normal sampling density, mapped through the reflection Jacobian.
@@ -454,8 +459,10 @@ def _fresnel_amplitudes(cos_beta, eta, k):
     modulus = dr.sqrt(dr.fma(u_re, u_re, u_im * u_im))
     t = dr.sqrt(dr.maximum(0.5 * (modulus + dr.abs(u_re)), 0.0))
     safe_t = dr.select(t > 0, t, 1.0)
+    # u_im = 2 n k >= 0 (k >= 0 is validated; k = -0.0 must act as +0.0, so no
+    # copysign): the root with Im w >= 0.
     w_re = dr.select(u_re >= 0, t, dr.abs(u_im) / (2.0 * safe_t))
-    w_im = dr.select(u_re >= 0, u_im / (2.0 * safe_t), dr.copysign(t, u_im))
+    w_im = dr.select(u_re >= 0, dr.abs(u_im) / (2.0 * safe_t), t)
 
     def ratio(a_re, a_im, b_re, b_im):  # (a - b) / (a + b) as (re, im)
         num_re, num_im = a_re - b_re, a_im - b_im
