@@ -379,10 +379,16 @@ def _geometry(theta_i, phi_i, theta_r, phi_r):
     g["sin_dphi"], g["cos_dphi"] = np.sin(dphi), np.cos(dphi)
 
     # 2 beta is the angle between wi and wr (both pointing away from the surface)
-    cos_2b = g["cos_i"] * g["cos_r"] + g["sin_i"] * g["sin_r"] * g["cos_dphi"]
-    cos_2b = np.clip(cos_2b, -1.0, 1.0)
-    g["cos_b"] = np.sqrt(0.5 * (1.0 + cos_2b))                      # cos beta = wi . h
-    g["sin_b"] = np.sqrt(0.5 * (1.0 - cos_2b))
+    # cos 2b = cos ti cos tr + sin ti sin tr cos dphi. Half-angle forms of
+    # (1 +- cos 2b) / 2, sums of non-negative terms, avoid the cancellation of
+    # 1 + cos 2b near grazing mirror geometry (cos 2b -> -1), where it cost up to
+    # 1e-3 of cos b at cos theta = 1e-7 and wiped out narrow lobes:
+    #   cos^2 b = cos^2((ti + tr)/2) + sin ti sin tr cos^2(dphi/2)
+    #   sin^2 b = sin^2((ti - tr)/2) + sin ti sin tr sin^2(dphi/2)
+    sin_sin = g["sin_i"] * g["sin_r"]
+    g["cos_b"] = np.sqrt(np.cos(0.5 * (ti + tr)) ** 2 + sin_sin * np.cos(0.5 * dphi) ** 2)
+    g["sin_b"] = np.sqrt(np.sin(0.5 * (ti - tr)) ** 2 + sin_sin * np.sin(0.5 * dphi) ** 2)
+    # cos b = wi . h
     with np.errstate(divide="ignore", invalid="ignore"):
         cos_h = (g["cos_i"] + g["cos_r"]) / (2.0 * g["cos_b"])     # cos theta_h = h . z
     g["cos_h"] = np.where(g["cos_b"] > 0, np.clip(cos_h, -1.0, 1.0), 0.0)
