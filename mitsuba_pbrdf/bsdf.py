@@ -264,7 +264,7 @@ class _PolarizedBRDFMethods:
             wo = mi.reflect(si.wi, m)
             cos_beta = dr.dot(si.wi, m)
             active &= (mi.Frame3f.cos_theta(wo) > 0) & (cos_beta > 0)
-            g1 = _visible_g1(distribution, si.wi, m)
+            g1 = _visible_g1(distribution, si.wi)
             # Visible-normal density mapped through the reflection Jacobian:
             # pdf = D G1(wi) / (4 cos_i). value = D G F / (4 cos_i) = pdf (G / G1(wi)) F.
             pdf = distribution.eval(m) * g1 * dr.rcp(4.0 * mi.Frame3f.cos_theta(si.wi))
@@ -353,7 +353,12 @@ class _PolarizedBRDFMethods:
 
     def _shadowing(self, distribution, wi, wo, h, cos_h, cos_beta):
         if self.shadowing == "smith":
-            return distribution.G(wi, wo, h)
+            # Smith G1(wi) G1(wo) without Mitsuba's per-direction facet-side test
+            # dot(v, h) cos(v) > 0: for nearly opposite grazing directions float32
+            # rounding of the inputs' lengths can flip one dot product (wi.h and
+            # wo.h differ by (|wi|^2 - |wo|^2) / |wi + wo|); the side test here is
+            # the symmetric cos(beta) > 0 that the caller applies.
+            return _smith_g1(distribution, wi) * _smith_g1(distribution, wo)
         # V-groove (Torrance-Sparrow/Blinn): min(1, 2 cos_h cos_o / cos_b, 2 cos_h cos_i / cos_b)
         two_cos_h = 2.0 * cos_h / cos_beta
         return dr.minimum(1.0, two_cos_h * dr.minimum(mi.Frame3f.cos_theta(wi),
@@ -399,7 +404,7 @@ class _PolarizedBRDFMethods:
             D = dr.select(cos_beta > 0, distribution.eval(h), 0.0)
             if want_pdf:
                 # Visible-normal sampling density, mapped through the reflection Jacobian.
-                pdf = pdf + probs[lobe] * D * _visible_g1(distribution, wi, h) * inv_4cos_i
+                pdf = pdf + probs[lobe] * D * _visible_g1(distribution, wi) * inv_4cos_i
             if not want_value:
                 continue
             scale = D * self._shadowing(distribution, wi, wo, h, cos_h, cos_beta) * inv_4cos_i
@@ -414,25 +419,29 @@ class _PolarizedBRDFMethods:
         return value, pdf
 
 
-def _visible_g1(distribution, wi, m):
-    """Smith G1(wi, m) of the distribution that visible-normal sampling draws
+def _smith_g1(distribution, v):
+    """Mitsuba's Smith G1 of direction ``v`` (isotropic: it depends on v only),
+    without the facet-side test, which the callers apply symmetrically."""
+    return distribution.smith_g1(v, mi.Vector3f(0.0, 0.0, 1.0))
+
+
+def _visible_g1(distribution, wi):
+    """Smith G1(wi) of the distribution that visible-normal sampling draws
     from, exactly: Mitsuba samples Beckmann's visible normals exactly but its
     ``smith_g1`` uses a rational approximation (< 0.35 % error), which would bias
     the pdf and so every sampling weight by G1_exact / G1_approx. GGX's G1 is
-    exact in Mitsuba already.
+    exact in Mitsuba already. The facet-side test (cos beta > 0) is the caller's.
 
     Beckmann: G1 = 1 / (1 + Lambda(a)), Lambda = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi)),
     a = 1 / (alpha tan(theta)).
     """
     if distribution.type() != mi.MicrofacetType.Beckmann:
-        return distribution.smith_g1(wi, m)
+        return _smith_g1(distribution, wi)
     cos = mi.Frame3f.cos_theta(wi)
     tan = dr.safe_sqrt(1.0 - cos * cos) / cos
     a = dr.rcp(distribution.alpha() * tan)
     lam = 0.5 * (dr.erf(a) - 1.0) + dr.exp(-a * a) / (2.0 * a * math.sqrt(math.pi))
-    g1 = dr.select(tan == 0, 1.0, dr.rcp(1.0 + lam))
-    # Same side test as Mitsuba's smith_g1: the facet must face wi.
-    return dr.select((dr.dot(wi, m) * cos > 0) & (cos > 0), g1, 0.0)
+    return dr.select(cos > 0, dr.select(tan == 0, 1.0, dr.rcp(1.0 + lam)), 0.0)
 
 
 def _depolarized(value, polarized):
