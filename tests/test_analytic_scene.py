@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 
 from conftest import use_variant
-from mitsuba_pbrdf import reference
+from mitsuba_pbrdf import frames, reference
 
 SCENE = os.path.join(os.path.dirname(__file__), os.pardir, "scenes", "analytic_plane.xml")
 WIDTH, HEIGHT, SPP, PASSES, SUBPIXELS = 64, 48, 512, 4, 8
@@ -58,23 +58,6 @@ def stokes_channels(images):
     return np.swapaxes(s, -1, -2)
 
 
-def camera_rays(scene):
-    """Origins and directions (world) of rays through an SxS grid of points in
-    every pixel, shape (H, W, S*S, 3)."""
-    sensor = scene.sensors()[0]
-    u = (np.arange(SUBPIXELS) + 0.5) / SUBPIXELS
-    px, py, su, sv = np.meshgrid(np.arange(WIDTH), np.arange(HEIGHT), u, u, indexing="xy")
-    # meshgrid 'xy' gives (H, W, S, S) ordering for px, py
-    x = ((px + su) / WIDTH).ravel()
-    y = ((py + sv) / HEIGHT).ravel()
-    ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(x, y), mi.Point2f(0.5, 0.5))
-    shape = (HEIGHT, WIDTH, SUBPIXELS * SUBPIXELS, 3)
-    origin = np.array(ray.o, dtype=np.float64).T.reshape(shape)
-    direction = np.array(ray.d, dtype=np.float64).T.reshape(shape)
-    up = np.array(sensor.world_transform() @ mi.Vector3f(0, 1, 0), dtype=np.float64).ravel()
-    return origin, direction, up
-
-
 def rotation_to_camera(forward, current, target):
     """Mitsuba's rotate_stokes_basis: Mueller rotator taking a Stokes vector
     from basis `current` to basis `target` (both perpendicular to `forward`)."""
@@ -87,7 +70,7 @@ def expected_stokes(scene, case, light_dir):
     """pi x the pixel-footprint average of the reference's first Mueller column
     (unpolarized light in), in the camera's Stokes frame, shape (H, W, 4):
     the pixel's Stokes vector in units of a white Lambertian plate's radiance."""
-    origin, direction, up = camera_rays(scene)
+    origin, direction, up = frames.pixel_rays(scene.sensors()[0], SUBPIXELS)
     t = -origin[..., 2] / direction[..., 2]
     assert np.all(t > 0), "every camera ray must hit the plate"
     w_r = -direction  # towards the camera, surface frame = world frame (plate normal +z)

@@ -129,25 +129,6 @@ def render(scene, spp, passes, seed=0):
 # Expected values
 # ---------------------------------------------------------------------------
 
-def camera_rays(scene, subpixels=SUBPIXELS):
-    """Origins and directions (H, W, S*S, 3) through an S x S grid in every pixel,
-    and the camera's up vector (world)."""
-    import mitsuba as mi
-
-    sensor = scene.sensors()[0]
-    width, height = sensor.film().crop_size()
-    u = (np.arange(subpixels) + 0.5) / subpixels
-    px, py, su, sv = np.meshgrid(np.arange(width), np.arange(height), u, u, indexing="xy")
-    x = ((px + su) / width).ravel()
-    y = ((py + sv) / height).ravel()
-    ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(x, y), mi.Point2f(0.5, 0.5))
-    shape = (height, width, subpixels * subpixels, 3)
-    origin = np.array(ray.o, dtype=np.float64).T.reshape(shape)
-    direction = np.array(ray.d, dtype=np.float64).T.reshape(shape)
-    up = np.array(sensor.world_transform() @ mi.Vector3f(0, 1, 0), dtype=np.float64).ravel()
-    return origin, direction, up
-
-
 def _normalize(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
@@ -189,7 +170,9 @@ def expected(name, metal, scene):
     """Per pixel: (valid mask, reference Stokes (H, W, 4) in the camera frame
     for unit irradiance, expected AoLP from geometry (H, W), and the same
     Stokes with 4 x 4 rays per pixel for the footprint-quadrature error)."""
-    origin, direction, up = camera_rays(scene)
+    from mitsuba_pbrdf import frames
+
+    origin, direction, up = frames.pixel_rays(scene.sensors()[0], SUBPIXELS)
     mask, normal = hit(name, origin, direction)
     w_i = _normalize(-np.asarray(SCENES[name]["light"], dtype=np.float64))   # towards the light
     w_r = -direction                                                         # towards the camera
