@@ -98,23 +98,13 @@ def markdown(rows, pairs, seconds):
         "same sample's M00 (max over samples with M00 > 1e-7 max M00, where float32 does not",
         "underflow, and all wavelengths), then the worst absolute error; the largest M00 seen gives",
         "the scale (narrow lobes peak at 1e4 1/sr).",
-        "",
-        "**Worst error relative to M00**",
-        "",
-        "| configuration | max M00 (1/sr) | " + " | ".join(ELEMENTS) + " |",
-        "|---|---|" + "---|" * 16,
     ]
-    for name, (worst_abs, worst_rel, scale) in rows.items():
-        lines.append(f"| {name} | {scale:.3g} | " + " | ".join(f"{v:.1e}" for v in worst_rel) + " |")
-    lines += [
-        "",
-        "**Worst absolute error (1/sr)**",
-        "",
-        "| configuration | max M00 (1/sr) | " + " | ".join(ELEMENTS) + " |",
-        "|---|---|" + "---|" * 16,
-    ]
-    for name, (worst_abs, worst_rel, scale) in rows.items():
-        lines.append(f"| {name} | {scale:.3g} | " + " | ".join(f"{v:.1e}" for v in worst_abs) + " |")
+    for title, column in (("Worst error relative to M00", 1), ("Worst absolute error (1/sr)", 0)):
+        lines += ["", f"**{title}**", "",
+                  "| configuration | max M00 (1/sr) | " + " | ".join(ELEMENTS) + " |",
+                  "|---|---|" + "---|" * 16]
+        lines += [f"| {name} | {row[2]:.3g} | " + " | ".join(f"{v:.1e}" for v in row[column]) + " |"
+                  for name, row in rows.items()]
     return "\n".join(lines) + "\n"
 
 
