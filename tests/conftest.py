@@ -28,6 +28,16 @@ def variant(request):
     use_variant("llvm_ad_spectral_polarized")
 
 
+@pytest.fixture
+def restore_variant():
+    """For modules whose code under test switches Mitsuba's variant: put back
+    the one the suite was on (and its plugin registration) after each test."""
+    before = mi.variant()
+    yield
+    if mi.variant() != before:
+        use_variant(before)
+
+
 def make_si(wi):
     """A batch of surface interactions in the local frame with directions `wi`
     (numpy (n, 3)) and, in spectral variants, the test wavelengths."""

@@ -10,7 +10,6 @@ import numpy as np
 import OpenEXR
 import pytest
 
-import mitsuba_pbrdf
 from mitsuba_pbrdf import render as render_module
 from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.stokes_io import read_stokes_exr
@@ -61,14 +60,8 @@ def cpu_default_variant(monkeypatch):
     monkeypatch.setattr(render, "cuda_available", lambda: False)
 
 
-@pytest.fixture(autouse=True)
-def restore_variant():
-    """The CLI switches Mitsuba's variant; put back the one the suite uses."""
-    before = mi.variant()
-    yield
-    if mi.variant() != before:
-        mi.set_variant(before)
-        mitsuba_pbrdf.register()
+# The code under test switches Mitsuba's variant (conftest.restore_variant).
+pytestmark = pytest.mark.usefixtures("restore_variant")
 
 
 @pytest.fixture

@@ -10,7 +10,6 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-import mitsuba_pbrdf
 from mitsuba_pbrdf import gallery
 from mitsuba_pbrdf.gallery import (
     POLARIZER_ANGLES,
@@ -27,13 +26,8 @@ SCENES = os.path.join(ROOT, "scenes", "gallery")
 TINY = dict(width=48, height=36)
 
 
-@pytest.fixture(autouse=True)
-def restore_variant():
-    before = mi.variant()
-    yield
-    if mi.variant() != before:
-        mi.set_variant(before)
-        mitsuba_pbrdf.register()
+# The code under test switches Mitsuba's variant (conftest.restore_variant).
+pytestmark = pytest.mark.usefixtures("restore_variant")
 
 
 def settings(tmp_path, spp=4, scale=0.2):
