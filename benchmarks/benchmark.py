@@ -37,12 +37,12 @@ ALPHA = 0.2  # Beckmann width of the reduced configurations (sigma = alpha / sqr
 
 
 def set_variant(name):
+    """``mitsuba_pbrdf.use_variant(name)``; returns the ``mitsuba`` module."""
     import mitsuba as mi
 
-    mi.set_variant(name)
     import mitsuba_pbrdf
 
-    mitsuba_pbrdf.register()
+    mitsuba_pbrdf.use_variant(name)
     return mi
 
 

@@ -3,105 +3,39 @@
 Usage::
 
     import mitsuba as mi
-    mi.set_variant("llvm_ad_spectral_polarized")
-    import mitsuba_pbrdf            # registers the BSDF plugin "pbrdf"
+    import mitsuba_pbrdf                      # registers the BSDF plugin "pbrdf"
 
+    mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")   # or mi.set_variant(...)
     bsdf = mi.load_dict({"type": "pbrdf", "material": "Cu", "sigma": 0.15})
 
-Importing registers the plugin for the variant that is active at that moment.
-After ``mi.set_variant(...)`` to another variant, call
-:func:`mitsuba_pbrdf.register` again.
+Importing the package needs neither Mitsuba nor a variant. Where Mitsuba is
+installed, the plugin is registered in the active variant and in every
+variant set afterwards (:mod:`mitsuba_pbrdf.variant`). Anything that needs a
+variant (the plugin, rendering) says what to type when none is set.
 
-The NumPy float64 reference evaluator, :mod:`mitsuba_pbrdf.reference`, needs no
-variant and can be imported on its own.
+Sub-packages, one concern each:
+
+* :mod:`~mitsuba_pbrdf.plugin`: the Dr.Jit BSDF ``pbrdf`` (never imports the reference);
+* :mod:`~mitsuba_pbrdf.reference`: the NumPy float64 reference evaluator (NumPy only);
+* :mod:`~mitsuba_pbrdf.frames`: any Mitsuba BSDF in the reference's frames;
+* :mod:`~mitsuba_pbrdf.imaging`: rendering, Stokes images, EXR files, pictures;
+* :mod:`~mitsuba_pbrdf.figures`: pBRDF plots and the scene gallery;
+* :mod:`~mitsuba_pbrdf.measured`: measured-data files (goniometer CSV);
+* :mod:`~mitsuba_pbrdf.fitting`: least-squares fits of the model to measurements;
+* :mod:`~mitsuba_pbrdf.inverse`: gradients of rendered Stokes images, Adam fits;
+* :mod:`~mitsuba_pbrdf.integrators`: Mitsuba integrators the package registers;
+* :mod:`~mitsuba_pbrdf.batch`: many renders (sweeps, datasets);
+* :mod:`~mitsuba_pbrdf.checks`: physical and numerical checks of a pBRDF;
+* :mod:`~mitsuba_pbrdf.cli`: the ``pbrdf`` command line;
+* :mod:`~mitsuba_pbrdf.options`: the model's option lists and defaults.
 """
 
-import sys
+from .variant import (SUPPORTED_MITSUBA, UnknownVariantError, VariantNotSetError, install_hook,
+                      register, use_variant)
 
 __version__ = "0.1.0"
 
-SUPPORTED_MITSUBA = "3.9"
+__all__ = ["__version__", "SUPPORTED_MITSUBA", "VariantNotSetError", "UnknownVariantError",
+           "use_variant", "register"]
 
-_VARIANT_HINT = (
-    "mitsuba_pbrdf registers a Mitsuba plugin and needs a Mitsuba variant to be "
-    "set first, e.g.\n\n"
-    "    import mitsuba as mi\n"
-    "    mi.set_variant('llvm_ad_spectral_polarized')\n"
-    "    import mitsuba_pbrdf\n"
-)
-
-
-class VariantNotSetError(ImportError):
-    """Raised when the plugin is registered before ``mi.set_variant``."""
-
-
-def _check_mitsuba():
-    import mitsuba as mi
-
-    if not mi.__version__.startswith(SUPPORTED_MITSUBA + "."):
-        raise ImportError(
-            f"mitsuba_pbrdf needs Mitsuba {SUPPORTED_MITSUBA}.x, found {mi.__version__}: "
-            f"pip install 'mitsuba=={SUPPORTED_MITSUBA}.*'"
-        )
-    if mi.variant() is None:
-        raise VariantNotSetError(_VARIANT_HINT)
-    return mi
-
-
-def register():
-    """Register the ``pbrdf`` BSDF plugin for the currently active variant.
-
-    Returns the name of the variant it was registered for. Call it again after
-    switching variants with ``mi.set_variant``.
-    """
-    mi = _check_mitsuba()
-    from .bsdf import plugin_class
-
-    mi.register_bsdf("pbrdf", plugin_class())
-    return mi.variant()
-
-
-def _importing_a_submodule():
-    """True when this package is being imported only to reach one of its
-    submodules (``import mitsuba_pbrdf.reference``, ``from mitsuba_pbrdf import
-    reference``, the ``pbrdf`` console script, ``python -m mitsuba_pbrdf``),
-    which need no variant. Read off the import machinery's frames."""
-    frame = sys._getframe(2)  # skip this function and the package body
-    while frame is not None:
-        filename = frame.f_code.co_filename
-        if filename.startswith("<frozen importlib"):
-            name = frame.f_locals.get("name")
-            if isinstance(name, str) and name.startswith(__name__ + "."):
-                return True
-        elif filename.endswith("runpy.py") or filename == "<frozen runpy>":
-            return True
-        else:  # the importing statement itself: `from mitsuba_pbrdf import x, y`?
-            return _from_import_names(frame) <= _SUBMODULES and bool(_from_import_names(frame))
-        frame = frame.f_back
-    return False
-
-
-_SUBMODULES = {"reference", "cli", "stokes_io", "visualize", "render", "__main__", "fit", "plots",
-               "gallery"}
-
-
-def _from_import_names(frame):
-    """Names of the ``from ... import`` statement running in *frame* (else empty)."""
-    import dis
-
-    fromlist = None
-    for ins in dis.get_instructions(frame.f_code):
-        if ins.opname == "LOAD_CONST":
-            fromlist = ins.argval
-        if ins.offset >= frame.f_lasti:
-            break
-    if ins.opname == "IMPORT_NAME" and isinstance(fromlist, tuple):
-        return set(fromlist)
-    return set()
-
-
-try:
-    register()
-except VariantNotSetError:
-    if not _importing_a_submodule():
-        raise
+install_hook()

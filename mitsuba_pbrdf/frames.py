@@ -1,4 +1,5 @@
-"""Evaluate any Mitsuba BSDF in the reference evaluator's frames.
+"""The bridge between Mitsuba and the reference evaluator's frames: evaluate
+any Mitsuba BSDF as a BRDF Mueller matrix in the global s/p frames.
 
 ``mitsuba_pbrdf.reference.pbrdf`` returns BRDF Mueller matrices (1/sr, no
 cosine) in the *global s/p frames* (see its module docstring): the incident
@@ -19,7 +20,9 @@ So the reference's ``wi`` (towards the light) is ``wo_hat`` and its ``wr``
 (towards the viewer) is ``wi_hat``. :func:`eval_global` takes the directions in
 these *physical* roles, sets ``si.wi`` and ``wo`` for the requested mode, divides
 the cosine out and rotates the matrix into the global s/p frames with
-``mi.mueller.rotate_mueller_basis``.
+``mi.mueller.rotate_mueller_basis``. It returns NumPy float64 arrays;
+:func:`mueller_brdf` does the same in Dr.Jit and keeps derivatives (for
+gradients and the ``drjit`` fitting backend).
 
 Variants: JIT variants (``llvm_ad_*``, ``cuda_ad_*``) evaluate all directions in
 one call; scalar variants loop in Python (slow: keep n small). Spectral variants
@@ -34,6 +37,8 @@ import numpy as np
 
 import drjit as dr
 import mitsuba as mi
+
+from .variant import require_variant
 
 
 # ---------------------------------------------------------------------------
@@ -191,6 +196,7 @@ def eval_global(bsdf, wi_hat, wo_hat, wavelengths_nm=(450.0, 550.0, 650.0, 750.0
     (n, n_bands) in unpolarized ones, with the cosine factor of Mitsuba's
     ``eval`` divided out.
     """
+    require_variant()
     arr, _, cos_wo = _evaluate(bsdf, wi_hat, wo_hat, wavelengths_nm, mode, with_pdf=False)
     return _divide_cosine(arr, cos_wo)
 
@@ -199,8 +205,54 @@ def eval_pdf_global(bsdf, wi_hat, wo_hat, wavelengths_nm=(450.0, 550.0, 650.0, 7
                     mode="radiance"):
     """Like :func:`eval_global` through ``bsdf.eval_pdf``; returns ``(value, pdf)``,
     ``pdf`` (n,) being Mitsuba's solid-angle density of sampling ``wo`` given ``si.wi``."""
+    require_variant()
     arr, pdf, cos_wo = _evaluate(bsdf, wi_hat, wo_hat, wavelengths_nm, mode, with_pdf=True)
     return _divide_cosine(arr, cos_wo), pdf
+
+
+def _vector(v):
+    if isinstance(v, mi.Vector3f):
+        return v
+    v = np.asarray(v, dtype=np.float32).reshape(-1, 3)
+    return mi.Vector3f(*(mi.Float(np.ascontiguousarray(v[:, j])) for j in range(3)))
+
+
+def mueller_brdf(bsdf, wi_hat, wo_hat, wavelengths=(450.0, 520.0, 600.0, 690.0),
+                 mode="radiance", uv=None):
+    """BRDF Mueller matrices of ``bsdf`` (1/sr, no cosine) in the global s/p
+    frames of :mod:`mitsuba_pbrdf.reference`, as a Dr.Jit ``mi.Spectrum`` that
+    keeps derivatives (JIT polarized variants).
+
+    ``wo_hat`` points towards the light (the reference's ``wi``), ``wi_hat``
+    towards the viewer (its ``wr``): arrays (n, 3) or ``mi.Vector3f``, local
+    frame. ``wavelengths``: 4 values (nm) for every lane, or a
+    ``mi.UnpolarizedSpectrum`` with one wavelength set per lane. ``uv``:
+    texture coordinates (``mi.Point2f``) for textured parameters. Same frames
+    and conventions as :func:`eval_global`, which returns
+    NumPy arrays without derivatives.
+    """
+    require_variant()
+    if not mi.is_polarized:
+        raise RuntimeError(f"mueller_brdf needs a polarized variant, not {mi.variant()}")
+    wi_hat, wo_hat = _vector(wi_hat), _vector(wo_hat)
+    radiance = str(mode).lower().endswith("radiance")
+    si = dr.zeros(mi.SurfaceInteraction3f, dr.width(wi_hat))
+    si.n = mi.Normal3f(0, 0, 1)
+    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+    si.wi, wo = (wi_hat, wo_hat) if radiance else (wo_hat, wi_hat)
+    if uv is not None:
+        si.uv = uv
+    if mi.is_spectral:
+        si.wavelengths = (wavelengths if isinstance(wavelengths, mi.UnpolarizedSpectrum)
+                          else mi.UnpolarizedSpectrum(*(float(w) for w in wavelengths)))
+    ctx = mi.BSDFContext(mi.TransportMode.Radiance if radiance else mi.TransportMode.Importance)
+    value = bsdf.eval(ctx, si, wo)
+    value = mi.mueller.rotate_mueller_basis(
+        value,
+        -wo_hat, mi.mueller.stokes_basis(-wo_hat), _global_basis(-wo_hat),
+        wi_hat, mi.mueller.stokes_basis(wi_hat), _global_basis(wi_hat))
+    cos = mi.Frame3f.cos_theta(wo)
+    return value * dr.select(cos > 0, dr.rcp(cos), 0.0)
 
 
 def mitsuba_beckmann_G1(cos_theta, alpha):

@@ -1,24 +1,17 @@
-"""Shared test set-up: a default variant is set before the package is imported
-(importing it without one is an error by design), and `variant` switches."""
+"""Shared test set-up: the suite's default variant, and fixtures that switch
+variants (``mitsuba_pbrdf.use_variant`` sets one and registers the plugin)."""
 
+import drjit as dr
 import mitsuba as mi
+import numpy as np
+import pytest
 
-mi.set_variant("llvm_ad_spectral_polarized")
+from mitsuba_pbrdf import use_variant
 
-import drjit as dr  # noqa: E402
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-
-import mitsuba_pbrdf  # noqa: E402,F401  (registers `pbrdf`)
+use_variant("llvm_ad_spectral_polarized")
 
 #: Wavelengths (nm) used for spectral evaluations in tests.
 WAVELENGTHS = (450.0, 520.0, 600.0, 690.0)
-
-
-def use_variant(name):
-    """Switch Mitsuba to `name` and register the plugin there."""
-    mi.set_variant(name)
-    mitsuba_pbrdf.register()
 
 
 @pytest.fixture

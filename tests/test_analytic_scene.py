@@ -29,7 +29,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import use_variant
+from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import frames, reference
 
 SCENE = os.path.join(os.path.dirname(__file__), os.pardir, "scenes", "analytic_plane.xml")

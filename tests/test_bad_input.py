@@ -14,7 +14,7 @@ import pytest
 
 import mitsuba as mi
 
-from conftest import use_variant
+from mitsuba_pbrdf import use_variant
 
 NAN, INF = float("nan"), float("inf")
 

@@ -10,7 +10,7 @@ sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 
 import benchmark  # noqa: E402
 
-from conftest import use_variant  # noqa: E402
+from mitsuba_pbrdf import use_variant  # noqa: E402
 
 
 def test_quick_benchmark_reports_every_section(tmp_path):

@@ -9,7 +9,8 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import as_numpy, hemisphere_pairs, make_si, to_vector, use_variant
+from conftest import as_numpy, hemisphere_pairs, make_si, to_vector
+from mitsuba_pbrdf import use_variant
 
 FULL = {"type": "pbrdf", "material": "Cu", "sigma": 0.15, "kdd": 0.3, "sigma_dd": 0.6, "kid": 0.2}
 
@@ -227,19 +228,6 @@ def test_explicit_ior_and_options_load():
 
 
 # ---------------------------------------------------------------- variants
-
-def test_import_without_variant_explains_what_to_do():
-    code = "import mitsuba_pbrdf"
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert result.returncode != 0
-    assert "mi.set_variant('llvm_ad_spectral_polarized')" in result.stderr
-
-
-def test_reference_imports_without_variant():
-    for code in ("import mitsuba_pbrdf.reference", "from mitsuba_pbrdf import reference"):
-        result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-        assert result.returncode == 0, result.stderr
-
 
 @pytest.mark.parametrize("variant", ["llvm_ad_spectral_polarized", "scalar_spectral_polarized",
                                      "llvm_ad_mono_polarized", "llvm_ad_rgb", "llvm_ad_spectral"],

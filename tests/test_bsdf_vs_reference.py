@@ -25,7 +25,8 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import frames as mf
-from conftest import WAVELENGTHS, use_variant
+from conftest import WAVELENGTHS
+from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import reference as ref
 
 N_PAIRS = 10_000

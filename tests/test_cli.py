@@ -10,12 +10,12 @@ import numpy as np
 import OpenEXR
 import pytest
 
-from mitsuba_pbrdf import render as render_module
+from mitsuba_pbrdf import variant as variant_module
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.stokes_io import read_stokes_exr
+from mitsuba_pbrdf.imaging.exr import read_stokes_exr
 
 #: The real GPU probe (the autouse fixture below replaces it).
-CUDA_AVAILABLE = render_module.cuda_available
+CUDA_AVAILABLE = variant_module.cuda_available
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 STOKES_CHANNELS = sorted(["R", "G", "B"] + [f"S{i}.{b}" for i in range(4) for b in "RGB"])
 
@@ -55,9 +55,7 @@ TINY_SCENE = """<scene version="3.0.0">
 def cpu_default_variant(monkeypatch):
     """Commands without --variant use the LLVM variant here even on a machine
     with a GPU (the choice itself is tested with its probe below)."""
-    from mitsuba_pbrdf import render
-
-    monkeypatch.setattr(render, "cuda_available", lambda: False)
+    monkeypatch.setattr(variant_module, "cuda_available", lambda: False)
 
 
 # The code under test switches Mitsuba's variant (conftest.restore_variant).
@@ -224,7 +222,8 @@ def test_usage_error_exits_2():
 
 
 def test_plan_passes():
-    from mitsuba_pbrdf.render import MAX_AUTO_PASSES, SAMPLES_PER_PASS, pass_seeds, plan_passes
+    from mitsuba_pbrdf.imaging.passes import (MAX_AUTO_PASSES, SAMPLES_PER_PASS, derivative_seed,
+                                              pass_seeds, plan_passes)
 
     assert plan_passes(64, pixels=320 * 240) == [64]  # small renders: one pass
     assert plan_passes(10, passes=4) == [3, 3, 2, 2]
@@ -238,6 +237,9 @@ def test_plan_passes():
     seeds = pass_seeds(7, 50)
     assert seeds[0] == 7 and len(set(seeds)) == 50 and all(0 <= s < 2**32 for s in seeds)
     assert not set(pass_seeds(8, 50)) & set(seeds)
+    # the derivative seed mi.render pairs with a primal seed (Mitsuba's TEA hash)
+    for seed in (0, 5, 2**32 - 1):
+        assert derivative_seed(seed) == int(mi.sample_tea_32(seed, 1)[0])
 
 
 def test_passes_average_the_pass_images_weighted_by_their_samples():
@@ -245,7 +247,8 @@ def test_passes_average_the_pass_images_weighted_by_their_samples():
     renders with the pass seeds. analytic_plane.xml has one emitter, so renders
     with the same seed are identical (with several emitters Mitsuba 3.9 may
     list them in another order at each load, changing the sample realization)."""
-    from mitsuba_pbrdf.render import pass_seeds, render_scene
+    from mitsuba_pbrdf.imaging import render_scene
+    from mitsuba_pbrdf.imaging.passes import pass_seeds
 
     scene = os.path.join(ROOT, "scenes", "analytic_plane.xml")
     small = {"width": 16, "height": 12}
@@ -271,15 +274,13 @@ def test_render_passes_and_progress_bar(scene, tmp_path, capsys):
 
 
 def test_default_variant_probe():
-    from mitsuba_pbrdf import render
-
-    assert render.default_variant(lambda: False) == "llvm_ad_spectral_polarized"
-    assert render.default_variant(lambda: True) == "cuda_ad_spectral_polarized"
+    assert variant_module.default_variant(lambda: False) == "llvm_ad_spectral_polarized"
+    assert variant_module.default_variant(lambda: True) == "cuda_ad_spectral_polarized"
 
     def broken():
         raise RuntimeError("no driver")
 
-    assert render.default_variant(broken) == "llvm_ad_spectral_polarized"
+    assert variant_module.default_variant(broken) == "llvm_ad_spectral_polarized"
 
 
 def test_cuda_available_needs_the_variant_and_a_device(monkeypatch):
@@ -311,9 +312,7 @@ def test_cuda_available_needs_the_variant_and_a_device(monkeypatch):
 
 
 def test_render_without_variant_uses_the_probe(scene, tmp_path, monkeypatch):
-    from mitsuba_pbrdf import render
-
-    monkeypatch.setattr(render, "cuda_available", lambda: False)
+    monkeypatch.setattr(variant_module, "cuda_available", lambda: False)
     assert main(["render", str(scene), "--spp", "1", "--out", str(tmp_path / "v")]) == 0
     assert read_stokes_exr(tmp_path / "v.exr").metadata["variant"] == "llvm_ad_spectral_polarized"
 
@@ -323,9 +322,7 @@ def test_gpu_variant_that_cannot_start_is_a_clear_error(scene, tmp_path, capsys,
 
     if dr.has_backend(dr.JitBackend.CUDA):
         pytest.skip("a CUDA GPU is present")
-    from mitsuba_pbrdf import render
-
-    monkeypatch.setattr(render, "cuda_available", lambda: True)  # a probe that is wrong
+    monkeypatch.setattr(variant_module, "cuda_available", lambda: True)  # a probe that is wrong
     assert main(["render", str(scene), "--spp", "1", "--out", str(tmp_path / "g")]) == 2
     err = error_of(capsys)
     assert "cuda_ad_spectral_polarized" in err and "cannot be used here" in err

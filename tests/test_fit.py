@@ -1,4 +1,4 @@
-"""Fitting the model to measurements (mitsuba_pbrdf.fit): recovery of known
+"""Fitting the model to measurements (mitsuba_pbrdf.fitting, mitsuba_pbrdf.measured): recovery of known
 parameters from synthetic noisy measurements, the Dr.Jit backend against the
 reference one, the two-component model's larger error, malformed CSV files,
 and the command line."""
@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf import fit
+from mitsuba_pbrdf import fitting, measured
 
 ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
 DATA = os.path.join(os.path.dirname(__file__), "data")
@@ -19,7 +19,7 @@ TRUTH = dict(n=1.2, k=7.26, sigma=0.12, ks=0.9, kdd=0.15, sigma_dd=0.45, kid=0.0
 
 
 def synthetic(quantities=("m00", "dolp"), seed=1, **kw):
-    return fit.synthetic_measurements(TRUTH, quantities=quantities, noise=0.02, seed=seed, **kw)
+    return fitting.synthetic_measurements(TRUTH, quantities=quantities, noise=0.02, seed=seed, **kw)
 
 
 def test_recovers_parameters_from_m00_and_dolp():
@@ -27,7 +27,7 @@ def test_recovers_parameters_from_m00_and_dolp():
     within 3 standard uncertainties of the truth, and within 5 % (n, k) or
     2 % (the rest) of it; the fit's chi-square matches the noise."""
     data = synthetic()
-    r = fit.fit_model(data, "three", material="Al")
+    r = fitting.fit_model(data, "three", material="Al")
     assert r.success
     for p in ("n", "k"):
         v, e = r.values[p][0], r.errors[p][0]
@@ -42,7 +42,7 @@ def test_m00_alone_cannot_separate_n_and_k():
     """Unpolarized reflectance alone leaves n and k undetermined (ks absorbs
     the Fresnel level; their uncertainties exceed their values), while the
     roughness and lobe weights are still recovered."""
-    r = fit.fit_model(synthetic(("m00",)), "three", material="Al")
+    r = fitting.fit_model(synthetic(("m00",)), "three", material="Al")
     assert r.errors["n"][0] > r.values["n"][0] or "n(633 nm)" in r.at_bound
     assert r.errors["k"][0] > 0.5 * r.values["k"][0] or "k(633 nm)" in r.at_bound
     assert abs(r.values["sigma"] / TRUTH["sigma"] - 1) < 0.01
@@ -52,22 +52,22 @@ def test_two_component_model_fits_worse():
     """Data from the three-component model: the two-component fit's reduced
     chi-square and relative M00 error are several times larger (as the paper
     reports against measurements)."""
-    results = fit.fit_models(synthetic(), material="Al")
+    results = fitting.fit_models(synthetic(), material="Al")
     three, two = results["three"], results["two"]
     assert two.reduced_chi2 > 5 * three.reduced_chi2
     assert two.relative_rms["m00"] > 2 * three.relative_rms["m00"]
-    text = fit.report(synthetic(), results, TRUTH)
+    text = fitting.report(synthetic(), results, TRUTH)
     assert "Model comparison" in text and "two-component" in text
 
 
 def test_several_wavelengths_and_mueller_elements():
     """n, k per wavelength from M00, m10, m22 (a subset of Mueller elements),
     two wavelengths; uncertainties not given (assumed and scaled)."""
-    data = fit.synthetic_measurements(dict(TRUTH, n=(1.0, 1.6), k=(6.5, 8.0)),
+    data = fitting.synthetic_measurements(dict(TRUTH, n=(1.0, 1.6), k=(6.5, 8.0)),
                                       quantities=("m00", "m10", "m22"), wavelengths=(500, 700),
                                       theta_i=(30.0, 60.0), noise=0.01, seed=2)
     data.uncertainty.clear()
-    r = fit.fit_model(data, "three", init="n=1.3,k=7")
+    r = fitting.fit_model(data, "three", init="n=1.3,k=7")
     np.testing.assert_allclose(r.values["n"], [1.0, 1.6], rtol=0.05)
     np.testing.assert_allclose(r.values["k"], [6.5, 8.0], rtol=0.05)
     assert np.all(np.isfinite(r.errors["n"]))
@@ -76,8 +76,8 @@ def test_several_wavelengths_and_mueller_elements():
 def test_drjit_backend_agrees_with_reference():
     """The same fit with the plugin (float32, forward-mode Jacobian)."""
     data = synthetic(theta_i=(45.0,))
-    ref_fit = fit.fit_model(data, "three", material="Al", starts=1)
-    dr_fit = fit.fit_model(data, "three", material="Al", starts=1, backend="drjit")
+    ref_fit = fitting.fit_model(data, "three", material="Al", starts=1)
+    dr_fit = fitting.fit_model(data, "three", material="Al", starts=1, backend="drjit")
     for p in ("n", "k"):
         assert abs(dr_fit.values[p][0] - ref_fit.values[p][0]) < 0.2 * ref_fit.errors[p][0]
     for p in ("sigma", "ks", "kdd", "sigma_dd", "kid"):
@@ -86,7 +86,7 @@ def test_drjit_backend_agrees_with_reference():
 
 
 def test_fixed_parameters_stay_fixed():
-    r = fit.fit_model(synthetic(), "three", fix="n=1.2,k=7.26,kid=0.02")
+    r = fitting.fit_model(synthetic(), "three", fix="n=1.2,k=7.26,kid=0.02")
     assert r.values["n"][0] == 1.2 and r.values["kid"] == 0.02
     assert np.isnan(r.errors["n"][0]) and np.isnan(r.errors["kid"])
     assert abs(r.values["sigma"] / TRUTH["sigma"] - 1) < 0.01
@@ -96,15 +96,15 @@ def test_fixed_parameters_stay_fixed():
 
 def test_csv_round_trip(tmp_path):
     data = synthetic()
-    path = fit.write_measurements(data, tmp_path / "m.csv")
-    back = fit.read_measurements(path)
+    path = measured.write_measurements(data, tmp_path / "m.csv")
+    back = measured.read_measurements(path)
     assert len(back) == len(data)
     np.testing.assert_allclose(back.observed["m00"], data.observed["m00"], rtol=1e-8)
     np.testing.assert_allclose(back.uncertainty["dolp"], data.uncertainty["dolp"], rtol=1e-8)
 
 
 def test_example_file_reads():
-    data = fit.read_measurements(os.path.join(DATA, "fit_example.csv"))
+    data = measured.read_measurements(os.path.join(DATA, "fit_example.csv"))
     assert set(data.observed) == {"m00", "dolp"} and "dolp" in data.uncertainty
     assert len(data) > 100
 
@@ -142,26 +142,26 @@ def test_malformed_csv_gives_clear_error(tmp_path, name):
     text, message = BAD_FILES[name]
     path = tmp_path / f"{name}.csv"
     path.write_text(text)
-    with pytest.raises(fit.MeasurementError, match=message.replace("(", r"\(").replace(")", r"\)")
+    with pytest.raises(measured.MeasurementError, match=message.replace("(", r"\(").replace(")", r"\)")
                        .replace("[", r"\[").replace("]", r"\]")):
-        fit.read_measurements(path)
+        measured.read_measurements(path)
 
 
 def test_unknown_columns_are_reported_not_fatal(tmp_path):
     path = tmp_path / "extra.csv"
     path.write_text(f"{GOOD_HEADER},operator\n{GOOD_ROW},me\n")
-    assert fit.read_measurements(path).ignored_columns == ["operator"]
+    assert measured.read_measurements(path).ignored_columns == ["operator"]
 
 
 def test_missing_file():
-    with pytest.raises(fit.MeasurementError, match="no such file"):
-        fit.read_measurements("/nonexistent/measurements.csv")
+    with pytest.raises(measured.MeasurementError, match="no such file"):
+        measured.read_measurements("/nonexistent/measurements.csv")
 
 
 # ------------------------------------------------------------------ command line
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "mitsuba_pbrdf.fit", *args], cwd=ROOT,
+    return subprocess.run([sys.executable, "-m", "mitsuba_pbrdf", "fit", *args], cwd=ROOT,
                           capture_output=True, text=True, timeout=300)
 
 
@@ -182,5 +182,5 @@ def test_command_line_error_is_one_line(tmp_path):
     bad.write_text("theta_i,phi_i,theta_r,wavelength,m00\n30,0,30,633,1\n")
     proc = run_cli(str(bad))
     assert proc.returncode == 2
-    assert proc.stderr.startswith("pbrdf-fit: error:") and "phi_r" in proc.stderr
+    assert proc.stderr.startswith("pbrdf fit: error:") and "phi_r" in proc.stderr
     assert proc.stderr.count("\n") == 1

@@ -21,7 +21,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import use_variant
+from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import frames, reference
 from validation import stress
 

@@ -1,4 +1,4 @@
-"""The scene gallery (scenes/gallery, mitsuba_pbrdf.gallery): tiny renders of
+"""The scene gallery (scenes/gallery, mitsuba_pbrdf.figures.gallery): tiny renders of
 every gallery scene, Malus's law on the polarizer renders, and the committed
 README pictures."""
 
@@ -10,8 +10,8 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf import gallery
-from mitsuba_pbrdf.gallery import (
+from mitsuba_pbrdf.figures import gallery
+from mitsuba_pbrdf.figures.gallery import (
     POLARIZER_ANGLES,
     _Settings,
     polarization_camera_stokes,
@@ -19,7 +19,7 @@ from mitsuba_pbrdf.gallery import (
     render_polarizer_images,
     run_gallery,
 )
-from mitsuba_pbrdf.render import render_scene
+from mitsuba_pbrdf.imaging import render_scene
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 SCENES = os.path.join(ROOT, "scenes", "gallery")

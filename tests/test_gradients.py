@@ -48,7 +48,8 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import WAVELENGTHS, use_variant
+from conftest import WAVELENGTHS
+from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import frames as mf
 from mitsuba_pbrdf import reference as ref
 
@@ -130,7 +131,7 @@ def directions(kind, seed):
 
 
 def plugin_matrix(bsdf, wi_hat, wo_hat, mode):
-    from mitsuba_pbrdf.inverse import mueller_brdf
+    from mitsuba_pbrdf.frames import mueller_brdf
     return mueller_brdf(bsdf, wi_hat, wo_hat, WAVELENGTHS, mode)
 
 
@@ -285,7 +286,7 @@ def test_texture_texel_gradients_match_reference():
     for key in ("sigma.data", "kid.data"):
         dr.enable_grad(params[key])
     params.update()
-    from mitsuba_pbrdf.inverse import _vector
+    from mitsuba_pbrdf.frames import _vector
     si = dr.zeros(mi.SurfaceInteraction3f, m)
     si.n, si.sh_frame = mi.Normal3f(0, 0, 1), mi.Frame3f(mi.Vector3f(0, 0, 1))
     si.uv = mi.Point2f(u.astype(np.float32), v.astype(np.float32))
@@ -315,7 +316,7 @@ def test_texture_texel_gradients_match_reference():
 
 
 def _global(d):
-    from mitsuba_pbrdf.inverse import _global_basis
+    from mitsuba_pbrdf.frames import _global_basis
     return _global_basis(d)
 
 
@@ -427,13 +428,14 @@ def test_rendered_loss_gradient_matches_finite_differences_direct(method):
     the images and the finite-difference truncation (see `_fd_of_renders`):
     relative 2e-3."""
     use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.inverse import loss_and_gradient, pass_seeds
+    from mitsuba_pbrdf.imaging.passes import derivative_seed
+    from mitsuba_pbrdf.inverse import loss_and_gradient
     scene = _plane_scene({"type": "direct"}, spp=8)
     loss, weights = _linear_loss(scene)
     params = mi.traverse(scene)
     _, grads, _ = loss_and_gradient(scene, params, RENDER_KEYS, loss, spp=8, seed=3,
                                     method=method)
-    grad_seed = pass_seeds(3, 1)[0][1]
+    grad_seed = derivative_seed(3)
     errors = {}
     for key in RENDER_KEYS:
         fd = _fd_of_renders(scene, key, weights, grad_seed, spp=8,
@@ -458,7 +460,8 @@ def test_rendered_stokes_loss_gradient_matches_finite_differences_path():
     noise: tolerance 2 % of the largest component of d loss / d log(theta) at
     64 spp (measured: 0.05 %)."""
     use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.inverse import loss_and_gradient, pass_seeds, render, stokes_loss
+    from mitsuba_pbrdf.imaging.passes import derivative_seed
+    from mitsuba_pbrdf.inverse import loss_and_gradient, render, stokes_loss
     scene = _plane_scene({"type": "path", "max_depth": 3}, spp=64)
     params = mi.traverse(scene)
     target = np.array(render(scene, spp=256, seed=100))
@@ -472,7 +475,7 @@ def test_rendered_stokes_loss_gradient_matches_finite_differences_path():
     dr.enable_grad(image)
     dr.backward(loss(image))
     weights = np.array(dr.grad(image), dtype=np.float64)
-    grad_seed = pass_seeds(9, 1)[0][1]
+    grad_seed = derivative_seed(9)
     x = {k: float(np.array(params[k])[0]) for k in RENDER_KEYS}
     got = np.array([grads[k][0] * x[k] for k in RENDER_KEYS])    # d loss / d log(x)
     want = np.array([_fd_of_renders(scene, k, weights, grad_seed, spp=64) * x[k]

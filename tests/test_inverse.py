@@ -9,7 +9,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import use_variant
+from mitsuba_pbrdf import use_variant
 
 KEYS = ["object.bsdf." + p + ".value" for p in ("eta", "k", "sigma", "ks", "kdd", "sigma_dd", "kid")]
 
@@ -91,15 +91,10 @@ def test_memory_passes_and_forward_mode():
 
 def test_reverse_passes_estimate():
     use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.inverse import reverse_passes, split_spp, pass_seeds
+    from mitsuba_pbrdf.inverse import reverse_passes
     sc = scene(size=512, spp=64)
     assert reverse_passes(sc, 64, 4, memory_budget=4 * 1024**3) == 9   # 37.6 GB / 4 GiB
     assert reverse_passes(sc, 1, 2) == 1
-    assert split_spp(10, 3) == [4, 3, 3] and sum(split_spp(64, 7)) == 64
-    assert pass_seeds(5, 1) == [(5, int(mi.sample_tea_32(5, 1)[0]))]
-    assert len({s for pair in pass_seeds(5, 4) for s in pair}) == 8
-    with pytest.raises(ValueError):
-        split_spp(2, 3)
 
 
 def test_stokes_loss_needs_stokes_channels_and_light():

@@ -10,7 +10,7 @@ says which operations it counts.
 import numpy as np
 import pytest
 
-from conftest import use_variant
+from mitsuba_pbrdf import use_variant
 from validation import common, furnace, physics, rendered_stokes, stress
 
 U32 = 2.0 ** -24

@@ -62,7 +62,7 @@ def unit(theta, phi):
 def test_conductor_ior_interpolates_mitsuba_tables():
     names = ref.available_materials()
     assert set(METALS) <= set(names) and names == sorted(names)
-    (wl, n_table), (wl_k, k_table) = ref._ior_tables("Cu")
+    (wl, n_table), (wl_k, k_table) = ref.materials._ior_tables("Cu")
     # at the table's own nodes the interpolation returns the tabulated values
     n, k = ref.conductor_ior("Cu", wl[5:10])
     np.testing.assert_array_equal(n, n_table[5:10])
@@ -269,7 +269,7 @@ def test_mitsuba_rational_G1_within_its_stated_bound():
 def test_vgroove_shadowing():
     rng = np.random.default_rng(3)
     ti, pi_, tr, pr = random_geometry(rng, 5000, min_cos=1e-3)
-    g = ref._geometry(ti, pi_, tr, pr)
+    g = ref.geometry._geometry(ti, pi_, tr, pr)
     G = ref.shadowing_G(ti, tr, g["cos_h"], g["cos_b"], 0.3, "vgroove")
     assert np.all((G >= 0) & (G <= 1))
     G_swapped = ref.shadowing_G(tr, ti, g["cos_h"], g["cos_b"], 0.3, "vgroove")
@@ -302,8 +302,8 @@ def test_rotation_angles_match_vector_form_and_priest_germer():
     np.testing.assert_allclose(wrap(eta_i - signed_angle(-wi, s_in, s_f)), 0, atol=1e-9)
     np.testing.assert_allclose(wrap(eta_r - signed_angle(wr, s_out, s_f)), 0, atol=1e-9)
 
-    # the Priest-Germer forms of MODEL.md, where they are well conditioned
-    g = ref._geometry(ti, pi_, tr, pr)
+    # the Priest-Germer forms of docs/model.md, where they are well conditioned
+    g = ref.geometry._geometry(ti, pi_, tr, pr)
     ok = g["sin_b"] > 1e-3
     cos_eta_i = (g["cos_h"] - g["cos_i"] * g["cos_b"]) / (g["sin_i"] * g["sin_b"])
     cos_eta_r = (g["cos_h"] - g["cos_r"] * g["cos_b"]) / (g["sin_r"] * g["sin_b"])
@@ -407,7 +407,7 @@ def test_pbrdf_composition_and_broadcasting():
                    sigma_dd=0.45, kid=kid[2], shadowing="smith", dd_distribution="ggx")
     np.testing.assert_allclose(F1, F[:, 2], rtol=1e-14)
     # fs = D G M / (4 cos cos) with D of alpha = sqrt(2) sigma (paper Eq. 4)
-    g = ref._geometry(ti, pi_, tr, pr)
+    g = ref.geometry._geometry(ti, pi_, tr, pr)
     D = ref.beckmann_D(g["cos_h"], np.sqrt(2) * 0.15)
     G = ref.shadowing_G(ti, tr, g["cos_h"], g["cos_b"], np.sqrt(2) * 0.15, "smith")
     R = 0.5 * (np.abs(np.stack(ref.fresnel_amplitudes(g["cos_b"], n, k))) ** 2).sum(0)

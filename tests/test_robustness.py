@@ -14,7 +14,8 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import as_numpy, make_si, to_vector, use_variant
+from conftest import as_numpy, make_si, to_vector
+from mitsuba_pbrdf import use_variant
 
 N = 20_000
 

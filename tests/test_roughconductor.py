@@ -22,7 +22,8 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import as_numpy, hemisphere_pairs, make_si, to_vector, use_variant
+from conftest import as_numpy, hemisphere_pairs, make_si, to_vector
+from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import reference
 from mitsuba_pbrdf.frames import mitsuba_beckmann_G1
 

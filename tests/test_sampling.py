@@ -5,7 +5,8 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import as_numpy, hemisphere_pairs, make_si, use_variant
+from conftest import as_numpy, hemisphere_pairs, make_si
+from mitsuba_pbrdf import use_variant
 
 COSINE = {"type": "pbrdf", "material": "Cu", "sigma": 0.15, "kdd": 0.3, "kid": 0.2,
           "sampling": "cosine"}

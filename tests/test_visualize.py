@@ -1,5 +1,5 @@
-"""Pictures of Stokes images (mitsuba_pbrdf.visualize) and pBRDF plots
-(mitsuba_pbrdf.plots): the figures are built, saved and opened again, and the
+"""Pictures of Stokes images (mitsuba_pbrdf.imaging.panels) and pBRDF plots
+(mitsuba_pbrdf.figures.pbrdf_plots): the figures are built, saved and opened again, and the
 numbers behind them are checked against the reference evaluator."""
 
 import math
@@ -10,7 +10,7 @@ import pytest
 from PIL import Image
 
 from mitsuba_pbrdf import reference
-from mitsuba_pbrdf.plots import (
+from mitsuba_pbrdf.figures.pbrdf_plots import (
     PBRDFParams,
     dop_unpolarized,
     hemisphere,
@@ -18,8 +18,8 @@ from mitsuba_pbrdf.plots import (
     pbrdf_figure,
     save_pbrdf_plot,
 )
-from mitsuba_pbrdf.stokes_io import StokesImage
-from mitsuba_pbrdf.visualize import (
+from mitsuba_pbrdf.imaging.stokes import StokesImage
+from mitsuba_pbrdf.imaging.panels import (
     PANEL_PRESETS,
     overview_figure,
     parse_panels,

@@ -19,9 +19,10 @@ import time
 import mitsuba as mi
 import numpy as np
 
-mi.set_variant("llvm_ad_spectral_polarized")
-import mitsuba_pbrdf  # noqa: E402,F401
+import mitsuba_pbrdf  # noqa: E402
 from mitsuba_pbrdf import frames, reference  # noqa: E402
+
+mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
 
 WAVELENGTHS = (450.0, 520.0, 600.0, 690.0)
 CONFIGS = {

@@ -19,18 +19,17 @@ FIGURES = os.path.join(HERE, "figures")
 if ROOT not in sys.path:        # `python validation/<study>.py` from anywhere
     sys.path.insert(0, ROOT)
 
-#: The main target variant (MODEL.md).
+#: The main target variant (docs/conventions.md).
 VARIANT = "llvm_ad_spectral_polarized"
 
 
 def use_variant(name=VARIANT):
-    """Set a Mitsuba variant and register the ``pbrdf`` plugin there."""
+    """``mitsuba_pbrdf.use_variant(name)``; returns the ``mitsuba`` module."""
     import mitsuba as mi
 
-    mi.set_variant(name)
     import mitsuba_pbrdf
 
-    mitsuba_pbrdf.register()
+    mitsuba_pbrdf.use_variant(name)
     return mi
 
 

@@ -4,7 +4,7 @@ three-component error, and the two backends' time and robustness.
     python validation/fit_synthetic.py [--quick]
 
 Writes ``validation/fit_synthetic.md`` and ``validation/figures/fit_example.png``.
-Data: ``mitsuba_pbrdf.fit.synthetic_measurements`` of the three-component
+Data: ``mitsuba_pbrdf.fitting.synthetic_measurements`` of the three-component
 model (Al-like n = 1.2, k = 7.26 at 633 nm; sigma = 0.12, ks = 0.9, kdd = 0.15,
 sigma_dd = 0.45, kid = 0.02; V-groove, Beckmann), incidence 20, 45 and 70
 degrees, detector every 2 degrees in plane plus 27 out-of-plane directions
@@ -34,7 +34,8 @@ def main(argv=None):
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", default=os.path.join(HERE, "fit_synthetic.md"))
     args = p.parse_args(argv)
-    from mitsuba_pbrdf import fit
+    from mitsuba_pbrdf import fitting as fit
+    from mitsuba_pbrdf.measured import read_measurements
 
     L = ["# Fitting the pBRDF to goniometer measurements (synthetic)", "",
          "`python validation/fit_synthetic.py` (this file). Data: "
@@ -84,7 +85,7 @@ def main(argv=None):
           "wings. Figure (`pbrdf-fit tests/data/fit_example.csv --material Al --plot ...`):", "",
           "![fit](figures/fit_example.png)", ""]
     os.makedirs(FIGURES, exist_ok=True)
-    example = fit.read_measurements(os.path.join(ROOT, "tests", "data", "fit_example.csv"))
+    example = read_measurements(os.path.join(ROOT, "tests", "data", "fit_example.csv"))
     fit.plot_fit(example, fit.fit_models(example, material="Al"),
                  os.path.join(FIGURES, "fit_example.png"), title="tests/data/fit_example.csv")
 

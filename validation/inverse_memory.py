@@ -60,9 +60,10 @@ CHOICE = ("**Choice.** Reverse mode with passes is the default (`method=\"revers
 def child(config):
     """Run one configuration; print a JSON line."""
     import mitsuba as mi
-    mi.set_variant("llvm_ad_spectral_polarized")
     import numpy as np
-    import mitsuba_pbrdf  # noqa: F401
+
+    import mitsuba_pbrdf
+    mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf import inverse
 
     size, spp = config["size"], config["spp"]

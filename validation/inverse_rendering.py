@@ -50,9 +50,11 @@ def main(argv=None):
     args = p.parse_args(argv)
 
     import mitsuba as mi
-    mi.set_variant("llvm_ad_spectral_polarized")
-    import mitsuba_pbrdf  # noqa: F401
-    from mitsuba_pbrdf import inverse, stokes_io
+
+    import mitsuba_pbrdf
+    mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
+    from mitsuba_pbrdf import inverse
+    from mitsuba_pbrdf.imaging import stokes as stokes_io
 
     scene = mi.load_dict(inverse.sphere_scene(args.size, args.size, args.spp,
                                               integrator="direct"))
@@ -176,7 +178,7 @@ def _figures(fits, truth, keys, target, initial, film, stokes_io):
     import matplotlib
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
-    from mitsuba_pbrdf import visualize
+    from mitsuba_pbrdf.imaging import panels as visualize
 
     os.makedirs(FIGURES, exist_ok=True)
     styles = {"S0": "--", "S0..S2": "-"}

@@ -25,6 +25,7 @@ material=Au``.
 
 from __future__ import annotations
 
+import inspect
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +33,13 @@ from typing import Dict, Optional, Sequence
 
 import numpy as np
 
-from .stokes_io import StokesImage, write_stokes_exr
+from ..imaging.exr import write_stokes_exr
+from ..imaging.panels import (DRAWERS, auto_exposure, linear_rgb, overview_figure, plot_aolp,
+                              plot_dolp, plot_intensity, save_png, tonemap)
+from ..imaging.render import render_scene
+from ..imaging.stokes import StokesImage
+from ..reference.params import PBRDFParams
+from .pbrdf_plots import save_pbrdf_plot
 
 __all__ = [
     "MATERIALS",
@@ -66,7 +73,7 @@ POLARIZER_ANGLES = (0, 45, 90, 135)
 #: Everything ``run_gallery`` makes, in order.
 GALLERY_ITEMS = ("materials", "roughness", "polarizer", "sheet", "plot")
 
-#: Colour quantization of committed PNGs (see visualize.save_png).
+#: Colour quantization of committed PNGs (see imaging.panels.save_png).
 _PNG_COLOURS = 256
 
 
@@ -79,7 +86,7 @@ def find_scenes(scenes_dir=None) -> Path:
         candidates = [Path(scenes_dir)]
     else:
         candidates = [Path.cwd() / "scenes" / "gallery",
-                      Path(__file__).resolve().parent.parent / "scenes" / "gallery"]
+                      Path(__file__).resolve().parents[2] / "scenes" / "gallery"]
     for c in candidates:
         if (c / "sphere.xml").is_file():
             return c
@@ -143,9 +150,7 @@ def write_studio_envmap(path) -> str:
 
 
 def _shared_exposure(images: Sequence[StokesImage], percentile: float = 99.0) -> float:
-    from .visualize import _linear_rgb, auto_exposure
-
-    rgb = np.concatenate([_linear_rgb(im).reshape(-1, 3) for im in images], axis=0)
+    rgb = np.concatenate([linear_rgb(im).reshape(-1, 3) for im in images], axis=0)
     return auto_exposure(rgb[None], percentile)
 
 
@@ -159,20 +164,19 @@ def montage_figure(
     exposure: Optional[float] = None,
 ):
     """A grid with one column per ``(label, StokesImage)`` and one row per
-    quantity (``intensity``, ``dolp``, ``aolp``, ``hsv``), all columns on the
-    same scales (one exposure, one DoLP range) with one colour bar per row."""
-    import matplotlib
+    panel of :data:`~mitsuba_pbrdf.imaging.panels.DRAWERS` (``intensity``,
+    ``dolp``, ``aolp``, ``hsv``, ...), all columns on the same scales (one
+    exposure, one DoLP range) with one colour bar per row."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.cm import ScalarMappable
-    from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
 
-    from .stokes_io import aolp, dolp
-    from .visualize import polarization_hsv, tonemap, _linear_rgb, pixel_stokes
-
+    unknown = [r for r in rows if r not in DRAWERS]
+    if unknown:
+        raise ValueError(f"unknown row(s) {', '.join(unknown)}; choose from {', '.join(DRAWERS)}")
     images = [im for _, im in columns]
     if exposure is None:
         exposure = _shared_exposure(images)
+    shared = dict(exposure=exposure, dolp_max=dolp_max, min_dolp=min_dolp)
     first = images[0]
     aspect = first.height / first.width
     fig = Figure(figsize=(panel_width * len(columns) + 1.3,
@@ -180,49 +184,24 @@ def montage_figure(
                  layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(len(rows), len(columns), squeeze=False)
-    twilight = matplotlib.colormaps["twilight"].with_extremes(bad="black")
-    row_labels = {
-        "intensity": f"intensity ({np.log2(exposure):+.1f} EV)",
-        "dolp": "DoLP",
-        "aolp": f"AoLP (DoLP ≥ {min_dolp:g})",
-        "hsv": "AoLP·DoLP·S0",
-    }
     for r, row in enumerate(rows):
-        mappable = None
+        draw = DRAWERS[row]
+        accepted = inspect.signature(draw).parameters
+        options = {k: v for k, v in shared.items() if k in accepted}
         for c, (label, image) in enumerate(columns):
             ax = axes[r, c]
-            s = pixel_stokes(image)
-            if row == "intensity":
-                ax.imshow(tonemap(_linear_rgb(image), exposure)[0], interpolation="nearest")
-            elif row == "dolp":
-                mappable = ax.imshow(np.clip(dolp(s, axis=-1), 0, dolp_max), cmap="viridis",
-                                     vmin=0, vmax=dolp_max, interpolation="nearest")
-            elif row == "aolp":
-                angle = np.ma.masked_where(dolp(s, axis=-1) < min_dolp,
-                                           np.degrees(aolp(s, axis=-1)))
-                mappable = ax.imshow(angle, cmap=twilight, vmin=-90, vmax=90,
-                                     interpolation="nearest")
-            elif row == "hsv":
-                ax.imshow(polarization_hsv(image, dolp_max, exposure), interpolation="nearest")
-                hues = (np.linspace(-90.0, 90.0, 256) % 180.0) / 180.0
-                mappable = ScalarMappable(
-                    Normalize(-90, 90), matplotlib.colors.ListedColormap(
-                        matplotlib.colormaps["hsv"](hues)))
-            else:
-                raise ValueError(f"unknown row {row!r}")
+            drawing = draw(ax, image, **options)
             ax.set_xticks([])
             ax.set_yticks([])
             if r == 0:
                 ax.set_title(label, fontsize=9)
             if c == 0:
-                ax.set_ylabel(row_labels[row], fontsize=8)
-        if mappable is not None:
-            ticks = [-90, -45, 0, 45, 90] if row in ("aolp", "hsv") else None
-            cb = fig.colorbar(mappable, ax=list(axes[r, :]), fraction=0.02, pad=0.01,
-                              ticks=ticks)
+                ax.set_ylabel(drawing.short, fontsize=8)
+        if drawing.mappable is not None:
+            cb = fig.colorbar(drawing.mappable, ax=list(axes[r, :]), fraction=0.02, pad=0.01,
+                              ticks=drawing.ticks)
             cb.ax.tick_params(labelsize=7)
-            cb.set_label({"dolp": "DoLP", "aolp": "AoLP (°)", "hsv": "AoLP (°)"}[row],
-                         fontsize=8)
+            cb.set_label(drawing.label, fontsize=8)
     if title:
         fig.suptitle(title, fontsize=10)
     return fig
@@ -266,8 +245,6 @@ def polarizer_figure(filtered: Dict[int, StokesImage], clear: StokesImage,
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from .visualize import _linear_rgb, plot_aolp, plot_dolp, plot_intensity, tonemap
-
     exposure = 2.0 * _shared_exposure([clear])  # the filtered images are ~S0/2
     camera = StokesImage(
         polarization_camera_stokes({a: filtered[a].s0 for a in POLARIZER_ANGLES}),
@@ -278,7 +255,7 @@ def polarizer_figure(filtered: Dict[int, StokesImage], clear: StokesImage,
     axes = fig.subplots(2, 4)
 
     for ax, a in zip(axes[0], POLARIZER_ANGLES):
-        ax.imshow(tonemap(_linear_rgb(filtered[a]), exposure)[0], interpolation="nearest")
+        ax.imshow(tonemap(linear_rgb(filtered[a]), exposure)[0], interpolation="nearest")
         ax.set_title(f"through a polarizer at {a}°", fontsize=9)
         ax.set_xticks([])
         ax.set_yticks([])
@@ -321,8 +298,6 @@ def _size_params(scale: float, width: int = 240, height: int = 180) -> dict:
 
 
 def _render(settings: _Settings, scene: str, name: str, **params) -> StokesImage:
-    from .render import render_scene
-
     params = {**_size_params(settings.scale), **params}
     image = render_scene(settings.scenes / scene, spp=settings.spp, variant=settings.variant,
                          seed=settings.seed, params=params, progress=settings.progress)
@@ -341,7 +316,6 @@ def render_materials(settings: _Settings) -> str:
                for m, label in MATERIALS]
     fig = montage_figure(columns, title="One sphere, four metals (scenes/gallery/sphere.xml, "
                          f"σ = 0.08; {_subtitle(columns[0][1])})")
-    from .visualize import save_png
 
     return save_png(fig, settings.out / "materials.png", dpi=100, colors=_PNG_COLOURS)
 
@@ -354,7 +328,6 @@ def render_roughness(settings: _Settings) -> str:
                                        **params)))
     fig = montage_figure(columns, title="Polished to rough copper (scenes/gallery/sphere.xml; "
                          f"{_subtitle(columns[0][1])})")
-    from .visualize import save_png
 
     return save_png(fig, settings.out / "roughness.png", dpi=100, colors=_PNG_COLOURS)
 
@@ -384,16 +357,12 @@ def render_polarizer(settings: _Settings):
               f"|I0 + I90 − S0| {check['sum_0_90']:.0e}, |I45 + I135 − S0| "
               f"{check['sum_45_135']:.0e}, |I0 − I90 − S1| {check['s1']:.0e}, "
               f"|I45 − I135 − S2| {check['s2']:.0e}")
-    from .visualize import save_png
 
     return save_png(fig, settings.out / "polarizer.png", dpi=100, colors=_PNG_COLOURS), check
 
 
 def render_stokes_sheet(settings: _Settings) -> str:
     """``stokes_sheet.png``: all panels of scenes/default.xml."""
-    from .render import render_scene
-    from .visualize import overview_figure, save_png
-
     scene = settings.scenes.parent / "default.xml"
     image = render_scene(scene, spp=settings.spp, variant=settings.variant, seed=settings.seed,
                          params=_size_params(settings.scale, 320, 240),
@@ -407,8 +376,6 @@ def render_stokes_sheet(settings: _Settings) -> str:
 
 def render_pbrdf_plot(settings: _Settings) -> str:
     """``pbrdf_plot.png``: pbrdf plot --material Cu --sigma 0.1 --kdd 0.2 --kid 0.05 --theta-i 40."""
-    from .plots import PBRDFParams, save_pbrdf_plot
-
     return save_pbrdf_plot(settings.out / "pbrdf_plot.png",
                            PBRDFParams(material="Cu", sigma=0.1, kdd=0.2, kid=0.05), 40.0,
                            dpi=90, colors=_PNG_COLOURS)

@@ -1,0 +1,72 @@
+"""Command line: ``pbrdf`` (or ``python -m mitsuba_pbrdf``).
+
+::
+
+    pbrdf render SCENE.xml [--spp N] [--variant V] [--seed S] [--passes N] [--out DIR_OR_STEM]
+                           [-D key=value ...] [--panels P,...] [--no-progress]
+    pbrdf view STOKES.exr [--out PNG] [--panels all|P,...] [--band B] [--dolp-cmap gray]
+                          [--dolp-max X] [--min-dolp X] [--exposure EV]
+    pbrdf plot [--material M | --eta N --k K] [--sigma S] [--ks W] [--kdd W] [--sigma-dd S]
+               [--kid W] [--shadowing vgroove|smith] [--dd-distribution beckmann|ggx]
+               [--theta-i DEG] [--wavelengths NM,...] [--out PNG]
+    pbrdf gallery [--out DIR] [--only ITEM,...] [--spp N] [--scale F] [--variant V]
+    pbrdf fit DATA.csv [--material M] [--model three|two|both] [--backend reference|drjit] ...
+
+``render`` writes ``<out>.exr`` (the Stokes image, named float32 channels
+``R, G, B, S0.R ... S3.B``) and ``<out>.png`` (by default intensity and DoLP
+side by side); ``<out>`` defaults to ``out/<scene stem>``. ``-D key=value``
+overrides the scene's ``<default name="key" value="..."/>``. The variant
+defaults to ``cuda_ad_spectral_polarized`` where a CUDA GPU is usable, else
+``llvm_ad_spectral_polarized``. Long renders run in sample passes with a
+progress bar. ``view`` draws the Stokes sheet of an EXR; ``plot`` draws the
+model's pBRDF with the NumPy reference evaluator (no variant needed);
+``gallery`` renders ``scenes/gallery`` and draws README's pictures; ``fit``
+fits the model to measurements. Errors (missing file, bad scene, unknown
+variant, bad parameter) print one line and exit with status 2.
+
+One module per subcommand (``run(args)`` and ``add_parser(subparsers)``), each a
+thin layer over functions users can call from Python; :mod:`.common` holds
+what they share.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import List, Optional
+
+from . import fit, gallery, plot, render, view
+from .common import EXIT_ERROR, PROG, CliError, one_line
+
+#: The subcommands, in the order ``pbrdf --help`` lists them.
+COMMANDS = (render, view, plot, gallery, fit)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``pbrdf`` command."""
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Render, look at, plot and fit polarized BRDFs with the pbrdf Mitsuba plugin.",
+    )
+    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for command in COMMANDS:
+        command.add_parser(subparsers)
+    return parser
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """Run the command line; returns the exit status (0, or 2 on error).
+    Usage errors found by argparse exit through ``SystemExit(2)`` as usual."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except CliError as e:
+        print(f"{PROG} {args.command}: error: {e}", file=sys.stderr)
+        return EXIT_ERROR
+    except FileNotFoundError as e:
+        print(f"{PROG} {args.command}: error: {one_line(e)}", file=sys.stderr)
+        return EXIT_ERROR
+
+
+if __name__ == "__main__":
+    sys.exit(main())

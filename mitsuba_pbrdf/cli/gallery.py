@@ -1,0 +1,50 @@
+"""``pbrdf gallery``: render scenes/gallery and draw README's pictures."""
+
+from __future__ import annotations
+
+from .common import (CliError, chosen_variant, one_line, positive_int, progress_options,
+                     show_progress, variant_help)
+
+
+def run(args) -> int:
+    """``pbrdf gallery``."""
+    from ..figures.gallery import GALLERY_ITEMS, run_gallery
+    from ..imaging.render import SceneLoadError
+    from ..variant import UnknownVariantError
+
+    only = [i.strip() for i in args.only.split(",") if i.strip()] if args.only else None
+    unknown = [i for i in only or [] if i not in GALLERY_ITEMS]
+    if unknown:
+        raise CliError(f"unknown gallery item(s) {', '.join(unknown)}; "
+                       f"choose from {', '.join(GALLERY_ITEMS)}")
+    positive_int("--spp", args.spp)
+    if not args.scale > 0:
+        raise CliError(f"--scale must be > 0, got {args.scale}")
+    try:
+        run_gallery(out=args.out, scenes_dir=args.scenes, exr_dir=args.exr_dir or None,
+                    spp=args.spp, scale=args.scale, variant=chosen_variant(args), only=only,
+                    progress=show_progress(args))
+    except (UnknownVariantError, SceneLoadError) as e:
+        raise CliError(one_line(e)) from e
+    return 0
+
+
+def add_parser(subparsers):
+    g = subparsers.add_parser("gallery", help="render scenes/gallery and draw README's pictures",
+                              description="Render the gallery scenes (metals, roughness, polarizer at "
+                                          "0/45/90/135 degrees), the Stokes sheet of scenes/default.xml "
+                                          "and the pBRDF plot into PNGs.")
+    g.add_argument("--out", default="gallery", metavar="DIR", help="folder of the PNGs "
+                                                                   "(default: gallery)")
+    g.add_argument("--exr-dir", default="out/gallery", metavar="DIR",
+                   help="folder of the Stokes EXRs ('' for none; default: out/gallery)")
+    g.add_argument("--scenes", default=None, metavar="DIR",
+                   help="folder of the gallery scenes (default: scenes/gallery)")
+    g.add_argument("--only", default=None, metavar="ITEM,...",
+                   help="materials, roughness, polarizer, sheet, plot (default: all)")
+    g.add_argument("--spp", type=int, default=None, help="samples per pixel (default: each scene's)")
+    g.add_argument("--scale", type=float, default=1.0,
+                   help="image size factor (default: 1, i.e. 240x180 panels)")
+    g.add_argument("--variant", default=None, help=variant_help())
+    progress_options(g)
+    g.set_defaults(func=run)

@@ -1,0 +1,25 @@
+"""Least-squares fits of the pBRDF model to measured reflectance::
+
+    from mitsuba_pbrdf.measured import read_measurements
+    from mitsuba_pbrdf.fitting import fit_models, report, plot_fit
+
+    data = read_measurements("measurements.csv")
+    results = fit_models(data, material="Al")          # three- and two-component
+    print(report(data, results))
+    plot_fit(data, results, "fit.png")
+
+or ``pbrdf fit measurements.csv --material Al --plot fit.png``. Modules:
+:mod:`.observables` (the model on the measurements' geometry; synthetic
+data), :mod:`.layout` (parameters, defaults, bounds), :mod:`.backends`
+(residuals from the reference or the plugin), :mod:`.solver` (the fit and
+its uncertainties), :mod:`.report` (text report and plot). The CSV format is
+in :mod:`mitsuba_pbrdf.measured.measurements`.
+"""
+
+from .layout import BOUNDS, DEFAULTS, MODELS, SHARED
+from .observables import model_observables, synthetic_measurements
+from .report import plot_fit, report
+from .solver import FitResult, fit_model, fit_models
+
+__all__ = ["BOUNDS", "DEFAULTS", "MODELS", "SHARED", "model_observables",
+           "synthetic_measurements", "plot_fit", "report", "FitResult", "fit_model", "fit_models"]

@@ -1,0 +1,148 @@
+"""Residual backends of the fit: the model's observables at a parameter vector,
+from the float64 NumPy reference (Jacobian by finite differences) or from the
+Dr.Jit plugin (Jacobian by forward-mode derivatives)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .layout import SHARED
+from .observables import model_observables
+
+__all__ = ["weights", "ReferenceResiduals", "DrJitResiduals", "BACKENDS"]
+
+
+def weights(data, rel, abs_):
+    """(quantity names, observed vector, uncertainty vector, index arrays)."""
+    names, obs, unc, index = [], [], [], []
+    for q, y in data.observed.items():
+        rows = np.flatnonzero(np.isfinite(y))
+        if q in data.uncertainty:
+            u = data.uncertainty[q][rows]
+        else:
+            u = rel * np.abs(y[rows]) + abs_ * np.abs(y[rows]).max()
+            u = np.where(u > 0, u, 1.0)
+        names.append(q)
+        obs.append(y[rows])
+        unc.append(u)
+        index.append(rows)
+    return names, obs, unc, index
+
+
+class ReferenceResiduals:
+    """The float64 reference evaluator; no Jacobian (scipy takes finite differences)."""
+
+    def __init__(self, data, layout, shadowing, dd):
+        self.data, self.layout, self.shadowing, self.dd = data, layout, shadowing, dd
+        self.count = 0
+
+    def observables(self, x):
+        self.count += 1
+        return model_observables(self.data, self.layout.unpack(x), self.shadowing, self.dd)
+
+
+class DrJitResiduals:
+    """The plugin evaluated on all measurements in one call. n and k are 1 x W
+    bitmaps looked up with nearest filtering at each measurement's texel, so
+    one BSDF serves every wavelength; derivatives by forward mode."""
+
+    def __init__(self, data, layout, shadowing, dd):
+        import drjit as dr
+        import mitsuba as mi
+
+        from ..variant import DEFAULT_VARIANT, use_variant
+        if mi.variant() is None or not mi.is_polarized or mi.variant().startswith("scalar"):
+            use_variant(DEFAULT_VARIANT)
+        self.dr, self.mi = dr, mi
+        self.data, self.layout, self.names = data, layout, list(data.observed)
+        v = layout.values
+        # Mitsuba's bitmaps are at least 2 x 2: two equal rows, >= 2 columns
+        self.columns = max(len(layout.wavelengths), 2)
+        bitmap = lambda a: {"type": "bitmap", "raw": True, "filter_type": "nearest",
+                            "data": self._texels(a)}
+        # weights load as non-zero so that every lobe of the model exists
+        self.bsdf = mi.load_dict({
+            "type": "pbrdf", "eta": bitmap(v["n"]), "k": bitmap(np.maximum(v["k"], 1e-3)),
+            "sigma": 0.1, "ks": 1.0, "kdd": 0.0 if v["kdd"] == 0 and "kdd" in layout.fixed else 0.1,
+            "sigma_dd": 0.5, "kid": 0.1, "shadowing": shadowing, "dd_distribution": dd})
+        self.params = mi.traverse(self.bsdf)
+        ti, pi_, tr, pr = data.radians()
+        d = lambda t, p: np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
+        self.wo_hat, self.wi_hat = d(ti, pi_), d(tr, pr)
+        texel = np.searchsorted(layout.wavelengths, data.wavelength)
+        self.uv = mi.Point2f(((texel + 0.5) / self.columns).astype(np.float32),
+                             np.full(len(data), 0.25, np.float32))
+        w = mi.Float(data.wavelength.astype(np.float32))
+        self.wavelengths = mi.UnpolarizedSpectrum(w, w, w, w)
+        self.count = 0
+
+    def _texels(self, per_wavelength):
+        t = np.zeros((2, self.columns, 1), np.float32)
+        t[:, :len(per_wavelength), 0] = np.asarray(per_wavelength, np.float32)[None, :]
+        t[:, len(per_wavelength):, 0] = t[:, :1, 0]
+        return self.mi.TensorXf(t)
+
+    def _set(self, x):
+        values = self.layout.unpack(x)
+        p = self.params
+        p["eta.data"] = self._texels(values["n"])
+        p["k.data"] = self._texels(values["k"])
+        for name in SHARED:
+            key = name + ".value"
+            if key in p:
+                p[key] = float(values[name])
+        return values
+
+    def _evaluate(self):
+        from ..frames import mueller_brdf
+        M = mueller_brdf(self.bsdf, self.wi_hat, self.wo_hat, self.wavelengths, uv=self.uv)
+        out = []
+        for name in self.names:
+            if name == "dolp":
+                dr = self.dr
+                m00 = M[0, 0][0]
+                r2 = dr.square(M[1, 0][0]) + dr.square(M[2, 0][0])
+                ok = (m00 > 0) & (r2 > 0)  # guard both branches: no NaN derivatives
+                out.append(dr.select(ok, dr.sqrt(dr.select(ok, r2, 1.0))
+                                     / dr.select(ok, m00, 1.0), 0.0))
+            else:
+                out.append(M[int(name[1]), int(name[2])][0])
+        return out
+
+    def observables(self, x):
+        self.count += 1
+        self._set(x)
+        self.params.update()
+        with self.dr.suspend_grad():
+            out = self._evaluate()
+        return {n: np.asarray(o, dtype=np.float64) for n, o in zip(self.names, out)}
+
+    def jacobian_columns(self, x):
+        """{free parameter: {quantity: derivative at every measurement}}."""
+        dr, mi = self.dr, self.mi
+        self._set(x)
+        keys = {"n": "eta.data", "k": "k.data"}
+        cols = {}
+        for name in self.layout.free:
+            p, _, j = name.partition("@")
+            key = keys.get(p, p + ".value")
+            dr.enable_grad(self.params[key])
+            self.params.update()
+            out = self._evaluate()
+            if j:
+                t = np.zeros((2, self.columns, 1), np.float32)
+                t[:, int(j), 0] = 1.0
+                dr.set_grad(self.params[key], mi.TensorXf(t))
+            else:
+                dr.set_grad(self.params[key], 1.0)
+            # keep interior gradients: an output (m00) may feed another (dolp)
+            dr.forward_to(*out, flags=dr.ADFlag.ClearEdges | dr.ADFlag.ClearInput)
+            cols[name] = {n: np.asarray(dr.grad(o), dtype=np.float64) for n, o in zip(self.names, out)}
+            dr.disable_grad(self.params[key])
+            self.params.update()
+        self.count += 1
+        return cols
+
+
+#: Backends by name.
+BACKENDS = {"reference": ReferenceResiduals, "drjit": DrJitResiduals}

@@ -1,0 +1,251 @@
+"""Render a Mitsuba scene with the ``pbrdf`` plugin into a :class:`StokesImage`.
+
+::
+
+    from mitsuba_pbrdf.imaging import render_scene
+    image = render_scene("scenes/default.xml", spp=16, params={"width": 160})
+    print(image.metadata["time_render_s"])
+
+Long renders run in *passes* (:mod:`mitsuba_pbrdf.imaging.passes`): the
+samples per pixel are split into passes of equal size with different seeds,
+and the pass images are averaged with weights proportional to their sample
+counts. Each pass costs about 0.15 s of tracing on top of its rendering time,
+so passes are only used when each holds at least ``SAMPLES_PER_PASS`` samples
+(pixels × spp).
+
+The default variant is ``cuda_ad_spectral_polarized`` when a CUDA GPU is
+usable, else ``llvm_ad_spectral_polarized``
+(:func:`mitsuba_pbrdf.variant.default_variant`).
+
+The scene should wrap its integrator in Mitsuba's ``stokes`` integrator (around
+``path``, ``direct`` or ``volpath``, not ``prb``, which ignores Mueller frame
+rotations) and be rendered in a ``*_polarized`` variant; otherwise the image
+has no Stokes channels.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import time
+from dataclasses import asdict, dataclass
+from typing import Mapping, Optional
+
+import numpy as np
+
+from ..variant import default_variant, use_variant
+from .passes import pass_seeds, plan_passes
+from .stokes import StokesImage, from_mitsuba
+
+__all__ = [
+    "RenderTimings",
+    "SceneLoadError",
+    "load_scene",
+    "render_scene",
+    "render_scene_timed",
+]
+
+log = logging.getLogger(__name__)
+
+
+class SceneLoadError(RuntimeError):
+    """Mitsuba could not load the scene (its parser's message, on one line)."""
+
+
+@dataclass
+class RenderTimings:
+    """Wall-clock seconds of each stage of :func:`render_scene`.
+
+    ``jit_compile`` and ``kernel_run`` come from Dr.Jit's kernel history (LLVM/CUDA
+    variants; 0 in scalar ones): time spent generating and compiling kernels
+    (small when they come from Dr.Jit's on-disk cache, ``~/.drjit``) and time
+    running them. ``render`` is the whole of ``mi.render`` plus reading the
+    result back, so it includes tracing, compiling and running.
+    """
+
+    load: float = 0.0
+    render: float = 0.0
+    jit_compile: float = 0.0
+    kernel_run: float = 0.0
+    kernels: int = 0
+    kernels_cached: int = 0
+
+    def summary(self) -> str:
+        """One line: load and render seconds, and the JIT compile / kernel split."""
+        s = f"load {self.load:.2f} s, render {self.render:.2f} s"
+        if self.kernels:
+            s += (
+                f" (JIT compile {self.jit_compile:.2f} s, kernels {self.kernel_run:.2f} s; "
+                f"{self.kernels} kernels, {self.kernels_cached} from cache)"
+            )
+        return s
+
+
+def load_scene(scene_path, params: Optional[Mapping[str, object]] = None):
+    """``mi.load_file(scene_path, **params)`` (the variant must be set).
+    *params* override the scene's ``<default name="key" .../>`` values; Mitsuba
+    rejects keys the scene does not use. Raises ``FileNotFoundError`` or
+    :class:`SceneLoadError` (with Mitsuba's message, e.g. the XML parse error)."""
+    import mitsuba as mi
+
+    scene_path = os.fspath(scene_path)
+    if not os.path.isfile(scene_path):
+        raise FileNotFoundError(f"{scene_path}: no such file")
+    kwargs = {str(k): str(v) for k, v in (params or {}).items()}
+    try:
+        return mi.load_file(scene_path, **kwargs)
+    except RuntimeError as e:
+        raise SceneLoadError(_condense(str(e))) from e
+
+
+def _condense(message: str) -> str:
+    """Mitsuba's error message on one line; a Python traceback that a Python
+    plugin's constructor raised is reduced to its last line (the exception)."""
+    message = re.sub(r"Traceback \(most recent call last\):\n(?:[ \t].*\n)*", "", message)
+    return " ".join(message.split())
+
+
+class _NoBar:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def update(self, n):
+        pass
+
+
+def _progress_bar(total_spp: int, n_passes: int, progress: bool):
+    """A tqdm bar over samples per pixel (one update per pass), or a stand-in."""
+    if not progress or n_passes < 2:
+        return _NoBar()
+    from tqdm import tqdm
+
+    return tqdm(total=total_spp, unit="spp", desc=f"rendering ({n_passes} passes)",
+                leave=False, dynamic_ncols=True)
+
+
+def _kernel_stats(history):
+    compile_ms = run_ms = 0.0
+    kernels = cached = 0
+    for k in history:
+        run_ms += k.get("execution_time", 0.0)
+        if "codegen_time" in k:  # a JIT kernel (not a memset/reduction)
+            kernels += 1
+            cached += int(bool(k.get("cache_hit", 0)))
+            compile_ms += k.get("codegen_time", 0.0) + k.get("backend_time", 0.0)
+    return compile_ms / 1000.0, run_ms / 1000.0, kernels, cached
+
+
+def render_scene(
+    scene_path,
+    spp: Optional[int] = None,
+    variant: Optional[str] = None,
+    seed: int = 0,
+    params: Optional[Mapping[str, object]] = None,
+    passes: Optional[int] = None,
+    progress: bool = False,
+) -> StokesImage:
+    """Render the scene file and return its Stokes image; see
+    :func:`render_scene_timed`, which also returns the :class:`RenderTimings`."""
+    return render_scene_timed(scene_path, spp, variant, seed, params, passes, progress)[0]
+
+
+def render_scene_timed(
+    scene_path,
+    spp: Optional[int] = None,
+    variant: Optional[str] = None,
+    seed: int = 0,
+    params: Optional[Mapping[str, object]] = None,
+    passes: Optional[int] = None,
+    progress: bool = False,
+):
+    """Render the scene file; return its Stokes image and the timings.
+
+    Parameters
+    ----------
+    scene_path
+        Mitsuba XML scene.
+    spp
+        Samples per pixel; None keeps the scene's sampler setting.
+    variant
+        Mitsuba variant; must be polarized for the result to have Stokes
+        channels. None: :func:`~mitsuba_pbrdf.variant.default_variant` (CUDA if usable, else LLVM).
+    seed
+        Sampler seed of the first pass (``mi.render(..., seed=...)``); the
+        other passes use :func:`pass_seeds`.
+    params
+        Overrides for the scene's ``$key`` defaults (``mi.load_file(path, **params)``).
+    passes
+        Number of sample passes (see the module docstring); None: automatic
+        (:func:`plan_passes`), 1: a single ``mi.render`` call.
+    progress
+        Show a progress bar (``tqdm``, on stderr) over the passes' samples.
+
+    The returned image's ``metadata`` holds the scene, variant, spp, passes,
+    seed, parameters and timings (keys ``time_<stage>_s``). Returns
+    ``(image, timings)``; the timings are also logged at INFO level.
+    """
+    import drjit as dr
+
+    import mitsuba as mi
+
+    if variant is None:
+        variant = default_variant()
+    use_variant(variant)
+
+    t0 = time.perf_counter()
+    scene = load_scene(scene_path, params)
+    t1 = time.perf_counter()
+
+    sensor = scene.sensors()[0]
+    total_spp = int(spp or sensor.sampler().sample_count())
+    size = sensor.film().crop_size()
+    plan = plan_passes(total_spp, passes, pixels=int(size[0]) * int(size[1]))
+    seeds = pass_seeds(seed, len(plan))
+
+    history_was_on = dr.flag(dr.JitFlag.KernelHistory)
+    dr.set_flag(dr.JitFlag.KernelHistory, True)
+    dr.kernel_history()  # clear what earlier work left there
+    try:
+        t2 = time.perf_counter()
+        history = []
+        accumulated = None
+        with _progress_bar(total_spp, len(plan), progress) as bar:
+            for pass_spp, pass_seed in zip(plan, seeds):
+                tensor = mi.render(scene, spp=pass_spp, seed=pass_seed)
+                # reading the result back runs the kernels
+                array = np.array(tensor, dtype=np.float64) * (pass_spp / total_spp)
+                accumulated = array if accumulated is None else accumulated + array
+                history += dr.kernel_history()
+                bar.update(pass_spp)
+        image = from_mitsuba(accumulated.astype(np.float32), sensor.film())
+        t3 = time.perf_counter()
+    finally:
+        dr.set_flag(dr.JitFlag.KernelHistory, history_was_on)
+
+    compile_s, run_s, kernels, cached = _kernel_stats(history)
+    timings = RenderTimings(
+        load=t1 - t0, render=t3 - t2, jit_compile=compile_s, kernel_run=run_s,
+        kernels=kernels, kernels_cached=cached,
+    )
+    log.info("%s: %s", scene_path, timings.summary())
+
+    image.metadata.update(
+        {
+            "scene": os.fspath(scene_path),
+            "variant": variant,
+            "spp": str(total_spp),
+            "passes": str(len(plan)),
+            "seed": str(seed),
+            "mitsuba_version": mi.__version__,
+        }
+    )
+    if params:
+        image.metadata["params"] = " ".join(f"{k}={v}" for k, v in params.items())
+    image.metadata.update({f"time_{k}_s": f"{v:.4g}" for k, v in asdict(timings).items()
+                           if not k.startswith("kernels")})
+    image.metadata.update({"kernels": str(kernels), "kernels_cached": str(cached)})
+    return image, timings

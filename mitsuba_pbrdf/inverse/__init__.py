@@ -1,0 +1,86 @@
+"""Differentiable inverse rendering with the ``pbrdf`` plugin: gradients of a
+loss on rendered Stokes images with respect to scene parameters, an Adam fit
+of BSDF parameters to target Stokes images, and the sensitivity (Jacobian /
+Fisher information) analysis that tells which parameters an image
+determines::
+
+    import mitsuba_pbrdf
+    mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
+    import mitsuba as mi
+    from mitsuba_pbrdf import inverse
+
+    scene = mi.load_dict(inverse.sphere_scene(width=128, height=128))
+    params = mi.traverse(scene)
+    target = inverse.render(scene, spp=256, seed=1)
+    loss = inverse.stokes_loss(scene, target, components=(0, 1, 2))
+    value, grads, stats = inverse.loss_and_gradient(
+        scene, params, ["object.bsdf.sigma.value", "object.bsdf.eta.value"], loss,
+        spp=64, passes="auto", max_depth=3)
+
+Modules: :mod:`.scenes` (a scene to invert), :mod:`.losses` (Stokes losses),
+:mod:`.gradients` (gradients by reverse or forward mode, in passes;
+Jacobians, Fisher information; the memory/time trade-off is in its
+docstring), :mod:`.optimize` (Adam). The Mueller matrices of a BSDF with
+derivatives, in the reference's frames, are
+:func:`mitsuba_pbrdf.frames.mueller_brdf`.
+"""
+
+import warnings as _warnings
+
+from .gradients import (REVERSE_BYTES_PER_SAMPLE_AND_DEPTH, GradientStats, fisher_information,
+                        jacobian, loss_and_gradient, render, reverse_passes)
+from .losses import stokes_indices, stokes_loss
+from .optimize import OptimizationResult, fit_parameters
+from .scenes import sphere_scene
+
+__all__ = [
+    "sphere_scene",
+    "render",
+    "stokes_indices",
+    "stokes_loss",
+    "reverse_passes",
+    "REVERSE_BYTES_PER_SAMPLE_AND_DEPTH",
+    "GradientStats",
+    "loss_and_gradient",
+    "jacobian",
+    "fisher_information",
+    "OptimizationResult",
+    "fit_parameters",
+]
+
+
+def _deprecated_split_spp(spp, passes):
+    from ..imaging.passes import plan_passes
+
+    return plan_passes(spp, passes)
+
+
+def _deprecated_pass_seeds(seed, passes):
+    from ..imaging.passes import derivative_seed, pass_seeds
+
+    return [(s, derivative_seed(s)) for s in pass_seeds(seed, passes)]
+
+
+def _mueller_brdf():
+    from ..frames import mueller_brdf
+
+    return mueller_brdf
+
+
+#: Old names: {name: (what replaces it, how to get the object)}.
+_DEPRECATED = {
+    "FitResult": ("mitsuba_pbrdf.inverse.OptimizationResult", lambda: OptimizationResult),
+    "mueller_brdf": ("mitsuba_pbrdf.frames.mueller_brdf", _mueller_brdf),
+    "split_spp": ("mitsuba_pbrdf.imaging.passes.plan_passes", lambda: _deprecated_split_spp),
+    "pass_seeds": ("mitsuba_pbrdf.imaging.passes.pass_seeds and derivative_seed",
+                   lambda: _deprecated_pass_seeds),
+}
+
+
+def __getattr__(name):
+    if name in _DEPRECATED:
+        replacement, get = _DEPRECATED[name]
+        _warnings.warn(f"mitsuba_pbrdf.inverse.{name} is deprecated; use {replacement}",
+                       DeprecationWarning, stacklevel=2)
+        return get()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

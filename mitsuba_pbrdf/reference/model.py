@@ -1,0 +1,105 @@
+"""The three components of the pBRDF and their sum (paper Eq. 2-6), float64
+Mueller matrices in 1/sr in the global s/p frames (see the package
+docstring for frames, units and signs).
+"""
+
+import numpy as np
+
+from ..options import DD_DISTRIBUTIONS as DISTRIBUTIONS
+from ..options import REFERENCE_SHADOWING as SHADOWING_KINDS
+from .fresnel import _jones_rotator, fresnel_amplitudes, jones_to_mueller
+from .geometry import _geometry, _rotation_angles
+from .microfacet import beckmann_D, ggx_D, shadowing_G
+
+
+def _check_kinds(shadowing, distribution):
+    if shadowing not in SHADOWING_KINDS:
+        raise ValueError(f"unknown shadowing {shadowing!r}; expected one of {SHADOWING_KINDS}")
+    if distribution not in DISTRIBUTIONS:
+        raise ValueError(f"unknown distribution {distribution!r}; expected one of {DISTRIBUTIONS}")
+
+
+def _above(g):
+    return (g["cos_i"] > 0) & (g["cos_r"] > 0)
+
+
+def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove"):
+    """Specular Mueller BRDF ``fs`` (..., 4, 4) in the global s/p frames (paper Eq. 4-5):
+
+        f_jk = D(h) G M_jk / (4 cos ti cos tr),   D = Beckmann with alpha = sqrt(2) sigma
+
+    ``M`` is the facet's Fresnel Mueller matrix rotated into the global frames.
+    For ``shadowing="smith"`` G is the Beckmann Smith G of the same alpha.
+    """
+    _check_kinds(shadowing, "beckmann")
+    g = _geometry(theta_i, phi_i, theta_r, phi_r)
+    shape = np.broadcast_shapes(g["cos_i"].shape, np.shape(n), np.shape(k), np.shape(sigma))
+    above = np.broadcast_to(_above(g), shape)
+    alpha = np.sqrt(2.0) * np.asarray(sigma, dtype=np.float64)
+
+    # Paper Eq. 3-4: p(alpha)/cos(alpha) is the Beckmann D of the half vector
+    D = beckmann_D(g["cos_h"], alpha)
+    G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
+                    alpha, shadowing, "beckmann")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = D * G / (4.0 * g["cos_i"] * g["cos_r"])
+    scale = np.where(above, np.broadcast_to(scale, shape), 0.0)
+
+    # Jones matrix of the facet in its own s/p frames, rotated into the global
+    # frames: E_out = R(-eta_r) diag(r_s, r_p) R(eta_i) E_in (P-G ref. [3] of the paper)
+    r_s, r_p = fresnel_amplitudes(g["cos_b"], n, k)
+    eta_i, eta_r = _rotation_angles(g)
+    J_facet = np.zeros(np.broadcast_shapes(r_s.shape, r_p.shape) + (2, 2), dtype=np.complex128)
+    J_facet[..., 0, 0] = r_s
+    J_facet[..., 1, 1] = r_p
+    J = _jones_rotator(-eta_r) @ J_facet @ _jones_rotator(eta_i)
+    M = jones_to_mueller(J)                                    # paper Eq. 5: M_jk
+
+    fs = np.broadcast_to(scale, shape)[..., None, None] * np.broadcast_to(M, shape + (4, 4))
+    return np.where(above[..., None, None], fs, 0.0)
+
+
+def directional_diffuse(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing="vgroove",
+                        distribution="beckmann"):
+    """Directional diffuse BRDF ``fdd = Ddd(h) G / (4 cos ti cos tr)`` (1/sr, a
+    scalar: this lobe is depolarized). ``Ddd`` has width ``alpha_dd = sqrt(2) sigma_dd``
+    and is Beckmann or GGX; for ``shadowing="smith"`` G uses that distribution and width."""
+    _check_kinds(shadowing, distribution)
+    g = _geometry(theta_i, phi_i, theta_r, phi_r)
+    alpha_dd = np.sqrt(2.0) * np.asarray(sigma_dd, dtype=np.float64)
+    D = (beckmann_D if distribution == "beckmann" else ggx_D)(g["cos_h"], alpha_dd)
+    G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
+                    alpha_dd, shadowing, distribution)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = D * G / (4.0 * g["cos_i"] * g["cos_r"])
+    return np.where(_above(g), f, 0.0)
+
+
+def ideal_diffuse(theta_i, theta_r):
+    """Lambertian ``fid = 1/pi`` (1/sr) where both directions are above the surface."""
+    cos_i = np.cos(np.asarray(theta_i, dtype=np.float64))
+    cos_r = np.cos(np.asarray(theta_r, dtype=np.float64))
+    return np.where((cos_i > 0) & (cos_r > 0), 1.0 / np.pi, 0.0)
+
+
+def pbrdf(theta_i, phi_i, theta_r, phi_r, n, k, sigma, ks=1.0, kdd=0.0, sigma_dd=0.5,
+          kid=0.0, shadowing="vgroove", dd_distribution="beckmann"):
+    """The full pBRDF (paper Eq. 2, 5, 6), a float64 array (..., 4, 4) in 1/sr::
+
+        F = ks Fs + [kdd fdd + kid / pi] D0
+
+    All arguments broadcast against each other (e.g. angles of shape (m, 1) and
+    ``n, k, ks`` of shape (w,) for w wavelengths give (m, w, 4, 4)). Apply it to
+    a Stokes vector of the incident light (frame ``s_in``) to get the reflected
+    Stokes vector (frame ``s_out``) per unit irradiance, paper Eq. 6.
+    """
+    _check_kinds(shadowing, dd_distribution)
+    Fs = specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing)
+    fdd = directional_diffuse(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing, dd_distribution)
+    fid = ideal_diffuse(theta_i, theta_r)
+    ks = np.asarray(ks, dtype=np.float64)
+    depolarized = np.asarray(kdd, dtype=np.float64) * fdd + np.asarray(kid, dtype=np.float64) * fid
+    shape = np.broadcast_shapes(Fs.shape[:-2], ks.shape, depolarized.shape)
+    F = np.broadcast_to(ks, shape)[..., None, None] * Fs
+    F[..., 0, 0] += np.broadcast_to(depolarized, shape)               # times D0
+    return F

@@ -1,0 +1,131 @@
+"""A record of the model's parameters as the plugin takes them, with its
+checks, and quantities derived from a Mueller BRDF. NumPy only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..options import DD_DISTRIBUTIONS, DEFAULTS, SHADOWING
+from .materials import available_materials, conductor_ior
+from .model import pbrdf
+
+
+@dataclass
+class PBRDFParams:
+    """Parameters of the model, as the plugin takes them (see the README's table).
+
+    Either *material* (a Mitsuba conductor name: ``Al``, ``Cu``, ``Au``, ``Ag``,
+    ...) or both *eta* and *k* (a complex index n + ik, constant over
+    wavelength). :meth:`validate` checks them and raises ``ValueError`` with a
+    message naming the parameter.
+    """
+
+    material: Optional[str] = DEFAULTS["material"]
+    eta: Optional[float] = None
+    k: Optional[float] = None
+    sigma: float = DEFAULTS["sigma"]
+    ks: float = DEFAULTS["ks"]
+    kdd: float = DEFAULTS["kdd"]
+    sigma_dd: float = DEFAULTS["sigma_dd"]
+    kid: float = DEFAULTS["kid"]
+    shadowing: str = DEFAULTS["shadowing"]
+    dd_distribution: str = DEFAULTS["dd_distribution"]
+
+    def validate(self) -> "PBRDFParams":
+        """Check every parameter; returns self."""
+        if (self.eta is None) != (self.k is None):
+            raise ValueError("give both eta and k (the complex index n + ik), or neither")
+        if self.eta is not None:
+            self.material = None
+            _finite("eta", self.eta, positive=True)
+            _finite("k", self.k)
+        elif self.material is None:
+            raise ValueError("give a material (e.g. Cu) or eta and k")
+        elif self.material not in available_materials():
+            raise ValueError(
+                f"unknown material {self.material!r}; available: "
+                f"{', '.join(available_materials())}"
+            )
+        _finite("sigma", self.sigma, positive=True)
+        _finite("sigma_dd", self.sigma_dd, positive=True)
+        for name in ("ks", "kdd", "kid"):
+            _finite(name, getattr(self, name))
+        if self.shadowing not in SHADOWING:
+            raise ValueError(f"shadowing must be one of {', '.join(SHADOWING)}, "
+                             f"got {self.shadowing!r}")
+        if self.dd_distribution not in DD_DISTRIBUTIONS:
+            raise ValueError(f"dd_distribution must be one of {', '.join(DD_DISTRIBUTIONS)}, "
+                             f"got {self.dd_distribution!r}")
+        return self
+
+    def ior(self, wavelengths_nm):
+        """``(n, k)`` arrays at the wavelengths (nm)."""
+        wavelengths = np.asarray(wavelengths_nm, dtype=np.float64)
+        if self.material is None:
+            return (np.full(wavelengths.shape, float(self.eta)),
+                    np.full(wavelengths.shape, float(self.k)))
+        return conductor_ior(self.material, wavelengths)
+
+    def label(self) -> str:
+        """A one-line description for titles."""
+        what = self.material if self.material else f"n={self.eta:g}, k={self.k:g}"
+        parts = [what, f"σ={self.sigma:g}", f"ks={self.ks:g}"]
+        if self.kdd:
+            parts.append(f"kdd={self.kdd:g} (σdd={self.sigma_dd:g}, {self.dd_distribution})")
+        if self.kid:
+            parts.append(f"kid={self.kid:g}")
+        parts.append(f"G={self.shadowing}")
+        return ", ".join(parts)
+
+    def evaluate(self, theta_i, phi_i, theta_r, phi_r, wavelengths_nm, lobe="all"):
+        """Mueller BRDF (..., n_wavelengths, 4, 4) in 1/sr of one *lobe*
+        (``all``, ``specular``, ``directional_diffuse``, ``ideal_diffuse``), with
+        its weight; angles in radians, shaped (...,) (a wavelength axis is added)."""
+        n, k = self.ior(wavelengths_nm)
+        angles = [np.asarray(a, dtype=np.float64)[..., None]
+                  for a in (theta_i, phi_i, theta_r, phi_r)]
+        weights = dict(ks=self.ks, kdd=self.kdd, kid=self.kid)
+        if lobe == "specular":
+            weights.update(kdd=0.0, kid=0.0)
+        elif lobe == "directional_diffuse":
+            weights.update(ks=0.0, kid=0.0)
+        elif lobe == "ideal_diffuse":
+            weights.update(ks=0.0, kdd=0.0)
+        elif lobe != "all":
+            raise ValueError(f"unknown lobe {lobe!r}")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return pbrdf(*angles, n, k, self.sigma, sigma_dd=self.sigma_dd,
+                                   shadowing=self.shadowing,
+                                   dd_distribution=self.dd_distribution, **weights)
+
+
+def _finite(name, value, positive=False):
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(value) or value < 0 or (positive and value == 0):
+        raise ValueError(f"{name} must be {'> 0' if positive else '>= 0'} and finite, "
+                         f"got {value:g}")
+
+
+def check_theta_i(theta_i):
+    if not (0.0 <= float(theta_i) < 90.0):
+        raise ValueError(f"theta_i must be in [0, 90) degrees, got {theta_i:g}")
+
+
+def dop_unpolarized(M, eps: float = 1e-300) -> np.ndarray:
+    """Degree of polarization of the light M (..., 4, 4) reflects when the
+    incident light is unpolarized: |first column without M00| / M00 (0 where
+    M00 = 0)."""
+    M = np.asarray(M)
+    m00 = M[..., 0, 0]
+    polar = np.sqrt(M[..., 1, 0] ** 2 + M[..., 2, 0] ** 2 + M[..., 3, 0] ** 2)
+    out = np.zeros_like(m00)
+    np.divide(polar, m00, out=out, where=m00 > eps)
+    return out

@@ -1,0 +1,191 @@
+"""The package's layout and import behaviour: the plugin and the reference
+evaluator never import each other, the reference needs NumPy alone, importing
+the package needs no variant, the plugin is registered in every variant, and
+the old module names still import (with a DeprecationWarning)."""
+
+import ast
+import os
+import subprocess
+import sys
+import warnings
+
+import pytest
+
+ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
+PACKAGE = os.path.join(ROOT, "mitsuba_pbrdf")
+
+
+def run_python(code):
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=ROOT, timeout=120)
+
+
+def imported_modules(folder):
+    """{file: set of absolute module names it imports} for a sub-package,
+    relative imports resolved against ``mitsuba_pbrdf.<folder>``."""
+    out = {}
+    base = ["mitsuba_pbrdf", folder]
+    for name in sorted(os.listdir(os.path.join(PACKAGE, folder))):
+        if not name.endswith(".py"):
+            continue
+        tree = ast.parse(open(os.path.join(PACKAGE, folder, name)).read())
+        found = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                found |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    parent = base[: len(base) - node.level + 1]
+                    module = ".".join(parent + ([node.module] if node.module else []))
+                    found.add(module)
+                    if not node.module:  # from . import x
+                        found |= {f"{module}.{a.name}" for a in node.names}
+                else:
+                    found.add(node.module)
+        out[name] = found
+    return out
+
+
+def test_plugin_never_imports_the_reference():
+    for name, modules in imported_modules("plugin").items():
+        bad = [m for m in modules if m.startswith("mitsuba_pbrdf.reference")]
+        assert not bad, f"plugin/{name} imports {bad}"
+
+
+def test_reference_imports_numpy_and_the_standard_library_only():
+    allowed_own = {"mitsuba_pbrdf.reference", "mitsuba_pbrdf.options"}
+    for name, modules in imported_modules("reference").items():
+        for m in modules:
+            top = m.split(".")[0]
+            if top == "mitsuba_pbrdf":
+                assert any(m == a or m.startswith(a + ".") for a in allowed_own), \
+                    f"reference/{name} imports {m}"
+            else:
+                assert top == "numpy" or top in sys.stdlib_module_names, \
+                    f"reference/{name} imports {m}"
+
+
+def test_the_import_scan_sees_a_forbidden_import(tmp_path, monkeypatch):
+    """The scan above resolves relative imports: a plugin module importing the
+    reference would be caught."""
+    folder = tmp_path / "mitsuba_pbrdf" / "plugin"
+    folder.mkdir(parents=True)
+    (folder / "bad.py").write_text("from ..reference import pbrdf\nfrom . import lobes\n")
+    monkeypatch.setattr(sys.modules[__name__], "PACKAGE", str(tmp_path / "mitsuba_pbrdf"))
+    found = imported_modules("plugin")["bad.py"]
+    assert "mitsuba_pbrdf.reference" in found and "mitsuba_pbrdf.plugin.lobes" in found
+
+
+def test_reference_works_without_mitsuba():
+    code = ("import sys; sys.modules['mitsuba'] = None; sys.modules['drjit'] = None\n"
+            "import mitsuba_pbrdf.reference as r\n"
+            "m = r.pbrdf(0.5, 0.0, 0.5, 3.14159, 1.2, 7.0, 0.1, kdd=0.1, kid=0.05)\n"
+            "assert m.shape == (4, 4) and m[0, 0] > 0\n"
+            "assert 'mitsuba' not in [k for k, v in sys.modules.items() if v is not None]\n"
+            "print('ok')")
+    result = run_python(code)
+    assert result.returncode == 0 and "ok" in result.stdout, result.stderr
+
+
+def test_import_needs_no_variant_and_first_use_says_what_to_type():
+    result = run_python("import mitsuba_pbrdf, mitsuba as mi; assert mi.variant() is None\n"
+                        "try:\n    mitsuba_pbrdf.register()\n"
+                        "except mitsuba_pbrdf.VariantNotSetError as e:\n    print(e)")
+    assert result.returncode == 0, result.stderr
+    assert "mitsuba_pbrdf.use_variant('llvm_ad_spectral_polarized')" in result.stdout
+    result = run_python("import mitsuba_pbrdf.plugin as p\np.plugin_class()")
+    assert result.returncode != 0
+    assert "VariantNotSetError" in result.stderr
+    assert "mitsuba_pbrdf.use_variant('llvm_ad_spectral_polarized')" in result.stderr
+
+
+@pytest.mark.parametrize("code", [
+    # the variant set first, then the package imported
+    "import mitsuba as mi; mi.set_variant('llvm_ad_rgb'); import mitsuba_pbrdf",
+    # the package first, then the variant set with Mitsuba's own call
+    "import mitsuba_pbrdf; import mitsuba as mi; mi.set_variant('llvm_ad_rgb')",
+    # switching variants after registering
+    "import mitsuba_pbrdf; mitsuba_pbrdf.use_variant('llvm_ad_spectral_polarized');"
+    "import mitsuba as mi; mi.set_variant('llvm_ad_rgb')",
+])
+def test_plugin_is_registered_in_every_variant(code):
+    result = run_python(code + "\nb = mi.load_dict({'type': 'pbrdf', 'kid': 0.2})\n"
+                               "print(type(b).__name__, mi.variant())")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["PolarizedBRDF", "llvm_ad_rgb"]
+
+
+def test_use_variant_names_the_available_variants():
+    import mitsuba as mi
+
+    import mitsuba_pbrdf
+
+    before = mi.variant()
+    with pytest.raises(mitsuba_pbrdf.UnknownVariantError, match="available: .*llvm_ad_rgb"):
+        mitsuba_pbrdf.use_variant("llvm_ad_nonexistent")
+    assert mi.variant() == before
+    assert mitsuba_pbrdf.use_variant(before) is None
+
+
+@pytest.mark.parametrize("old, names", [
+    ("mitsuba_pbrdf.render", ["render_scene", "plan_passes", "default_variant", "set_variant"]),
+    ("mitsuba_pbrdf.stokes_io", ["read_stokes_exr", "write_stokes_exr", "StokesImage", "dolp"]),
+    ("mitsuba_pbrdf.fit", ["read_measurements", "fit_model", "report", "main"]),
+    ("mitsuba_pbrdf.visualize", ["save_overview_png", "plot_dolp"]),
+    ("mitsuba_pbrdf.plots", ["PBRDFParams", "save_pbrdf_plot", "in_plane"]),
+])
+def test_old_modules_import_with_a_deprecation_warning(old, names):
+    code = ("import warnings; warnings.simplefilter('always')\n"
+            f"with warnings.catch_warnings(record=True) as w:\n    import {old} as m\n"
+            "print([str(x.category.__name__) for x in w])\n"
+            f"print(all(hasattr(m, n) for n in {names!r}))")
+    result = run_python(code)
+    assert result.returncode == 0, result.stderr
+    categories, has_names = result.stdout.splitlines()
+    assert "DeprecationWarning" in categories and has_names == "True"
+
+
+def test_old_inverse_names_warn():
+    from mitsuba_pbrdf import inverse
+
+    for name in ("FitResult", "mueller_brdf", "split_spp", "pass_seeds"):
+        with pytest.warns(DeprecationWarning, match=name):
+            assert getattr(inverse, name) is not None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert inverse.split_spp if False else inverse.OptimizationResult
+    with pytest.raises(AttributeError):
+        inverse.no_such_name  # noqa: B018
+
+
+def test_old_fit_module_still_runs_as_a_script(tmp_path):
+    data = os.path.join(ROOT, "tests", "data", "fit_example.csv")
+    result = subprocess.run([sys.executable, "-m", "mitsuba_pbrdf.fit", data, "--model", "two",
+                             "--starts", "1"], capture_output=True, text=True, cwd=ROOT,
+                            timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert "two-component" in result.stdout
+
+
+def test_no_project_file_cites_files_outside_the_repository():
+    """Docstrings and docs cite only paths that exist in the repository."""
+    import re
+
+    cited = re.compile(r"\b((?:docs|validation|benchmarks|scenes|tests|examples|tools)/"
+                       r"[\w./-]+\.(?:md|py|xml|csv|exr))")
+    outside = ".." + "/shared"  # the developers' notes beside the repository
+    missing = []
+    for folder, _, files in os.walk(ROOT):
+        if any(part.startswith(".") or part in ("out", "gallery") for part in
+               os.path.relpath(folder, ROOT).split(os.sep)):
+            continue
+        for name in files:
+            if not name.endswith((".py", ".md")):
+                continue
+            path = os.path.join(folder, name)
+            text = open(path, encoding="utf-8").read()
+            assert outside not in text, path
+            for m in cited.findall(text):
+                if not os.path.exists(os.path.join(ROOT, m)):
+                    missing.append(f"{os.path.relpath(path, ROOT)}: {m}")
+    assert not missing, missing
