@@ -191,7 +191,9 @@ def test_bad_xml_is_rejected_naming_the_parameter(body, message, negative_exr):
 BAD_UPDATES = [
     ("sigma.value", -0.1, "'sigma'"), ("sigma.value", 0.0, "'sigma'"),
     ("sigma.value", NAN, "'sigma'"), ("sigma.value", INF, "'sigma'"),
+    ("sigma.value", 1e-6, "'sigma' must be >= 7.07e-05"),  # below Mitsuba's alpha floor
     ("sigma_dd.value", 0.0, "'sigma_dd'"), ("sigma_dd.value", NAN, "'sigma_dd'"),
+    ("sigma_dd.value", 5e-5, "'sigma_dd' must be >= 7.07e-05"),
     ("ks.value", -1.0, "'ks'"), ("ks.value", NAN, "'ks'"),
     ("kdd.value", INF, "'kdd'"), ("kid.value", -0.2, "'kid'"),
     ("eta.value", 0.0, "'eta'"), ("eta.value", NAN, "'eta'"), ("k.value", -1.0, "'k'"),

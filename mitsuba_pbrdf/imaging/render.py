@@ -139,18 +139,10 @@ def _kernel_stats(history):
     return compile_ms / 1000.0, run_ms / 1000.0, kernels, cached
 
 
-def render_scene(
-    scene_path,
-    spp: Optional[int] = None,
-    variant: Optional[str] = None,
-    seed: int = 0,
-    params: Optional[Mapping[str, object]] = None,
-    passes: Optional[int] = None,
-    progress: bool = False,
-) -> StokesImage:
-    """Render the scene file and return its Stokes image; see
-    :func:`render_scene_timed`, which also returns the :class:`RenderTimings`."""
-    return render_scene_timed(scene_path, spp, variant, seed, params, passes, progress)[0]
+def render_scene(scene_path, spp: Optional[int] = None, **options) -> StokesImage:
+    """Render the scene file and return its Stokes image: :func:`render_scene_timed`
+    (same arguments) without the :class:`RenderTimings`."""
+    return render_scene_timed(scene_path, spp, **options)[0]
 
 
 def render_scene_timed(
