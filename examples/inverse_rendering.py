@@ -93,7 +93,8 @@ def main(argv=None):
         image = from_mitsuba(tensor, film)
         image.metadata["title"] = f"{label} ({size}x{size}, 512 spp)"
         exr = write_stokes_exr(f"{args.out}_{label}.exr", image)
-        png = save_overview_png(f"{args.out}_{label}.png", image, panels=("intensity", "dolp", "aolp"))
+        png = save_overview_png(f"{args.out}_{label}.png", image,
+                                panels=("intensity", "dolp", "aolp"))
         print(f"wrote {exr} and {png}")
 
 

@@ -19,14 +19,14 @@ horizontal (``docs/conventions.md``).
 
 Run from the repository root::
 
-    python examples/render_stokes_image.py                       # 320x240, 64 spp: ~20 s on 2 cores
-    python examples/render_stokes_image.py --quick               # 80x60, 8 spp: ~10 s (CI)
+    python examples/render_stokes_image.py             # 320x240, 64 spp: ~20 s on 2 cores
+    python examples/render_stokes_image.py --quick     # 80x60, 8 spp: ~10 s (CI)
     python examples/render_stokes_image.py -D material=Au --region 0.1,0.3,0.3,0.7
 
-Writes ``out/examples/default.exr`` and ``out/examples/default.png`` (``--out``
-changes the stem). The default region is the chromium sphere's reflection of
-the back light in ``scenes/default.xml``, seen at 55-60 degrees of incidence,
-hence strongly polarized (DoLP about 0.3).
+Writes the EXR and the PNG into ``out/examples/``, named after the scene
+(``--out STEM`` writes ``STEM.exr`` and ``STEM.png``). The default region is
+the chromium sphere's reflection of the back light in ``scenes/default.xml``,
+seen at 55-60 degrees of incidence, hence strongly polarized (DoLP about 0.3).
 """
 
 import argparse
@@ -46,7 +46,8 @@ def region_slices(text, height, width):
     """Pixel slices (rows, columns) of a region given as fractions ``x0,y0,x1,y1``."""
     x0, y0, x1, y1 = (float(v) for v in text.split(","))
     if not (0 <= x0 < x1 <= 1 and 0 <= y0 < y1 <= 1):
-        raise SystemExit(f"--region: expected 0 <= x0 < x1 <= 1 and 0 <= y0 < y1 <= 1, got {text}")
+        raise SystemExit(f"--region: expected 0 <= x0 < x1 <= 1 and 0 <= y0 < y1 <= 1, "
+                         f"got {text}")
     rows = slice(int(y0 * height), max(int(np.ceil(y1 * height)), int(y0 * height) + 1))
     cols = slice(int(x0 * width), max(int(np.ceil(x1 * width)), int(x0 * width) + 1))
     return rows, cols
@@ -56,13 +57,15 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default="scenes/default.xml", help="Mitsuba scene file")
     parser.add_argument("--quick", action="store_true", help="80x60 pixels, 8 spp (a smoke run)")
-    parser.add_argument("--spp", type=int, default=None, help="samples per pixel (default: the scene's)")
+    parser.add_argument("--spp", type=int, default=None,
+                        help="samples per pixel (default: the scene's)")
     parser.add_argument("-D", dest="define", action="append", default=[], metavar="key=value",
                         help="override a <default> of the scene (repeatable)")
     parser.add_argument("--region", default=DEFAULT_REGION, metavar="x0,y0,x1,y1",
-                        help=f"region to measure, fractions of width and height (default: {DEFAULT_REGION})")
-    parser.add_argument("--out", default="out/examples/default", metavar="STEM",
-                        help="writes STEM.exr and STEM.png (default: out/examples/default)")
+                        help="region to measure, fractions of width and height "
+                             f"(default: {DEFAULT_REGION})")
+    parser.add_argument("--out", default=None, metavar="STEM",
+                        help="writes STEM.exr and STEM.png (default: out/examples/<scene name>)")
     args = parser.parse_args(argv)
 
     params = dict(item.split("=", 1) for item in args.define)
@@ -78,9 +81,11 @@ def main(argv=None):
           f"variant {image.metadata['variant']}, bands {','.join(image.bands)}, "
           f"{float(image.metadata['time_render_s']):.2f} s")
 
-    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    exr = write_stokes_exr(args.out + ".exr", image)
-    png = save_overview_png(args.out + ".png", image, panels=("intensity", "dolp", "aolp"))
+    name = os.path.splitext(os.path.basename(args.scene))[0]
+    stem = args.out or os.path.join("out", "examples", name)
+    os.makedirs(os.path.dirname(os.path.abspath(stem)), exist_ok=True)
+    exr = write_stokes_exr(stem + ".exr", image)
+    png = save_overview_png(stem + ".png", image, panels=("intensity", "dolp", "aolp"))
     print(f"wrote {exr}")
     print(f"wrote {png}")
 

@@ -1,4 +1,4 @@
-"""The scripts in examples/ run as users run them (``python examples/X.py``
+"""The scripts in examples/ run as users run them (``python examples/<name>.py``
 from the repository root, here with ``--quick``) and produce what they say:
 valid EXR and PNG files, and printed numbers that are physically right.
 
