@@ -4,13 +4,13 @@ is the same command."""
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from typing import Optional, Sequence
 
 from ..options import DD_DISTRIBUTIONS, DEFAULTS, SHADOWING
-from .common import CliError, one_line
+from ..outputs import atomic_path, write_json
+from .common import CliError, check_outputs, one_line
 
 
 def run(args) -> int:
@@ -18,6 +18,7 @@ def run(args) -> int:
     from ..fitting import fit_models, plot_fit, report
     from ..measured import MeasurementError, read_measurements
 
+    check_outputs(args.plot, args.json)
     try:
         data = read_measurements(args.csv)
         models = ("three", "two") if args.model == "both" else (args.model,)
@@ -30,11 +31,11 @@ def run(args) -> int:
         raise CliError(one_line(e)) from e
     print(report(data, results), end="")
     if args.plot:
-        plot_fit(data, results, args.plot, title=os.path.basename(args.csv))
+        with atomic_path(args.plot) as tmp:
+            plot_fit(data, results, tmp, title=os.path.basename(args.csv))
         print(f"\nplot: {args.plot}")
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump({m: r.as_dict() for m, r in results.items()}, f, indent=1)
+        write_json(args.json, {m: r.as_dict() for m, r in results.items()})
         print(f"results: {args.json}")
     return 0
 
