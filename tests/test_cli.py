@@ -227,16 +227,16 @@ def test_plan_passes():
                                               plan_passes, samples_per_pass)
 
     assert plan_passes(4, pixels=320 * 240) == [4]  # within the budget: one pass
-    # scenes/default.xml (320 x 240, 64 spp) on 2 threads: 8 passes of 8 spp, each 2^19 x 2
+    # scenes/default.xml (320 x 240, 64 spp) on 2 threads: 4 passes of 16 spp, each 2^20 x 2
     # samples at most, a power of two (the kernel of one-pass power-of-two renders)
-    assert plan_passes(64, pixels=320 * 240) == [8] * 8
-    assert 320 * 240 * 8 <= SAMPLES_PER_PASS == 2 * SAMPLES_PER_THREAD
-    assert plan_passes(100, pixels=320 * 240) == [8] * 12 + [4]  # the rest in a last pass
+    assert plan_passes(64, pixels=320 * 240) == [16] * 4
+    assert 320 * 240 * 16 <= SAMPLES_PER_PASS == 2 * SAMPLES_PER_THREAD
+    assert plan_passes(100, pixels=320 * 240) == [16] * 6 + [4]  # the rest in a last pass
     assert plan_passes(5, pixels=4000 * 4000) == [1] * 5          # cannot split below 1 spp
     assert plan_passes(10, passes=4) == [3, 3, 2, 2]               # a given count: equal passes
     assert plan_passes(3, passes=8) == [1, 1, 1]
     big = plan_passes(1024, pixels=640 * 480, budget=samples_per_pass("llvm", 16))
-    assert big == [16] * 64 and 640 * 480 * 16 <= 16 * SAMPLES_PER_THREAD
+    assert big == [32] * 32 and 640 * 480 * 32 <= 16 * SAMPLES_PER_THREAD
     assert samples_per_pass("cuda", 2) == SAMPLES_PER_GPU_PASS
     assert plan_passes(64, pixels=320 * 240, budget=SAMPLES_PER_GPU_PASS) == [64]
     with pytest.raises(ValueError):

@@ -41,9 +41,10 @@ __all__ = ["SAMPLES_PER_THREAD", "SAMPLES_PER_GPU_PASS", "SAMPLES_PER_PASS", "MA
            "samples_per_pass", "plan_passes", "pass_seeds", "derivative_seed"]
 
 #: Budget of an automatic pass per CPU thread of Dr.Jit's LLVM backend:
-#: 2^19 samples, about 1.4 s of rendering of scenes/default.xml per pass on
-#: 2 threads.
-SAMPLES_PER_THREAD = 1 << 19
+#: 2^20 samples, about 1.7 s of rendering of scenes/default.xml per pass on
+#: 2 threads (3.3 s of CPU time), so that the ~0.1 s of CPU time each pass
+#: costs stays near 3 % (docs/cli.md has the measurement).
+SAMPLES_PER_THREAD = 1 << 20
 #: Budget of an automatic pass on a CUDA GPU (which also bounds its memory).
 SAMPLES_PER_GPU_PASS = 1 << 24
 #: The budget when none is given: two CPU threads' worth.
