@@ -317,8 +317,8 @@ def test_ctrl_c_stops_a_render_between_passes(tmp_path):
         (tmp_path / f"default{ext}").write_bytes(b"previous good file")
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
     argv = [sys.executable, "-m", "mitsuba_pbrdf", "render", DEFAULT, "-D", "width=160",
-            "-D", "height=120", "--spp", "1024", "--passes", "16", "--variant", "llvm_ad_spectral_polarized",
-            "--progress", "--out", str(out)]
+            "-D", "height=120", "--spp", "1024", "--passes", "16",
+            "--variant", "llvm_ad_spectral_polarized", "--progress", "--out", str(out)]
     process = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     err = b""
@@ -355,3 +355,49 @@ def test_ctrl_c_stops_a_render_between_passes(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["default.exr", "default.png"]
     for ext in (".exr", ".png"):
         assert (tmp_path / f"default{ext}").read_bytes() == b"previous good file"
+
+
+def test_ctrl_c_inside_the_plugin_is_reported_as_an_interruption(files, capfd, monkeypatch):
+    """Ctrl-C that lands in the plugin's Python code while Mitsuba loads the
+    scene or Dr.Jit traces a pass comes back wrapped in a RuntimeError; the
+    command still says `interrupted` and exits with 130."""
+    import mitsuba as mi
+
+    def wrapped(*args, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as e:
+            raise RuntimeError("drjit.custom(): error while performing a custom "
+                               "differentiable operation. (see above)") from e
+
+    for name in ("render", "load_file"):
+        with monkeypatch.context() as m:
+            m.setattr(mi, name, wrapped)
+            assert main(["render", files["scene"], "--spp", "1",
+                         "--out", files["tmp"] + "/w"]) == 130
+        out, err = capfd.readouterr()
+        assert err.strip() == "pbrdf render: interrupted" and not out
+    assert not os.path.exists(files["tmp"] + "/w.exr")
+
+
+def test_progress_lines_when_stderr_is_not_a_terminal(monkeypatch, capsys):
+    """Logs get plain lines (not a bar's carriage returns), at most one per
+    interval, and a last line saying how long it took; short work gets none."""
+    from mitsuba_pbrdf.imaging import progress
+
+    monkeypatch.setattr(progress.sys.stderr, "isatty", lambda: False, raising=False)
+    with progress.progress_reporter(4, "rendering x.xml (4 passes)", "auto", steps=4) as p:
+        for _ in range(4):
+            p.update(1)
+    assert capsys.readouterr().err == ""  # done before the first interval
+    monkeypatch.setattr(progress, "LINE_INTERVAL_S", 0.0)
+    with progress.progress_reporter(4, "rendering x.xml (4 passes)", "lines", steps=4) as p:
+        for _ in range(4):
+            p.update(1)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith("rendering x.xml (4 passes): 1/4 spp (25 %)")
+    assert len(lines) == 4 and lines[-1].startswith("rendering x.xml (4 passes): done in")
+    assert "\r" not in "".join(lines)
+    with progress.progress_reporter(4, "one pass", "bar", steps=1) as p:
+        p.update(4)
+    assert capsys.readouterr().err == ""  # one step: nothing to show

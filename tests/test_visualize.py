@@ -105,7 +105,8 @@ def test_automatic_scales_follow_the_data():
     5 x 10^k; S1, S2, S3 / S0 share one symmetric scale in the sheet."""
     image = synthetic_image()
     image.stokes[..., 1:, :] *= 0.3          # DoLP up to 0.3, DoCP up to 0.03
-    d = draw_dolp(axes(), image)
+    assert draw_dolp(axes(), image).mappable.get_clim() == (0.0, 1.0)  # Python's default
+    d = draw_dolp(axes(), image, dolp_max="auto")
     assert d.mappable.get_clim() == (0.0, 0.5) and "auto" in d.label
     c = draw_docp(axes(), image)
     assert c.mappable.get_clim() == (0.0, 0.05)

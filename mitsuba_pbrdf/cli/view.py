@@ -37,13 +37,15 @@ def run(args) -> int:
 
 
 def add_parser(subparsers):
-    v = subparsers.add_parser("view", help="draw the Stokes sheet (PNG) of a Stokes EXR",
-                              description="Draw pictures of a Stokes EXR: tone-mapped intensity, DoLP, "
-                                          "AoLP (hue wheel, grey where DoLP is low), DoCP, the HSV "
-                                          "composite (hue AoLP, saturation DoLP, value intensity) and "
-                                          "S1, S2, S3 / S0 (diverging, one shared scale), each with "
-                                          "its colour bar. Unusable pixels are counted and marked.")
-    v.add_argument("exr", metavar="STOKES.exr", help="EXR with Stokes channels S0.<band> ... S3.<band>")
+    v = subparsers.add_parser(
+        "view", help="draw the Stokes sheet (PNG) of a Stokes EXR",
+        description="Draw pictures of a Stokes EXR: tone-mapped intensity, DoLP, AoLP (hue "
+                    "wheel, grey where DoLP is low), DoCP, the HSV composite (hue AoLP, "
+                    "saturation DoLP, value intensity) and S1, S2, S3 / S0 (diverging, one "
+                    "shared scale), each with its colour bar. Unusable pixels are counted and "
+                    "marked.")
+    v.add_argument("exr", metavar="STOKES.exr",
+                   help="EXR with Stokes channels S0.<band> ... S3.<band>")
     v.add_argument("--out", metavar="PNG", default=None,
                    help="output PNG, replaced if it exists (default: next to the EXR)")
     picture_options(v, "all")

@@ -37,7 +37,6 @@ the panel's legend, never drawn as if they were data.
 from __future__ import annotations
 
 import inspect
-import os
 from dataclasses import dataclass, field
 from typing import Optional, Sequence, Union
 
@@ -178,11 +177,12 @@ def _degree_panel(ax, image, band, quality, values, cmap, top, panel, label, tit
 
 
 def draw_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis",
-              dolp_max: Union[float, str] = "auto", band: Optional[str] = None,
+              dolp_max: Union[float, str] = 1.0, band: Optional[str] = None,
               quality: Optional[StokesQuality] = None) -> Drawing:
     """Degree of linear polarization sqrt(S1² + S2²)/S0, from 0 to *dolp_max*
-    (a number, or ``"auto"``: the data's 99.5th percentile rounded up; see
-    :mod:`~mitsuba_pbrdf.imaging.colours`), ``viridis`` or ``gray``."""
+    (a number, default 1, or ``"auto"``: the data's 99.5th percentile rounded
+    up, what the command line uses; see :mod:`~mitsuba_pbrdf.imaging.colours`),
+    ``viridis`` or ``gray``."""
     with np.errstate(invalid="ignore"):
         values = dolp(pixel_stokes(image, band), axis=-1)
     return _degree_panel(ax, image, band, quality, values, dolp_cmap, dolp_max, "dolp", "DoLP",
@@ -223,7 +223,7 @@ def draw_aolp(ax, image: StokesImage, min_dolp: float = 0.01, band: Optional[str
 
 def polarization_hsv(
     image: StokesImage,
-    dolp_max: Union[float, str] = "auto",
+    dolp_max: Union[float, str] = 1.0,
     exposure: Optional[float] = None,
     percentile: float = 99.0,
     band: Optional[str] = None,
@@ -245,7 +245,7 @@ def polarization_hsv(
     return hsv_to_rgb(np.stack([hue, saturation, value], axis=-1).astype(np.float32))
 
 
-def draw_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = "auto",
+def draw_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = 1.0,
                           exposure: Optional[float] = None, band: Optional[str] = None,
                           quality: Optional[StokesQuality] = None) -> Drawing:
     """:func:`polarization_hsv`: colour = AoLP, saturation = DoLP, brightness =
@@ -338,7 +338,7 @@ def plot_intensity(ax, image: StokesImage, exposure: Optional[float] = None,
 
 
 def plot_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis",
-              dolp_max: Union[float, str] = "auto", band: Optional[str] = None,
+              dolp_max: Union[float, str] = 1.0, band: Optional[str] = None,
               quality: Optional[StokesQuality] = None):
     """:func:`draw_dolp` with its title and colour bar."""
     return _finish(ax, draw_dolp(ax, image, dolp_cmap, dolp_max, band, quality))
@@ -357,7 +357,7 @@ def plot_aolp(ax, image: StokesImage, min_dolp: float = 0.01, band: Optional[str
     return _finish(ax, draw_aolp(ax, image, min_dolp, band, quality))
 
 
-def plot_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = "auto",
+def plot_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = 1.0,
                           exposure: Optional[float] = None, band: Optional[str] = None,
                           quality: Optional[StokesQuality] = None):
     """:func:`draw_polarization_hsv` with its title and colour bar."""

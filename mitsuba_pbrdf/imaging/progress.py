@@ -52,8 +52,9 @@ class _Off:
 class _Lines(_Off):
     """One line every LINE_INTERVAL_S seconds: done/total, elapsed, left."""
 
-    def __init__(self, total, desc, unit, interval=LINE_INTERVAL_S, stream=None):
-        self.total, self.desc, self.unit, self.interval = total, desc, unit, interval
+    def __init__(self, total, desc, unit, interval=None, stream=None):
+        self.total, self.desc, self.unit = total, desc, unit
+        self.interval = LINE_INTERVAL_S if interval is None else interval
         self.stream = stream or sys.stderr
         self.done = 0
         self.start = self.last = time.perf_counter()

@@ -54,7 +54,7 @@ class ParameterUse:
     whole: bool  # the value is exactly "$key" (not part of a longer text)
 
     def describe(self, scene_name: str) -> str:
-        owner = f"the {self.plugin} ({self.plugin_type})" if self.plugin_type else f"the {self.plugin}"
+        owner = f"the {self.plugin}" + (f" ({self.plugin_type})" if self.plugin_type else "")
         return f'it sets <{self.tag} name="{self.name}"> of {owner} in {scene_name}'
 
 
