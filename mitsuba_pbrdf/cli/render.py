@@ -56,6 +56,8 @@ def run(args) -> int:
     positive_int("--spp", args.spp)
     positive_int("--passes", args.passes)
     picture = picture_kwargs(args)
+    if picture["band"] not in (None, "R", "G", "B"):  # what Mitsuba's stokes integrator writes
+        raise CliError(f"no band {picture['band']!r} in a render; bands are R, G, B")
     variant = chosen_variant(args)
     require_polarized(variant)
     check_parameter_values(scene, params)
@@ -76,8 +78,6 @@ def run(args) -> int:
             f"{e} (render with a *_polarized variant and the scene's integrator "
             "wrapped in <integrator type=\"stokes\">)"
         ) from e
-    if picture["band"] is not None and picture["band"] not in image.bands:
-        raise CliError(f"no band {picture['band']!r}; bands are {', '.join(image.bands)}")
     quality = report_quality(image, picture["band"], f"the render of {scene}", "render")
 
     name = os.path.splitext(os.path.basename(scene))[0]
