@@ -40,7 +40,7 @@ import csv
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Dict, List
+from typing import Dict, List, Optional
 
 import numpy as np
 
@@ -71,6 +71,10 @@ class Measurements:
     uncertainty: Dict[str, np.ndarray] = field(default_factory=dict)
     source: str = "<memory>"
     ignored_columns: List[str] = field(default_factory=list)
+    #: Per-row intensity scale (M00, 1/sr) of the absolute uncertainty floor of
+    #: the Mueller elements, or None (then each column's largest value). Rows of a
+    #: ``.pbsdf`` table carry it: a polarimeter's errors scale with the intensity.
+    row_scale: Optional[np.ndarray] = None
 
     def __len__(self):
         return len(self.theta_i)
