@@ -45,11 +45,14 @@ def table_cells(table: PbsdfTable, cells=3000, max_angle=80.0, seed=0):
         raise ValueError(f"cells must be at least 1, got {cells}")
     if not 0.0 < max_angle < 90.0:
         raise ValueError(f"max_angle must be in (0, 90) degrees, got {max_angle:g}")
-    pd, td, th = np.meshgrid(table.phi_d, table.theta_d, table.theta_h, indexing="ij")
-    L, V = directions(pd, td, th)
+    # z of L and V (rusinkiewicz.directions): cos td cos th -+ sin td cos pd sin th,
+    # by broadcasting (a KAIST grid has 3 million cells: no direction vectors)
+    cos_cos = (np.cos(table.theta_d)[:, None] * np.cos(table.theta_h)[None, :])[None]
+    sin_sin = (np.sin(table.theta_d)[:, None] * np.sin(table.theta_h)[None, :])[None]
+    tilt = np.cos(table.phi_d)[:, None, None] * sin_sin
     limit = math.cos(math.radians(max_angle))
-    valid = (L[..., 2] >= limit) & (V[..., 2] >= limit)
-    del L, V
+    valid = (cos_cos - tilt >= limit) & (cos_cos + tilt >= limit)
+    del tilt
     rng = np.random.default_rng(seed)
     near = [int(np.argmin(np.abs(table.phi_d - a))) for a in (-np.pi, 0.0, np.pi)]
     in_plane = np.zeros(table.phi_d.size, bool)
