@@ -35,7 +35,7 @@ from .rusinkiewicz import angles, global_axis
 __all__ = ["sphere_scene", "render_stokes", "quantities", "predict_direct", "LIGHT"]
 
 #: Direction the light travels (world), and the camera looks along -z.
-LIGHT = (-0.55, -0.35, -0.76)
+LIGHT = (-0.93, -0.3, -0.2)
 
 
 def _unit(v):
@@ -100,7 +100,8 @@ def angle_difference(a, b):
 
 def _hits(scene_dict, size, sub):
     """Mitsuba's camera rays through a sub x sub grid in every pixel and their
-    hits on the sphere: world directions, shading frames, validity."""
+    hits on the sphere: world directions, shading frames, validity (needs a
+    JIT variant: the rays are traced as one array)."""
     import drjit as dr
     import mitsuba as mi
 
