@@ -19,8 +19,9 @@ parameter). Both give the same parameters; ``reference`` is faster on the
 data sizes of goniometer measurements (``validation/fit_synthetic.md``, section 3).
 
 Parameter uncertainties come from the singular values of the weighted
-Jacobian at the optimum (times the reduced chi-square without given
-uncertainties; :mod:`.identifiability`): parameters the data cannot determine
+Jacobian at the optimum (:mod:`.identifiability`; without given
+uncertainties, those of the assumed ones, scaled up by the reduced chi-square
+when it exceeds 1): parameters the data cannot determine
 are reported as undetermined, never with a small +/- from a pseudo-inverse.
 They are meaningful only where the fit is good and the parameter is not at a
 bound (reported).
@@ -179,7 +180,10 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     values = layout.unpack(best.x)
     chi2 = float(2 * best.cost)
     dof = n_obs - len(layout.free)
-    chi2_scale = chi2 / max(dof, 1) if any(q not in data.uncertainty for q in names) else 1.0
+    # assumed uncertainties: scaled up by the reduced chi-square when the residuals
+    # are larger, never down (a fit to exact data does not make the data exact)
+    chi2_scale = (max(chi2 / max(dof, 1), 1.0) if any(q not in data.uncertainty for q in names)
+                  else 1.0)
     sd, undetermined, groups = analyze(best.jac, layout.free, best.x, chi2_scale)
     errors = {"n": np.full(len(wavelengths), np.nan), "k": np.full(len(wavelengths), np.nan)}
     errors.update({p: math.nan for p in SHARED})
