@@ -301,3 +301,10 @@ def test_export_bad_input(args, expected, tmp_path):
     # one error line (argparse prints its usage above it)
     assert expected in r.stderr.strip().splitlines()[-1] and "Traceback" not in r.stderr
     assert sorted(os.listdir(tmp_path)) == ["file"]
+
+
+def test_explicit_index_wins_over_the_default_material():
+    """PBRDFParams(eta=..., k=...) evaluates with that n + ik even before
+    validate() (the default material is Al)."""
+    p = PBRDFParams(eta=0.9, k=2.4)
+    assert p.ior([550.0])[0][0] == 0.9 and p.label().startswith("n=0.9")
