@@ -322,6 +322,9 @@ def write_pbsdf(path, M, phi_d, theta_d, theta_h, wavelengths, align=8, slab_byt
                         slab.tofile(f)
                 else:
                     data[name].tofile(f)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)        # mkstemp's 0600 -> what open() would give
         os.replace(tmp, path)
     except BaseException as e:
         if os.path.exists(tmp):
