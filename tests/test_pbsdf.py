@@ -308,3 +308,12 @@ def test_explicit_index_wins_over_the_default_material():
     validate() (the default material is Al)."""
     p = PBRDFParams(eta=0.9, k=2.4)
     assert p.ior([550.0])[0][0] == 0.9 and p.label().startswith("n=0.9")
+
+
+def test_horizon_nodes_hold_zero(table_path):
+    """Nodes on the horizon (theta_d = 90 deg at theta_h = 0: cos = 6e-17 in
+    floating point) hold 0, not the model's 1/cos blow-up (up to 1e29), which
+    would leak into every lookup near the horizon as fireflies."""
+    t = pbsdf.read_pbsdf(table_path)
+    assert np.all(t.M[:, -1, 0] == 0)
+    assert np.isfinite(t.M).all() and np.abs(t.M).max() < 1e5

@@ -217,7 +217,7 @@ def main(argv=None):
               f"{r['seconds'][1]:.1f} s (measured_polarized, incl. kernel compilation)", flush=True)
     path, _, _ = export_table("default", args.folder)
     zs, image, image_se, lit = compare_path(path, args.size // 2 if not args.quick else 32,
-                                            args.spp, args.passes)
+                                            args.spp // 2, args.passes)
     from scipy.stats import t as student
     dof = 2 * (args.passes - 1)       # two standard errors, each from `passes` renders
     expected = 2 * student.sf(3.0, dof)
@@ -271,7 +271,7 @@ def main(argv=None):
         "## 4. Path tracing",
         "",
         "The sphere on a floor of the same material, directional light plus a constant "
-        f"environment, `path` (max_depth 4), {args.passes} passes of {args.spp} spp each, "
+        f"environment, `path` (max_depth 4), {args.passes} passes of {args.spp // 2} spp each, "
         "default table. The two plugins sample differently, so their noise is independent: "
         "z = difference / its standard error (from the passes) per lit pixel, and the "
         "difference of the image sums relative to the sum of S0 (with its standard error).",

@@ -5,8 +5,10 @@ Every table cell is the float64 reference evaluator's pBRDF (1/sr, no cosine
 factor) at the cell's Rusinkiewicz angles, rotated from the reference's
 global s/p frames into the table's facet frames
 (:mod:`mitsuba_pbrdf.measured.rusinkiewicz`). Cells where the light or the
-viewer is below the horizon (theta_d + theta_h beyond 90 deg, depending on
-phi_d) hold the model's value there, 0. Computed in slabs of ``phi_d`` (NumPy,
+viewer is on or below the horizon (theta_d + theta_h at or beyond 90 deg,
+depending on phi_d; a cosine below :data:`HORIZON`) hold the model's value
+there, 0: in floating point cos(90 deg) = 6e-17 > 0, and the model's 1/cos
+would put values up to 1e29 on horizon nodes. Computed in slabs of ``phi_d`` (NumPy,
 no loop over cells) and written as it goes, so a full KAIST-size table
 (about 1 GB) never sits in memory.
 
@@ -32,6 +34,10 @@ from .rusinkiewicz import angles, directions, global_to_facet
 
 __all__ = ["Grid", "DEFAULT_GRID", "KAIST_GRID", "KAIST_WAVELENGTHS", "parse_grid",
            "tabulate", "export_pbsdf"]
+
+#: Cells with the light or the viewer closer to the horizon than this cosine
+#: (0.06 mrad) hold 0, the model's value at and below the horizon.
+HORIZON = 1e-6
 
 #: The KAIST database's five bands (nm).
 KAIST_WAVELENGTHS = (450, 500, 550, 600, 650)
@@ -93,6 +99,11 @@ def tabulate(params: PBRDFParams, phi_d, theta_d, theta_h, wavelengths):
     L, V = directions(pd, td, th)
     ti, pi_, tr, pr = angles(L, V)
     M = params.evaluate(ti, pi_, tr, pr, np.asarray(wavelengths, dtype=np.float64))
+    # on the horizon (cos 90 deg = 6e-17 in floating point) the model's 1/cos
+    # gives up to 1e29: such a node would leak into every lookup near the horizon
+    # (fireflies). The model's value at and below the horizon is 0.
+    on_horizon = np.minimum(L[..., 2], V[..., 2]) < HORIZON
+    M[on_horizon] = 0.0
     return global_to_facet(M, L, V)
 
 
