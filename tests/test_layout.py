@@ -186,6 +186,8 @@ def test_no_project_file_cites_files_outside_the_repository():
             path = os.path.join(folder, name)
             text = open(path, encoding="utf-8").read()
             assert outside not in text, path
+            if os.path.abspath(path) == os.path.abspath(__file__):
+                continue  # this file's scans are tested on made-up paths
             for m in cited.findall(text):
                 if not os.path.exists(os.path.join(ROOT, m)):
                     missing.append(f"{os.path.relpath(path, ROOT)}: {m}")
