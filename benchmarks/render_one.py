@@ -10,7 +10,7 @@ once to compile (kernels are cached on disk across processes), then
 ``--reps`` times, and prints the CPU seconds of each timed render. Pair two
 of them with any process timer (``/usr/bin/time``, hyperfine) in alternation,
 or compare the printed CPU times: the render-time ratio of pbrdf against
-roughconductor at equal spp is the quantity README's Performance section
+roughconductor at equal spp is the quantity ``docs/performance.md``
 quotes.
 """
 

@@ -1,5 +1,5 @@
 """Smoke test of benchmarks/benchmark.py (--quick): it runs end to end and
-reports finite figures. The full run is by hand (see README, Performance)."""
+reports finite figures. The full run is by hand (``docs/performance.md``)."""
 
 import os
 import re

@@ -2,9 +2,9 @@
 
 Everything here is computed with the NumPy float64 reference evaluator
 (:mod:`mitsuba_pbrdf.reference`): no Mitsuba variant is needed, and the plugin
-agrees with it to about 3e-5 of M00 (README, *Accuracy*). Frames and signs are
-the reference's: global s/p frames, S1 = I_s − I_p, so S1 > 0 means
-s-polarized; see its module docstring.
+agrees with it to about 3e-5 of M00 (``docs/validation.md``). Frames and
+signs are the reference's: global s/p frames, S1 = I_s − I_p, so S1 > 0
+means s-polarized (``docs/conventions.md``).
 
 ::
 

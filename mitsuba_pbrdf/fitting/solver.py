@@ -3,8 +3,8 @@
 
 
 **Parameters.** The complex index n + ik per distinct wavelength, and
-``sigma, ks, kdd, sigma_dd, kid`` shared by all wavelengths (see README's
-model). ``--material`` starts n, k from Mitsuba's tabulated spectra (else
+``sigma, ks, kdd, sigma_dd, kid`` shared by all wavelengths (the model:
+``docs/model.md``; the fit: ``docs/fitting.md``). ``--material`` starts n, k from Mitsuba's tabulated spectra (else
 n = 1.5, k = 5); ``--fix`` holds parameters (``n``/``k`` for all
 wavelengths, or ``n@633=1.2`` for one). The *two-component* model is the
 specular lobe plus the ideal diffuse one (``kdd = 0``: the model the paper

@@ -17,7 +17,7 @@ from .model import pbrdf
 
 @dataclass
 class PBRDFParams:
-    """Parameters of the model, as the plugin takes them (see the README's table).
+    """Parameters of the model, as the plugin takes them (table: ``docs/plugin.md``).
 
     Either *material* (a Mitsuba conductor name: ``Al``, ``Cu``, ``Au``, ``Ag``,
     ...) or both *eta* and *k* (a complex index n + ik, constant over
