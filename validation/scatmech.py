@@ -43,7 +43,9 @@ def scatmech(shadowing, n, k, sigma, ti, ts, ps):
                          for a, b, c in zip(ti, ts, ps)]) @ D
 
 
-def main():
+def main(argv=None):
+    import argparse
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args(argv)
     mi = common.use_variant()
     from mitsuba_pbrdf import frames
     from mitsuba_pbrdf import reference as ref
