@@ -36,7 +36,7 @@ import os
 import struct
 import tempfile
 from dataclasses import dataclass
-from typing import Dict, Optional
+from typing import Dict
 
 import numpy as np
 
