@@ -23,7 +23,6 @@
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
 import time
@@ -53,16 +52,21 @@ def noisy_table(folder, grid="25x40x40", seed=0):
 
 
 def run(cmd):
-    """Run a command; (stdout, seconds, peak RSS of the child in MiB)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    """Run a command; (stdout, seconds, peak resident memory of that process in
+    MiB, the kernel's accounting of the child from ``os.wait4``)."""
+    import tempfile
     t0 = time.perf_counter()
-    r = subprocess.run(cmd, capture_output=True, text=True, cwd=common.ROOT,
-                       env=dict(os.environ, PYTHONPATH=common.ROOT))
-    seconds = time.perf_counter() - t0
-    if r.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed: {r.stderr}")
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    return r.stdout, seconds, max(peak, before) / 1024
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        p = subprocess.Popen(cmd, stdout=out, stderr=err, text=True, cwd=common.ROOT,
+                             env=dict(os.environ, PYTHONPATH=common.ROOT))
+        _, status, usage = os.wait4(p.pid, 0)
+        seconds = time.perf_counter() - t0
+        out.seek(0)
+        err.seek(0)
+        stdout, stderr = out.read(), err.read()
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed: {stderr}")
+    return stdout, seconds, usage.ru_maxrss / 1024
 
 
 def scatmech_data(seed=1):
@@ -120,12 +124,14 @@ def main(argv=None):
     for m in ("three", "two"):
         r = results[m]
         for j, w in enumerate(wavelengths):
-            rows.append([m, f"n ({w:g} nm)", n_true[j], r["values"]["n"][j], r["errors"]["n"][j]])
-            rows.append([m, f"k ({w:g} nm)", k_true[j], r["values"]["k"][j], r["errors"]["k"][j]])
+            rows.append([m, f"n ({w:g} nm)", n_true[j], r["values"]["n"][j],
+                         _error(r["errors"]["n"][j])])
+            rows.append([m, f"k ({w:g} nm)", k_true[j], r["values"]["k"][j],
+                         _error(r["errors"]["k"][j])])
         for p in ("sigma", "ks", "kdd", "sigma_dd", "kid"):
             if m == "two" and p in ("kdd", "sigma_dd"):
                 continue
-            rows.append([m, p, CU[p], r["values"][p], r["errors"][p]])
+            rows.append([m, p, CU[p], r["values"][p], _error(r["errors"][p])])
     rms_rows = [[m, results[m]["reduced_chi2"]] + [results[m]["rms"][q] for q in
                 ("m00", "m01", "m11", "m22", "m23", "m33")] + [results[m]["relative_rms"]["m00"]]
                 for m in ("three", "two")]
@@ -133,12 +139,10 @@ def main(argv=None):
     # 2. SCATMECH data
     data = scatmech_data()
     sc = fitting.fit_model(data, "three", init={"n": 1.5, "k": 5.0, "sigma": 0.2}, starts=3)
-    sc_rows = [["n", SCATMECH["n"], sc.values["n"][0], sc.errors["n"][0]],
-               ["k", SCATMECH["k"], sc.values["k"][0], sc.errors["k"][0]],
-               ["sigma", SCATMECH["sigma"], sc.values["sigma"], sc.errors["sigma"]],
-               ["ks", 1.0, sc.values["ks"], sc.errors["ks"]],
-               ["kdd", 0.0, sc.values["kdd"], sc.errors["kdd"]],
-               ["kid", 0.0, sc.values["kid"], sc.errors["kid"]]]
+    sc_rows = [[p, truth, np.ravel(sc.values[p])[0], _error(float(np.ravel(sc.errors[p])[0]))]
+               for p, truth in (("n", SCATMECH["n"]), ("k", SCATMECH["k"]),
+                                ("sigma", SCATMECH["sigma"]), ("ks", 1.0), ("kdd", 0.0),
+                                ("sigma_dd", "-"), ("kid", 0.0))]
 
     # 3. full-size table
     full_rows = []
@@ -155,7 +159,7 @@ def main(argv=None):
                    os.path.join(args.folder, "kaist_fit.json")]
         _, t_fit, rss_fit = run(fit_cmd)
         full = json.load(open(os.path.join(args.folder, "kaist_fit.json")))["three"]
-        full_rows = [[f"pbrdf export --material Cu ... --grid kaist ({size:.2f} GiB)", t_export,
+        full_rows = [[f"pbrdf export --material Cu ... --grid kaist ({size * 2**30 / 1e9:.2f} GB)", t_export,
                       rss_export],
                      ["pbrdf fit kaist_size.pbsdf (3000 cells, both models, 3 starts each)", t_fit,
                       rss_fit]]
@@ -168,7 +172,8 @@ def main(argv=None):
             "## 1. An exported table with noise", "",
             f"Copper (Mitsuba's n, k at the five bands), sigma = {CU['sigma']}, kdd = {CU['kdd']}, "
             f"sigma_dd = {CU['sigma_dd']}, kid = {CU['kid']}; every entry perturbed by "
-            "N(0, (2 % |M_ij| + 0.2 % M00)^2). `" + " ".join(["pbrdf"] + cmd[3:5] + ["--cells", cells])
+            "N(0, (2 % |M_ij| + 0.2 % M00)^2). `" + " ".join(
+                ["pbrdf", "fit", os.path.relpath(path, common.ROOT), "--cells", cells])
             + f"`: {seconds:.0f} s, peak RSS {peak:.0f} MiB.", "",
             common.table(["model", "parameter", "true", "fitted", "+/-"], rows, digits=4), "",
             common.table(["model", "reduced chi2", "RMS m00", "RMS m01", "RMS m11", "RMS m22",
@@ -186,13 +191,18 @@ def main(argv=None):
             f"{', '.join(sc.undetermined) or 'none'}.", ""]
     if full_rows:
         text += ["## 3. A full-size KAIST table", "",
-                 "Peak resident memory of the process (getrusage) and wall time, one run:", "",
+                 "Peak resident memory of each process (`os.wait4`'s ru_maxrss) and wall time, one run:", "",
                  common.table(["command", "seconds", "peak RSS (MiB)"], full_rows), "",
                  f"The fit reads only the {3000} chosen cells from the memory-mapped file; "
                  f"recovered sigma = {full_fit['values']['sigma']:.4g} (true {CU['sigma']}), "
                  f"kdd = {full_fit['values']['kdd']:.4g} ({CU['kdd']}), "
                  f"kid = {full_fit['values']['kid']:.4g} ({CU['kid']}).", ""]
     common.write_markdown("fit_pbsdf", "\n".join(text))
+
+
+def _error(e):
+    """An uncertainty for the tables: ``undetermined`` for None (JSON) or inf."""
+    return "undetermined" if e is None or (isinstance(e, float) and np.isinf(e)) else e
 
 
 if __name__ == "__main__":

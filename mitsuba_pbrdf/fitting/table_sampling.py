@@ -2,9 +2,9 @@
 :class:`~mitsuba_pbrdf.measured.Measurements` in the reference's global s/p
 frames.
 
-A KAIST table has 15 million cells of 5 x 16 values: a fit uses a few
-thousand cells, read from the memory-mapped file one by one (only those
-pages are read):
+A KAIST table has 3 million cells of 5 x 16 values: a fit uses a few
+thousand cells, read from the file one by one (:meth:`PbsdfTable.cells`;
+nothing else of ``M`` is read):
 
 * **in-plane slices**: every cell with ``phi_d`` on the grid values nearest 0
   and +-pi (light, normal and viewer in one plane; ``theta_i`` and
@@ -86,7 +86,7 @@ def sample_table(table: PbsdfTable, cells=3000, max_angle=80.0, seed=0, quantiti
         raise ValueError(f"unknown quantities {', '.join(unknown) or '(none)'}; "
                          f"choose among m00 ... m33, dolp")
     ip, id_, ih = table_cells(table, cells, max_angle, seed)
-    M = np.asarray(table.M[ip, id_, ih], dtype=np.float64)          # (n, W, 4, 4)
+    M = table.cells(ip, id_, ih).astype(np.float64)                 # (n, W, 4, 4)
     bad = np.isinf(M)
     if bad.any():
         c = np.argwhere(bad)[0]
