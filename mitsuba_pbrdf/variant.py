@@ -88,12 +88,16 @@ def require_variant():
 
 
 def register():
-    """Register the ``pbrdf`` BSDF plugin in the active variant; returns the
-    variant's name. Raises :class:`VariantNotSetError` if none is set."""
+    """Register the ``pbrdf`` BSDF plugin and the package's integrators
+    (``stokes_prb``, :mod:`mitsuba_pbrdf.integrators`) in the active variant;
+    returns the variant's name. Raises :class:`VariantNotSetError` if none is
+    set."""
     mi = require_variant()
+    from .integrators import register as register_integrators
     from .plugin import plugin_class
 
     mi.register_bsdf("pbrdf", plugin_class())
+    register_integrators()
     return mi.variant()
 
 
@@ -161,7 +165,7 @@ def _on_variant_change(old, new):
     try:
         register()
     except Exception as e:  # never break mi.set_variant itself
-        log.warning("could not register the pbrdf plugin in %s: %s", new, e)
+        log.warning("could not register the pbrdf plugins in %s: %s", new, e)
 
 
 _hooked = False
