@@ -80,7 +80,7 @@ class VertexStore:
         # emission: MIS weight of the BSDF sample that hit this vertex
         "mis_bsdf": mi.Float,
         # emitter sample: its random numbers and whether it counts (visible)
-        "em_sample": mi.Point2f, "em_ok": mi.UInt32,
+        "em_sample": mi.Point2f, "em_ok": mi.UInt32, "mis_em": mi.Float,
         # BSDF sample: random numbers, direction, pdf, type, Russian roulette
         "bsdf_s1": mi.Float, "bsdf_s2": mi.Point2f, "wo": mi.Vector3f, "pdf": mi.Float,
         "smooth": mi.UInt32, "next": mi.UInt32, "rr": mi.Float,
@@ -206,7 +206,8 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
                 count, o=ray.o, d=ray.d, t=pi.t, prim_uv=pi.prim_uv, prim_index=pi.prim_index,
                 shape_index=pi.shape_index, shape=dr.reinterpret_array(mi.UInt32, pi.shape),
                 instance=dr.reinterpret_array(mi.UInt32, pi.instance), mis_bsdf=mis_bsdf,
-                em_sample=em_sample, em_ok=dr.select(active_em, 1, 0), bsdf_s1=s1, bsdf_s2=s2,
+                em_sample=em_sample, em_ok=dr.select(active_em, 1, 0), mis_em=mis_em,
+                bsdf_s1=s1, bsdf_s2=s2,
                 wo=bs.wo, pdf=bs.pdf,
                 smooth=dr.select(mi.has_flag(bs.sampled_type, mi.BSDFFlags.Smooth), 1, 0),
                 next=dr.select(active_cont, 1, 0), rr=rr,
@@ -238,18 +239,24 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
     width = dr.width(ray)
     L = dr.zeros(mi.SpectrumEntry, width)
     tangent = dr.zeros(mi.SpectrumEntry, width)
-    k = mi.UInt32(count)
+    # One index for all lanes (a scalar loop variable): local memory is then
+    # read a packet at a time instead of gathered; lanes whose path is
+    # shorter skip the first iterations (`here`).
+    k = mi.UInt32(store.size)
 
     while dr.hint(k > 0, label="stokes_prb replay"):
         k -= 1
+        here = k < count
         rec = store.read(k)
         ray_k = mi.Ray3f(ray)
         ray_k.o = rec["o"]
         ray_k.d = rec["d"]
         pi = _preliminary(rec)
-        em_ok = rec["em_ok"] != 0
-        has_next = rec["next"] != 0
+        pi.valid &= here
+        em_ok = (rec["em_ok"] != 0) & here
+        has_next = (rec["next"] != 0) & here
         smooth = rec["smooth"] != 0
+        mis_bsdf = dr.select(here, rec["mis_bsdf"], 0.0)
 
         with dr.resume_grad():
             si = pi.compute_surface_interaction(ray_k, mi.RayFlags.All)
@@ -257,15 +264,14 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
 
             # emission (this vertex's emitter, MIS weight from the trace)
             emitter = si.emitter(scene)
-            E = column0(emitter.eval(si, rec["mis_bsdf"] > 0)) * rec["mis_bsdf"]
+            E = column0(emitter.eval(si, mis_bsdf > 0)) * mis_bsdf
 
-            # emitter sample again, from its stored random numbers
+            # emitter sample again from its random numbers (derivatives of
+            # the emitter's radiance); visibility and MIS weight as traced
             ds, em_weight = scene.sample_emitter_direction(si, rec["em_sample"], False, em_ok)
             wo_em = si.to_local(ds.d)
-            f_em, pdf_em = bsdf.eval_pdf(ctx, si, wo_em, em_ok)
-            f_em = si.to_world_mueller(f_em, -wo_em, si.wi)
-            mis_em = dr.select(ds.delta, 1.0, mis_weight(ds.pdf, dr.detach(pdf_em)))
-            E[em_ok] = E + mueller_times(f_em, column0(em_weight)) * mis_em
+            f_em = si.to_world_mueller(bsdf.eval(ctx, si, wo_em, em_ok), -wo_em, si.wi)
+            E[em_ok] = E + mueller_times(f_em, column0(em_weight)) * rec["mis_em"]
 
             # sampled continuation: f(theta) / pdf (detached sampling) ...
             wo = rec["wo"]
@@ -287,7 +293,7 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
             else:
                 tangent += dr.forward_to(mueller_times(rec["adj"], contribution))
 
-        L = dr.detach(E) + mueller_times(rec["W"], L)
+        L = dr.select(here, dr.detach(E) + mueller_times(rec["W"], L), L)
 
     if dr.hint(reverse, mode="scalar"):
         return None
