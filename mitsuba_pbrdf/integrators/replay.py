@@ -70,7 +70,7 @@ class VertexStore:
 
     ``adjoint`` is ``"reverse"`` (store the row adjoint ``delta_k``, a Stokes
     vector) or ``"forward"`` (store the prefix throughput ``beta_k``, a
-    Mueller matrix). Floats per vertex: 42 + 64 (W) + 16 or 64."""
+    Mueller matrix). Floats per vertex: 28 + 64 (W) + 16 or 64 (~0.4 or 0.6 kB)."""
 
     FIELDS = {
         # rebuild the surface interaction: ray and preliminary intersection
