@@ -1,4 +1,5 @@
-"""Choosing the Mitsuba variant and registering the ``pbrdf`` plugin in it.
+"""Choosing the Mitsuba variant and registering the ``pbrdf`` plugin (and the
+package's integrators, ``stokes_prb``) in it.
 
 ::
 
@@ -6,7 +7,8 @@
     mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")   # set it, register pbrdf
 
 Mitsuba's Python plugins are registered per variant. This module keeps the
-``pbrdf`` plugin registered in whatever variant is active: importing
+``pbrdf`` plugin and the integrators of :mod:`mitsuba_pbrdf.integrators`
+registered in whatever variant is active: importing
 ``mitsuba_pbrdf`` registers it in the variant already set (if any) and, through
 Mitsuba's variant callbacks, in every variant set afterwards with
 ``mi.set_variant``. :func:`register` does it by hand.

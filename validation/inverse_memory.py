@@ -138,6 +138,7 @@ def table(rows):
     """Markdown cost table: each gradient row against the primal-render
     process of the same size and spp."""
     primal = {(s, spp): r for s, spp, label, r in rows if label == "primal render"}
+    rows = [r for r in rows if r[:2] in primal]
     lines = ["| pixels | spp | method | peak RSS | RSS / primal process | Dr.Jit peak | "
              "gradient time, first / next | next / primal render | renders |",
              "|---|---|---|---|---|---|---|---|---|"]
@@ -163,17 +164,39 @@ def main(argv=None):
     args.add_argument("--quick", action="store_true")
     args.add_argument("--child")
     args.add_argument("--out", default=os.path.join(HERE, "inverse_memory.md"))
+    args.add_argument("--cache", help="JSON file of finished configurations (reused)")
     args = args.parse_args(argv)
     if args.child:
         child(json.loads(args.child))
         return 0
 
     sizes, spps = ((64, 128), (16, 64)) if args.quick else ((128, 256, 512), (16, 64, 256))
-    rows = []
-    for size, spp, label, method, passes in plan(sizes, spps):
-        rows.append((size, spp, label, run({"size": size, "spp": spp, "method": method,
-                                            "passes": passes})))
+    configs = plan(sizes, spps)
+    # The goal's row first, then replay and primal everywhere, then the rest:
+    # the report is rewritten after every configuration.
+    goal = (max(sizes), 64)
+    configs.sort(key=lambda c: (c[:2] != goal, c[3] not in ("primal", "prb")))
+    cache = {}
+    if args.cache and os.path.exists(args.cache):
+        with open(args.cache) as f:
+            cache = {tuple(json.loads(k)): v for k, v in json.load(f).items()}
+    done = []
+    for size, spp, label, method, passes in configs:
+        key = (size, spp, method, passes)
+        if key not in cache:
+            cache[key] = run({"size": size, "spp": spp, "method": method, "passes": passes})
+            if args.cache:
+                with open(args.cache, "w") as f:
+                    json.dump({json.dumps(list(k)): v for k, v in cache.items()}, f)
+        done.append((size, spp, label, cache[key]))
+        order = {c[:3]: i for i, c in enumerate(plan(sizes, spps))}
+        rows = sorted(done, key=lambda r: order[r[:3]])
+        write(args, rows)
+    print(f"wrote {args.out}")
+    return 0
 
+
+def write(args, rows):
     lines = ["# Memory and time of Stokes-loss gradients",
              "",
              f"`python validation/inverse_memory.py{' --quick' if args.quick else ''}` (this "
@@ -204,8 +227,6 @@ def main(argv=None):
               "cost reference only)."]
     with open(args.out, "w") as f:
         f.write("\n".join(lines) + "\n")
-    print(f"wrote {args.out}")
-    return 0
 
 
 if __name__ == "__main__":
