@@ -72,28 +72,32 @@ class VertexStore:
     vector) or ``"forward"`` (store the prefix throughput ``beta_k``, a
     Mueller matrix). Floats per vertex: 28 + 64 (W) + 16 or 64 (~0.4 or 0.6 kB)."""
 
-    FIELDS = {
-        # rebuild the surface interaction: ray and preliminary intersection
-        "o": mi.Point3f, "d": mi.Vector3f, "t": mi.Float, "prim_uv": mi.Point2f,
-        "prim_index": mi.UInt32, "shape_index": mi.UInt32, "shape": mi.UInt32,
-        "instance": mi.UInt32,
-        # emission: MIS weight of the BSDF sample that hit this vertex
-        "mis_bsdf": mi.Float,
-        # emitter sample: its random numbers and whether it counts (visible)
-        "em_sample": mi.Point2f, "em_ok": mi.UInt32, "mis_em": mi.Float,
-        # BSDF sample: random numbers, direction, pdf, type, Russian roulette
-        "bsdf_s1": mi.Float, "bsdf_s2": mi.Point2f, "wo": mi.Vector3f, "pdf": mi.Float,
-        "smooth": mi.UInt32, "next": mi.UInt32, "rr": mi.Float,
-        # sampled weight (world Mueller matrix, roulette included)
-        "W": mi.Spectrum,
-    }
+    @staticmethod
+    def fields(adjoint):
+        """Field name -> Dr.Jit type, in the active variant."""
+        return {
+            # rebuild the surface interaction: ray and preliminary intersection
+            "o": mi.Point3f, "d": mi.Vector3f, "t": mi.Float, "prim_uv": mi.Point2f,
+            "prim_index": mi.UInt32, "shape_index": mi.UInt32, "shape": mi.UInt32,
+            "instance": mi.UInt32,
+            # emission: MIS weight of the BSDF sample that hit this vertex
+            "mis_bsdf": mi.Float,
+            # emitter sample: random numbers, whether it counts (visible), MIS weight
+            "em_sample": mi.Point2f, "em_ok": mi.UInt32, "mis_em": mi.Float,
+            # BSDF sample: random numbers, direction, pdf, type, Russian roulette
+            "bsdf_s1": mi.Float, "bsdf_s2": mi.Point2f, "wo": mi.Vector3f, "pdf": mi.Float,
+            "smooth": mi.UInt32, "next": mi.UInt32, "rr": mi.Float,
+            # sampled weight (world Mueller matrix, roulette included)
+            "W": mi.Spectrum,
+            # delta_k (reverse mode) or beta_k (forward mode)
+            "adj": mi.SpectrumEntry if adjoint == "reverse" else mi.Spectrum,
+        }
 
     def __init__(self, size, adjoint):
         self.size = int(size)
         self.adjoint = adjoint
-        fields = dict(self.FIELDS)
-        fields["adj"] = mi.SpectrumEntry if adjoint == "reverse" else mi.Spectrum
-        self.buffers = {name: dr.alloc_local(tp, self.size) for name, tp in fields.items()}
+        self.buffers = {name: dr.alloc_local(tp, self.size)
+                        for name, tp in self.fields(adjoint).items()}
 
     def write(self, k, **values):
         for name, value in values.items():
