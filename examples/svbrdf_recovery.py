@@ -5,7 +5,7 @@ textured metal sphere from Stokes images, with polarized path replay.
     python examples/svbrdf_recovery.py --components 0  # S0 only, for comparison
 
 A ``pbrdf`` sphere whose ``sigma`` and ``kdd`` are single-channel bitmaps
-(raw values, ``16 x 16`` texels; RGB upsampling in spectral variants assumes
+(raw values, ``8 x 8`` texels; RGB upsampling in spectral variants assumes
 reflectances in [0, 1], so the index n, k stays uniform) is seen by three
 cameras under two area lights and a dim sky. Target images are rendered with
 the true maps; the maps then start uniform and Adam fits their texels to the
@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-TEXELS = 16
+TEXELS = 8
 #: bounds of the fitted texels (sigma >= pbrdf's minimum, kdd >= 0)
 BOUNDS = {"sigma": (0.03, 0.6), "kdd": (0.0, 1.0)}
 START = {"sigma": 0.2, "kdd": 0.2}
@@ -39,7 +39,7 @@ def true_maps(texels=TEXELS):
     return sigma.astype(np.float32), kdd.astype(np.float32)
 
 
-def scene_dict(sigma, kdd, size=48, spp=8, max_depth=2):
+def scene_dict(sigma, kdd, size=64, spp=16, max_depth=2):
     """The scene (three sensors) with the maps ``sigma``, ``kdd`` (arrays)."""
     import mitsuba as mi
 
@@ -84,8 +84,8 @@ def render_views(scene, spp, seed):
             for i in range(len(scene.sensors()))]
 
 
-def recover(components=(0, 1, 2), iterations=80, lr=0.03, size=48, spp=8, target_spp=64,
-            seed=0, log=print):
+def recover(components=(0, 1, 2), iterations=60, lr=0.02, lr_decay=0.97, size=64, spp=16,
+            target_spp=128, seed=0, log=print):
     """Fit the two maps to targets rendered with :func:`true_maps`.
 
     Returns a dict: ``truth``, ``start`` and ``recovered`` maps ({name:
@@ -125,6 +125,7 @@ def recover(components=(0, 1, 2), iterations=80, lr=0.03, size=48, spp=8, target
             low, high = BOUNDS[name]
             opt[key] = dr.clip(opt[key], low, high)
         params.update(opt)
+        opt.set_learning_rate(lr * lr_decay ** (it + 1))
         history.append(total)
         if log and (it % 10 == 0 or it == iterations - 1):
             log(f"  iteration {it:3d}: loss {total:.5f}")
@@ -148,7 +149,7 @@ def main(argv=None):
     args = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     args.add_argument("--components", default="012",
                       help="Stokes components in the loss, e.g. 0 or 012 (default)")
-    args.add_argument("--iterations", type=int, default=80)
+    args.add_argument("--iterations", type=int, default=60)
     args = args.parse_args(argv)
     import mitsuba_pbrdf
 

@@ -1,14 +1,14 @@
 """Spatially varying recovery: a roughness map and a kdd map of a metal sphere
 from Stokes images, with S0 only and with S0, S1, S2.
 
-    python validation/svbrdf_recovery.py            # 80 iterations each (~15 min on 2 cores)
+    python validation/svbrdf_recovery.py            # 60 iterations each (~10 min on 2 cores)
     python validation/svbrdf_recovery.py --quick    # 20 iterations
 
 Writes ``validation/svbrdf_recovery.md`` and
 ``validation/figures/svbrdf_recovery.png`` (loss curves, maps before/after,
 error maps). The fit is examples/svbrdf_recovery.py: three views, two area
-lights and a sky, ``stokes_prb`` at depth 2, 48 x 48 pixels, 8 spp per
-iteration and view, targets at 64 spp, Adam on the 2 x 256 texels from
+lights and a sky, ``stokes_prb`` at depth 2, 64 x 64 pixels, 16 spp per
+iteration and view, targets at 128 spp, Adam on the 2 x 64 texels from
 uniform maps (sigma 0.2, kdd 0.2). Error: RMS over the texels that received
 a gradient (seen by a camera), for each map.
 """
@@ -75,7 +75,7 @@ def main(argv=None):
     mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
     from examples.svbrdf_recovery import map_errors, recover
 
-    iterations = 20 if args.quick else 80
+    iterations = 20 if args.quick else 60
     results, errors = {}, {}
     for label, components in RUNS.items():
         print(label, flush=True)
@@ -87,10 +87,11 @@ def main(argv=None):
     lines = ["# Spatially varying recovery: sigma and kdd maps from Stokes images", "",
              f"`python validation/svbrdf_recovery.py{' --quick' if args.quick else ''}` (this "
              "file). examples/svbrdf_recovery.py: a `pbrdf` sphere (n = 1.5, k = 3.5, ks = 1, "
-             "sigma_dd = 0.5) whose `sigma` and `kdd` are 16 x 16 single-channel bitmaps, seen "
-             "by three cameras (48 x 48) under two area lights and a sky; `stokes_prb` at depth "
-             "2 (`mi.render` + `dr.backward`), 8 spp per view and iteration, targets at 64 spp; "
-             f"Adam (learning rate 0.03) on the 512 texels for {iterations} iterations from "
+             "sigma_dd = 0.5) whose `sigma` and `kdd` are 8 x 8 single-channel bitmaps (bilinear), "
+             "seen by three cameras (64 x 64) under two area lights and a sky; `stokes_prb` at "
+             "depth 2 (`mi.render` + `dr.backward`), 16 spp per view and iteration, targets at "
+             "128 spp; Adam (learning rate 0.02, x 0.97 per iteration) on the 128 texels for "
+             f"{iterations} iterations from "
              "uniform maps (sigma 0.2, kdd 0.2), the loss of `inverse.stokes_loss` summed over "
              "the views on S0 only or on S0, S1, S2.", "",
              "RMS error of each map against the truth over the texels seen by a camera "
@@ -102,7 +103,7 @@ def main(argv=None):
                      f"{e['kdd']['start']:.4f} | {e['kdd']['recovered']:.4f} | "
                      f"{results[label]['seconds']:.0f} |")
     n_vis = {name: int(results["S0, S1, S2"]["visible"][name].sum()) for name in ("sigma", "kdd")}
-    lines += ["", f"Texels seen: sigma {n_vis['sigma']}, kdd {n_vis['kdd']} of 256 each.", "",
+    lines += ["", f"Texels seen: sigma {n_vis['sigma']}, kdd {n_vis['kdd']} of 64 each.", "",
               "![loss curves, maps and errors](figures/svbrdf_recovery.png)", ""]
     with open(args.out, "w") as f:
         f.write("\n".join(lines) + "\n")
