@@ -106,10 +106,9 @@ def frame_bug():
         primal = np.array(integrator.render(sc, sc.sensors()[0], seed=3, spp=SPP))
         dr.enable_grad(params["object.bsdf.sigma.value"])
         params.update()
-        if label == "path":
-            ad = np.array(integrator.render(sc, sc.sensors()[0], seed=3, spp=SPP))
-        else:  # stokes_prb renders detached; its derivative pass traces the same values
-            ad = np.array(integrator.render(sc, sc.sensors()[0], seed=3, spp=SPP))
+        # path records AD here; stokes_prb renders detached (its replay
+        # differentiates values traced detached, in the world frames)
+        ad = np.array(integrator.render(sc, sc.sensors()[0], seed=3, spp=SPP))
         dr.disable_grad(params["object.bsdf.sigma.value"])
         params.update()
         scale = np.abs(primal[..., s12]).max()
