@@ -1,8 +1,9 @@
 """Recover a roughness (sigma) map and a directional-diffuse (kdd) map of a
 textured metal sphere from Stokes images, with polarized path replay.
 
-    python examples/svbrdf_recovery.py                 # S0, S1, S2 (default)
+    python examples/svbrdf_recovery.py                 # S0, S1, S2 (default), ~1-2 min
     python examples/svbrdf_recovery.py --components 0  # S0 only, for comparison
+    python examples/svbrdf_recovery.py --quick         # 16x16, 3 iterations (CI)
 
 A ``pbrdf`` sphere whose ``sigma`` and ``kdd`` are single-channel bitmaps
 (raw values, ``8 x 8`` texels; RGB upsampling in spectral variants assumes
@@ -150,11 +151,14 @@ def main(argv=None):
     args.add_argument("--components", default="012",
                       help="Stokes components in the loss, e.g. 0 or 012 (default)")
     args.add_argument("--iterations", type=int, default=60)
+    args.add_argument("--quick", action="store_true", help="16x16 pixels, 3 iterations")
     args = args.parse_args(argv)
     import mitsuba_pbrdf
 
     mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
-    result = recover(tuple(int(c) for c in args.components), iterations=args.iterations)
+    settings = dict(iterations=3, size=16, spp=4, target_spp=16) if args.quick else \
+        dict(iterations=args.iterations)
+    result = recover(tuple(int(c) for c in args.components), **settings)
     for name, e in map_errors(result).items():
         print(f"{name}: RMS error {e['start']:.4f} (start) -> {e['recovered']:.4f}")
     return 0
