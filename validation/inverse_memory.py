@@ -165,6 +165,8 @@ def main(argv=None):
     args.add_argument("--child")
     args.add_argument("--out", default=os.path.join(HERE, "inverse_memory.md"))
     args.add_argument("--cache", help="JSON file of finished configurations (reused)")
+    args.add_argument("--methods", help="run only these (comma-separated: primal, prb, reverse, "
+                      "forward); rows of others found in --cache are still reported")
     args = args.parse_args(argv)
     if args.child:
         child(json.loads(args.child))
@@ -183,6 +185,8 @@ def main(argv=None):
     done = []
     for size, spp, label, method, passes in configs:
         key = (size, spp, method, passes)
+        if key not in cache and args.methods and method not in args.methods.split(","):
+            continue
         if key not in cache:
             cache[key] = run({"size": size, "spp": spp, "method": method, "passes": passes})
             if args.cache:
