@@ -15,7 +15,7 @@ Oracles and tolerances:
   leaves its re-evaluated BSDF weight in the local Stokes frame when the
   sampled direction carries a derivative, so elsewhere it is no oracle
   (docs/path-replay.md). Float32 rounding of the two summation orders over
-  ~1e3 samples: relative 1e-4 of the largest component (measured <= 4e-6).
+  ~1e3 samples: relative 1e-4 of the largest component (measured <= 1.2e-5).
 * Forward mode equals reverse mode (same estimator, same samples):
   relative 1e-4.
 
@@ -199,11 +199,12 @@ def bitmap_sigma():
     return {"type": "bitmap", "bitmap": mi.Bitmap(data), "raw": True, "filter_type": "nearest"}
 
 
-@pytest.mark.parametrize("depth, rr_depth", [(2, 5), (6, 2)])
+@pytest.mark.parametrize("depth, rr_depth", [(2, 5), (5, 2)])
 def test_gradients_equal_path_ad_per_sample(depth, rr_depth):
     """pbrdf with cosine sampling on a diffuse floor: the BSDF parameters and
     the floor's reflectance; at depth 2 the roughness is a 4 x 4 bitmap (the
-    gradient of each texel), at depth 6 roulette starts at depth 2."""
+    gradient of each texel), at depth 5 roulette starts at depth 2 (depths 1
+    to 6: validation/path_replay_gradients.py)."""
     use_variant("llvm_ad_spectral_polarized")
     texture = depth == 2
     scene, replay = both(max_depth=depth, rr_depth=rr_depth,
@@ -235,7 +236,7 @@ def test_singular_case_polarizer_depolarizing_floor_and_mitsuba_bsdfs():
     got = reverse_gradient(scene, keys, weights, integrator=replay)
     assert np.all(np.abs(want) > 0)
     assert_close(got, want)
-    some = [0, 3, 4]  # forward mode: one render per parameter
+    some = [4]  # forward mode (one render per parameter): the polarizer's angle
     assert_close(forward_gradient(scene, [keys[i] for i in some], weights, integrator=replay),
                  got[some])
 
