@@ -195,12 +195,13 @@ def main(argv=None):
         done.append((size, spp, label, cache[key]))
         order = {c[:3]: i for i, c in enumerate(plan(sizes, spps))}
         rows = sorted(done, key=lambda r: order[r[:3]])
-        write(args, rows)
+        present = {r[:3] for r in rows}
+        write(args, rows, [c[:3] for c in plan(sizes, spps) if c[:3] not in present])
     print(f"wrote {args.out}")
     return 0
 
 
-def write(args, rows):
+def write(args, rows, missing=()):
     lines = ["# Memory and time of Stokes-loss gradients",
              "",
              f"`python validation/inverse_memory.py{' --quick' if args.quick else ''}` (this "
@@ -225,6 +226,9 @@ def write(args, rows):
              f"{MAX_FORWARD_SPP} spp (its time grows with spp x parameters).",
              ""]
     lines += table(rows)
+    if missing:
+        lines += ["", "Not run in this pass (`--methods`): " + "; ".join(
+            f"{size}x{size} {spp} spp {label}" for size, spp, label in missing) + "."]
     lines += ["", "Gradient values of the methods at the same seed are compared in "
               "validation/path_replay_gradients.md (path AD in Mitsuba 3.9 is wrong in S1, S2 "
               "where the sampled direction depends on a parameter, as here: its rows are a "
