@@ -1,4 +1,5 @@
-"""Choosing the Mitsuba variant and registering the ``pbrdf`` plugin in it.
+"""Choosing the Mitsuba variant and registering the ``pbrdf`` plugin (and the
+package's integrators, ``stokes_prb``) in it.
 
 ::
 
@@ -6,7 +7,8 @@
     mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")   # set it, register pbrdf
 
 Mitsuba's Python plugins are registered per variant. This module keeps the
-``pbrdf`` plugin registered in whatever variant is active: importing
+``pbrdf`` plugin and the integrators of :mod:`mitsuba_pbrdf.integrators`
+registered in whatever variant is active: importing
 ``mitsuba_pbrdf`` registers it in the variant already set (if any) and, through
 Mitsuba's variant callbacks, in every variant set afterwards with
 ``mi.set_variant``. :func:`register` does it by hand.
@@ -88,12 +90,16 @@ def require_variant():
 
 
 def register():
-    """Register the ``pbrdf`` BSDF plugin in the active variant; returns the
-    variant's name. Raises :class:`VariantNotSetError` if none is set."""
+    """Register the ``pbrdf`` BSDF plugin and the package's integrators
+    (``stokes_prb``, :mod:`mitsuba_pbrdf.integrators`) in the active variant;
+    returns the variant's name. Raises :class:`VariantNotSetError` if none is
+    set."""
     mi = require_variant()
+    from .integrators import register as register_integrators
     from .plugin import plugin_class
 
     mi.register_bsdf("pbrdf", plugin_class())
+    register_integrators()
     return mi.variant()
 
 
@@ -161,7 +167,7 @@ def _on_variant_change(old, new):
     try:
         register()
     except Exception as e:  # never break mi.set_variant itself
-        log.warning("could not register the pbrdf plugin in %s: %s", new, e)
+        log.warning("could not register the pbrdf plugins in %s: %s", new, e)
 
 
 _hooked = False
