@@ -35,9 +35,11 @@ ARGUMENTS = {
     "furnace": (["--samples", "1048576"], ["--samples", "65536"]),
     "inverse_memory": ([], ["--quick"]),
     "inverse_rendering": ([], ["--size", "32", "--iterations", "40"]),
+    "path_replay_gradients": ([], ["--quick"]),
     "physics": (["--pairs", "100000"], ["--pairs", "10000"]),
     "rendered_stokes": (["--spp", "256", "--passes", "8"], ["--spp", "64", "--passes", "8"]),
     "stress": (["--samples", "1000000"], ["--samples", "100000"]),
+    "svbrdf_recovery": ([], ["--quick"]),
 }
 
 

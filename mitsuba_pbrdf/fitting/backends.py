@@ -56,7 +56,8 @@ class DrJitResiduals:
         import drjit as dr
         import mitsuba as mi
 
-        from ..variant import DEFAULT_VARIANT, use_variant
+        from ..registry import use_variant
+        from ..variant import DEFAULT_VARIANT
         if mi.variant() is None or not mi.is_polarized or mi.variant().startswith("scalar"):
             use_variant(DEFAULT_VARIANT)
         self.dr, self.mi = dr, mi

@@ -34,7 +34,8 @@ from typing import Mapping, Optional
 
 import numpy as np
 
-from ..variant import default_variant, use_variant
+from ..registry import use_variant
+from ..variant import default_variant
 from .passes import pass_seeds, plan_passes
 from .stokes import StokesImage, from_mitsuba
 
