@@ -31,10 +31,12 @@ NOT_STUDIES = ("common", "run_all")
 #: Command-line arguments per study: (full run, ``--quick`` run).
 ARGUMENTS = {
     "accuracy": (["--pairs", "100000"], ["--pairs", "10000"]),
+    "fit_pbsdf": ([], ["--quick"]),
     "fit_synthetic": ([], ["--quick"]),
     "furnace": (["--samples", "1048576"], ["--samples", "65536"]),
     "inverse_memory": ([], ["--quick"]),
     "inverse_rendering": ([], ["--size", "32", "--iterations", "40"]),
+    "measured_oracle": ([], ["--quick"]),
     "path_replay_gradients": ([], ["--quick"]),
     "physics": (["--pairs", "100000"], ["--pairs", "10000"]),
     "rendered_stokes": (["--spp", "256", "--passes", "8"], ["--spp", "64", "--passes", "8"]),
