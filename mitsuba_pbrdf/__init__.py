@@ -9,8 +9,8 @@ Usage::
     bsdf = mi.load_dict({"type": "pbrdf", "material": "Cu", "sigma": 0.15})
 
 Importing the package needs neither Mitsuba nor a variant. Where Mitsuba is
-installed, the plugin is registered in the active variant and in every
-variant set afterwards (:mod:`mitsuba_pbrdf.variant`). Anything that needs a
+installed, the plugins are registered in the active variant and in every
+variant set afterwards (:mod:`mitsuba_pbrdf.registry`). Anything that needs a
 variant (the plugin, rendering) says what to type when none is set.
 
 Sub-packages, one concern each:
@@ -27,11 +27,13 @@ Sub-packages, one concern each:
 * :mod:`~mitsuba_pbrdf.batch`: many renders (sweeps, datasets);
 * :mod:`~mitsuba_pbrdf.checks`: physical and numerical checks of a pBRDF;
 * :mod:`~mitsuba_pbrdf.cli`: the ``pbrdf`` command line;
-* :mod:`~mitsuba_pbrdf.options`: the model's option lists and defaults.
+* :mod:`~mitsuba_pbrdf.options`: the model's option lists and defaults;
+* :mod:`~mitsuba_pbrdf.variant`, :mod:`~mitsuba_pbrdf.registry`: Mitsuba variants, and
+  registering the plugins in them.
 """
 
-from .variant import (SUPPORTED_MITSUBA, UnknownVariantError, VariantNotSetError, install_hook,
-                      register, use_variant)
+from .registry import install_hook, register, use_variant
+from .variant import SUPPORTED_MITSUBA, UnknownVariantError, VariantNotSetError
 
 __version__ = "0.1.0"
 

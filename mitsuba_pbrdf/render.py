@@ -7,8 +7,9 @@ import warnings
 from .imaging.passes import MAX_AUTO_PASSES, SAMPLES_PER_PASS, pass_seeds, plan_passes
 from .imaging.render import (RenderTimings, SceneLoadError, load_scene, render_scene,
                              render_scene_timed)
+from .registry import use_variant
 from .variant import (DEFAULT_VARIANT, GPU_VARIANT, UnknownVariantError, cuda_available,
-                      default_variant, use_variant)
+                      default_variant)
 
 __all__ = ["DEFAULT_VARIANT", "GPU_VARIANT", "SAMPLES_PER_PASS", "MAX_AUTO_PASSES",
            "cuda_available", "default_variant", "plan_passes", "pass_seeds", "RenderTimings",

@@ -1,26 +1,13 @@
-"""Choosing the Mitsuba variant and registering the ``pbrdf`` plugin in it.
+"""Mitsuba variants: the supported release, which variant to use by default,
+and the errors that say what to type when none (or a wrong one) is set.
 
-::
-
-    import mitsuba_pbrdf
-    mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")   # set it, register pbrdf
-
-Mitsuba's Python plugins are registered per variant. This module keeps the
-``pbrdf`` plugin registered in whatever variant is active: importing
-``mitsuba_pbrdf`` registers it in the variant already set (if any) and, through
-Mitsuba's variant callbacks, in every variant set afterwards with
-``mi.set_variant``. :func:`register` does it by hand.
-
-Nothing here imports Mitsuba at import time of this module; the package
-``__init__`` calls :func:`install_hook`, which imports Mitsuba only where it
-is installed (the NumPy reference evaluator works without it).
+Registering the package's plugins in a variant is :mod:`mitsuba_pbrdf.registry`
+(``mitsuba_pbrdf.use_variant``); this module sits below it and below the
+plugin, which calls :func:`require_variant`. Nothing here imports Mitsuba at
+import time.
 """
 
 from __future__ import annotations
-
-import importlib.util
-import logging
-import sys
 
 __all__ = [
     "SUPPORTED_MITSUBA",
@@ -28,15 +15,10 @@ __all__ = [
     "GPU_VARIANT",
     "VariantNotSetError",
     "UnknownVariantError",
-    "use_variant",
-    "register",
     "require_variant",
     "cuda_available",
     "default_variant",
-    "install_hook",
 ]
-
-log = logging.getLogger(__name__)
 
 #: The Mitsuba release series this package is written and tested for.
 SUPPORTED_MITSUBA = "3.9"
@@ -87,37 +69,6 @@ def require_variant():
     return mi
 
 
-def register():
-    """Register the ``pbrdf`` BSDF plugin in the active variant; returns the
-    variant's name. Raises :class:`VariantNotSetError` if none is set."""
-    mi = require_variant()
-    from .plugin import plugin_class
-
-    mi.register_bsdf("pbrdf", plugin_class())
-    return mi.variant()
-
-
-def use_variant(name: str) -> None:
-    """Set Mitsuba's variant *name* and register the ``pbrdf`` plugin in it.
-
-    Raises :class:`UnknownVariantError`, listing the variants this Mitsuba
-    build has, for a variant it lacks or that cannot start here.
-    """
-    mi = _mitsuba()
-    available = list(mi.variants())
-    if name not in available:
-        raise UnknownVariantError(
-            f"unknown Mitsuba variant {name!r}; available: {', '.join(available)}"
-        )
-    try:
-        mi.set_variant(name)
-    except (ImportError, RuntimeError) as e:
-        raise UnknownVariantError(
-            f"Mitsuba variant {name!r} cannot be used here: {' '.join(str(e).split())}"
-        ) from e
-    register()  # already done by the variant hook; kept for Mitsubas without callbacks
-
-
 def cuda_available() -> bool:
     """True when Mitsuba has :data:`GPU_VARIANT` and it can be set here
     (a CUDA driver and GPU are present).
@@ -153,34 +104,3 @@ def default_variant(probe=None) -> str:
         return GPU_VARIANT if probe() else DEFAULT_VARIANT
     except Exception:
         return DEFAULT_VARIANT
-
-
-def _on_variant_change(old, new):
-    if new is None:
-        return
-    try:
-        register()
-    except Exception as e:  # never break mi.set_variant itself
-        log.warning("could not register the pbrdf plugin in %s: %s", new, e)
-
-
-_hooked = False
-
-
-def install_hook():
-    """Register the plugin in the active variant (if any) and in every variant
-    set from now on. Does nothing where Mitsuba is not installed or is not the
-    supported release (then :func:`use_variant` says why)."""
-    global _hooked
-    if _hooked:
-        return
-    if "mitsuba" not in sys.modules and importlib.util.find_spec("mitsuba") is None:
-        return
-    try:
-        mi = _mitsuba()
-    except ImportError:
-        return
-    mi.detail.add_variant_callback(_on_variant_change)
-    _hooked = True
-    if mi.variant() is not None:
-        register()

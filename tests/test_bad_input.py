@@ -6,7 +6,8 @@ Tables: Python dictionaries (``mi.load_dict``), XML (``mi.load_string``, also
 inside a whole scene), parameter updates through ``mi.traverse``, and a subset
 in other variants. Cases Mitsuba's own parser rejects before the plugin sees
 them (a spectrum with negative entries, an unreferenced parameter, a Python
-list) are listed with Mitsuba's message, which names the parameter too.
+list) are listed with Mitsuba's message, which names the parameter too. The
+table of load_dict cases lives in ``mitsuba_pbrdf/checks/bad_input.py``.
 """
 
 import numpy as np
@@ -15,101 +16,12 @@ import pytest
 import mitsuba as mi
 
 from mitsuba_pbrdf import use_variant
-
-NAN, INF = float("nan"), float("inf")
-
-
-def bitmap(value, at=(3, 5), fill=0.5):
-    """A 8 x 8 one-channel bitmap texture (nearest filter, raw values) with
-    ``value`` at one texel off the centre."""
-    texels = np.full((8, 8, 1), fill, dtype=np.float32)
-    texels[at[0], at[1], 0] = value
-    return {"type": "bitmap", "bitmap": mi.Bitmap(texels), "filter_type": "nearest", "raw": True}
-
+from mitsuba_pbrdf.checks.bad_input import INF, NAN, bitmap, cases, load_error
 
 #: (extra parameters, error raised by the plugin or None for Mitsuba's parser,
-#:  text the last line of the message must contain)
-BAD_INPUT = [
-    # negative, zero (where > 0 is required), NaN, infinite
-    ({"sigma": -0.1}, ValueError, "'sigma'"),
-    ({"sigma": 0.0}, ValueError, "'sigma'"),
-    ({"sigma": NAN}, ValueError, "'sigma'"),
-    ({"sigma": INF}, ValueError, "'sigma'"),
-    ({"sigma": -INF}, ValueError, "'sigma'"),
-    ({"sigma_dd": -1.0, "kdd": 0.1}, ValueError, "'sigma_dd'"),
-    ({"sigma_dd": 0.0, "kdd": 0.1}, ValueError, "'sigma_dd'"),
-    ({"sigma_dd": NAN, "kdd": 0.1}, ValueError, "'sigma_dd'"),
-    ({"sigma_dd": INF}, ValueError, "'sigma_dd'"),
-    ({"ks": -0.5}, ValueError, "'ks'"),
-    ({"ks": NAN}, ValueError, "'ks'"),
-    ({"ks": INF}, ValueError, "'ks'"),
-    ({"kdd": -1.0}, ValueError, "'kdd'"),
-    ({"kdd": NAN}, ValueError, "'kdd'"),
-    ({"kdd": INF}, ValueError, "'kdd'"),
-    ({"kid": -1e-3}, ValueError, "'kid'"),
-    ({"kid": NAN}, ValueError, "'kid'"),
-    ({"kid": INF}, ValueError, "'kid'"),
-    ({"eta": -0.2, "k": 3.0}, ValueError, "'eta'"),
-    ({"eta": 0.0, "k": 3.0}, ValueError, "'eta'"),
-    ({"eta": NAN, "k": 3.0}, ValueError, "'eta'"),
-    ({"eta": INF, "k": 3.0}, ValueError, "'eta'"),
-    ({"eta": 1.2, "k": -3.0}, ValueError, "'k'"),
-    ({"eta": 1.2, "k": NAN}, ValueError, "'k'"),
-    ({"eta": 1.2, "k": INF}, ValueError, "'k'"),
-    # textures holding a bad value somewhere
-    ({"kid": mi.ScalarColor3f(0.2, -0.1, 0.3)}, ValueError, "'kid'"),
-    ({"kid": {"type": "uniform", "value": -0.3}}, ValueError, "'kid'"),
-    ({"kdd": {"type": "checkerboard", "color0": -0.5, "color1": 0.2}}, ValueError, "'kdd'"),
-    ({"ks": {"type": "checkerboard", "color0": 0.2, "color1": -0.1}}, ValueError, "'ks'"),
-    ({"kid": bitmap(-0.25)}, ValueError, "'kid'"),
-    ({"kid": bitmap(NAN)}, ValueError, "'kid'"),
-    ({"ks": bitmap(INF)}, ValueError, "'ks'"),
-    ({"sigma": bitmap(0.0)}, ValueError, "'sigma'"),
-    ({"sigma_dd": bitmap(-1.0), "kdd": 0.2}, ValueError, "'sigma_dd'"),
-    ({"eta": bitmap(-1.0), "k": 1.0}, ValueError, "'eta'"),
-    ({"eta": 1.0, "k": bitmap(INF)}, ValueError, "'k'"),
-    ({"eta": {"type": "irregular", "wavelengths": "400, 700", "values": "1.2, -0.5"}, "k": 1.0},
-     None, '"eta"'),
-    ({"eta": {"type": "regular", "wavelength_min": 400, "wavelength_max": 700,
-              "values": "1.2, nan"}, "k": 1.0}, None, '"eta"'),
-    # wrong types
-    ({"ks": "shiny"}, TypeError, "'ks'"),
-    ({"sigma": "0.1"}, TypeError, "'sigma'"),
-    ({"sigma": True}, TypeError, "'sigma'"),
-    ({"sigma_dd": True}, TypeError, "'sigma_dd'"),
-    ({"eta": "Cu", "k": 1.0}, TypeError, "'eta'"),
-    ({"kdd": {"type": "diffuse"}}, TypeError, "'kdd'"),
-    ({"kid": mi.ScalarTransform4f()}, TypeError, "'kid'"),
-    ({"kid": [0.1, 0.2]}, None, "[kid]"),
-    ({"material": 3.0}, TypeError, "'material'"),
-    ({"shadowing": 1.0}, TypeError, "'shadowing'"),
-    ({"dd_distribution": 1.0}, TypeError, "'dd_distribution'"),
-    ({"sampling": 3}, TypeError, "'sampling'"),
-    # unknown names and options
-    ({"material": "Unobtainium"}, ValueError, "'material'"),
-    ({"material": "al"}, ValueError, "'material'"),
-    ({"material": "Al "}, ValueError, "'material'"),
-    ({"material": ""}, ValueError, "'material'"),
-    ({"shadowing": "cook"}, ValueError, "'shadowing'"),
-    ({"shadowing": "none"}, ValueError, "'shadowing'"),   # the reference's, not the plugin's
-    ({"dd_distribution": "phong"}, ValueError, "'dd_distribution'"),
-    ({"sampling": "importance"}, ValueError, "'sampling'"),
-    ({"sigmaa": 0.1}, None, '"sigmaa"'),                    # a misspelt parameter
-    # conflicting parameters
-    ({"material": "Cu", "eta": 0.2, "k": 3.0}, ValueError, "'material'"),
-    ({"material": "Cu", "k": 3.0}, ValueError, "'material'"),
-    ({"eta": 0.2}, ValueError, "'eta' and 'k'"),
-    ({"k": 3.0}, ValueError, "'eta' and 'k'"),
-]
-
-
-def load_error(params):
-    """The last line of the error loading a pbrdf with ``params``, or None."""
-    try:
-        mi.load_dict(dict({"type": "pbrdf"}, **params))
-    except Exception as e:   # Mitsuba wraps the plugin's exception in a RuntimeError
-        return str(e).strip().splitlines()[-1]
-    return None
+#:  text the last line of the message must contain): the table shared with
+#:  validation/bad_input.py, built for the suite's variant (tests/conftest.py).
+BAD_INPUT = cases()
 
 
 def check_message(last_line, error, message):

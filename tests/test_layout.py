@@ -1,10 +1,13 @@
 """The package's layout and import behaviour: the plugin and the reference
 evaluator never import each other, the reference needs NumPy alone, importing
-the package needs no variant, the plugin is registered in every variant, and
-the old module names still import (with a DeprecationWarning)."""
+the package needs no variant, the plugin is registered in every variant, the
+old module names still import (with a DeprecationWarning), tests/ and
+validation/ never import each other (both use mitsuba_pbrdf.checks), and
+validation/run_all.py runs every study."""
 
 import ast
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -169,8 +172,6 @@ def test_old_fit_module_still_runs_as_a_script(tmp_path):
 
 def test_no_project_file_cites_files_outside_the_repository():
     """Docstrings and docs cite only paths that exist in the repository."""
-    import re
-
     cited = re.compile(r"\b((?:docs|validation|benchmarks|scenes|tests|examples|tools)/"
                        r"[\w./-]+\.(?:md|py|xml|csv|exr))")
     outside = ".." + "/shared"  # the developers' notes beside the repository
@@ -185,7 +186,129 @@ def test_no_project_file_cites_files_outside_the_repository():
             path = os.path.join(folder, name)
             text = open(path, encoding="utf-8").read()
             assert outside not in text, path
+            if os.path.abspath(path) == os.path.abspath(__file__):
+                continue  # this file's scans are tested on made-up paths
             for m in cited.findall(text):
                 if not os.path.exists(os.path.join(ROOT, m)):
                     missing.append(f"{os.path.relpath(path, ROOT)}: {m}")
     assert not missing, missing
+
+
+# ---------------------------------------------------------------- tests/, validation/, checks/
+
+def import_references(path):
+    """(module names a Python file imports, string constants it hands to
+    ``sys.path``, ``site.addsitedir``, ``importlib.import_module`` or
+    ``__import__``). Relative imports are given as ``.name`` (they never leave
+    their package)."""
+    tree = ast.parse(open(path, encoding="utf-8").read(), path)
+    modules, strings = set(), set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            modules |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            modules.add("." * node.level + (node.module or ""))
+        elif isinstance(node, ast.Call):
+            f = node.func
+            name = ast.unparse(f)
+            if (name.startswith("sys.path.") or name in (
+                    "site.addsitedir", "importlib.import_module", "import_module", "__import__")):
+                strings |= {c.value for arg in node.args for c in ast.walk(arg)
+                            if isinstance(c, ast.Constant) and isinstance(c.value, str)}
+    return modules, strings
+
+
+def _python_files(folder):
+    folder = os.path.join(ROOT, folder)
+    return sorted(os.path.join(folder, n) for n in os.listdir(folder) if n.endswith(".py"))
+
+
+def _names(text):
+    """The dotted or path components of a module name or a path string."""
+    return [part for part in re.split(r"[./\\]", text) if part]
+
+
+def layout_violations(folder, forbidden):
+    """'file: what' for every import of, or sys.path entry towards, a folder in
+    ``forbidden`` (top-level names; a test module ``test_*`` counts as tests/)."""
+    out = []
+    for path in _python_files(folder):
+        modules, strings = import_references(path)
+        for text in sorted(modules | strings):
+            parts = _names(text)
+            hits = [p for p in parts if p in forbidden
+                    or ("tests" in forbidden and p.startswith("test_") and text in modules)]
+            if hits and not (text in modules and text.startswith(".")):
+                out.append(f"{os.path.relpath(path, ROOT)}: {text}")
+    return out
+
+
+def test_tests_never_import_validation():
+    """tests/ runs mitsuba_pbrdf.checks, never the validation scripts."""
+    assert layout_violations("tests", {"validation"}) == []
+
+
+def test_validation_never_imports_tests():
+    """validation/ reads shared data from the package (e.g. checks/bad_input.py)."""
+    assert layout_violations("validation", {"tests"}) == []
+
+
+def test_checks_import_neither_tests_nor_validation():
+    assert layout_violations(os.path.join("mitsuba_pbrdf", "checks"),
+                             {"tests", "validation"}) == []
+    for name, modules in imported_modules("checks").items():
+        assert not [m for m in modules if m.split(".")[0] in ("tests", "validation")], name
+
+
+def test_the_folder_scan_sees_forbidden_imports(tmp_path, monkeypatch):
+    """The scan catches an import, a sys.path entry and a test module by name."""
+    folder = tmp_path / "validation"
+    folder.mkdir()
+    (folder / "a.py").write_text("import sys, os\n"
+                                 "sys.path.insert(0, os.path.join(ROOT, 'tests'))\n"
+                                 "import test_bad_input\n")
+    (folder / "b.py").write_text("from tests.conftest import make_si\n")
+    (folder / "c.py").write_text("from . import common\nimport mitsuba_pbrdf.checks\n")
+    (tmp_path / "tests").mkdir()
+    (tmp_path / "tests" / "t.py").write_text(
+        "import importlib\nstress = importlib.import_module('validation.stress')\n"
+        "from validation import common\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", str(tmp_path))
+    found = layout_violations("validation", {"tests"})
+    assert found == ["validation/a.py: test_bad_input", "validation/a.py: tests",
+                     "validation/b.py: tests.conftest"], found
+    found = layout_violations("tests", {"validation"})
+    assert found == ["tests/t.py: validation", "tests/t.py: validation.stress"], found
+
+
+def run_all(*args):
+    """``python validation/run_all.py ARGS`` in a subprocess (tests do not import
+    validation/)."""
+    return subprocess.run([sys.executable, os.path.join(ROOT, "validation", "run_all.py"),
+                           *args], capture_output=True, text=True, cwd=ROOT, timeout=120)
+
+
+def test_run_all_runs_every_study():
+    """Every script in validation/ except common.py and run_all.py is a study
+    with a report: run_all.py must run each of them, full and --quick."""
+    scripts = {n[:-3] for n in os.listdir(os.path.join(ROOT, "validation"))
+               if n.endswith(".py") and n not in ("common.py", "run_all.py")}
+    assert len(scripts) >= 10
+    for study in scripts:
+        assert os.path.exists(os.path.join(ROOT, "validation", study + ".md")), study
+    for flags in ((), ("--quick",)):
+        result = run_all("--list", *flags)
+        assert result.returncode == 0, result.stderr
+        listed = [line.split()[1] for line in result.stdout.splitlines()]
+        assert sorted(listed) == sorted(f"validation/{s}.py" for s in scripts), listed
+
+
+def test_run_all_only_selects_and_rejects_unknown_names():
+    result = run_all("--list", "--only", "stress,physics")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == ["python validation/physics.py --pairs 100000",
+                                          "python validation/stress.py --samples 1000000"]
+    result = run_all("--only", "physics,no_such_study")
+    assert result.returncode == 2 and result.stdout == ""
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert "'no_such_study'" in result.stderr and "Traceback" not in result.stderr

@@ -1,7 +1,7 @@
 """Physics checks on the float64 reference and on the plugin: the CI share of
 ``validation/physics.py``, ``validation/furnace.py`` and
-``validation/rendered_stokes.py`` (same functions, fewer samples). Run with
-``pytest -s`` to see each table.
+``validation/rendered_stokes.py`` (the same ``mitsuba_pbrdf.checks`` functions,
+fewer samples). Run with ``pytest -s`` to see each table.
 
 Float32 tolerances use u = 2^-24 (the unit roundoff of float32); each bound
 says which operations it counts.
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import use_variant
-from validation import common, furnace, physics, rendered_stokes, stress
+from mitsuba_pbrdf.checks import fresnel, furnace, physics, realizability, rendered
 
 U32 = 2.0 ** -24
 U64 = 2.0 ** -53
@@ -23,7 +23,13 @@ def main_variant():
 
 
 def show(headers, rows):
-    print("\n" + common.table(headers, rows, digits=6))
+    """Print a table (seen with ``pytest -s``)."""
+    def cell(v):
+        return f"{v:.6g}" if isinstance(v, (float, np.floating)) else str(v)
+
+    print("\n" + " | ".join(headers))
+    for row in rows:
+        print(" | ".join(cell(v) for v in row))
 
 
 # ---------------------------------------------------------------------------
@@ -40,7 +46,7 @@ def test_fresnel_reflectance_at_normal_incidence():
     interpolation (~1e-7 relative each; dR/R is at most ~2x as sensitive),
     plus ~40 float32 operations for D(0) and the complex amplitudes: at most
     ~100 u = 6e-6, bound 1e-5."""
-    rows = physics.normal_incidence()
+    rows = fresnel.normal_incidence()
     show(["metal", "λ", "n", "k", "R closed form", "R reference", "R plugin"], rows)
     for metal, wl, n, k, closed, ref, plugin in rows:
         assert 0.3 < closed < 1.0
@@ -54,12 +60,12 @@ def test_pseudo_brewster_angle():
 
     A minimum this flat is located only as well as R_p is known: an error e
     (relative to M00 ~ (R_s + R_p)/2, from which R_p = M00 - M01 is computed)
-    moves it by up to sqrt(2 e M00 / R_p''). physics.pseudo_brewster reports
+    moves it by up to sqrt(2 e M00 / R_p''). fresnel.pseudo_brewster reports
     that resolution for the plugin's e = 2e-6 (~30 float32 operations); the
     reference's e is ~10 float64 roundings, 1e-15, i.e. its resolution is
     sqrt(1e-15 / 2e-6) of the plugin's, plus the golden-section search's 1e-10
     rad. Both must be within twice their resolution."""
-    rows = physics.pseudo_brewster()
+    rows = fresnel.pseudo_brewster()
     show(["case", "λ", "n", "k", "closed (°)", "reference (°)", "plugin (°)", "res. (°)",
           "R_p min"], rows)
     for name, wl, n, k, closed, ref, plugin, res32, rp_min in rows:
@@ -78,7 +84,7 @@ def test_reflected_light_is_s_polarized_and_its_dop_rises_to_pseudo_brewster():
     the facet and global frames coincide: only rounding of the frame rotations
     remains, a few u of M00 in float32, bound 16 u), and the DOP rises
     monotonically up to the pseudo-Brewster angle and peaks beyond it."""
-    rows = physics.s_polarization()
+    rows = fresnel.s_polarization()
     show(["metal", "λ", "lobes", "engine", "min S1/S0", "max |S2|,|S3|/S0", "rising",
           "θpB", "DOP(θpB)", "θ max DOP", "max DOP"], rows)
     for metal, wl, lobes, engine, min_s1, max_s23, rising, pb, dop_pb, theta_max, dop_max in rows:
@@ -117,7 +123,7 @@ def test_mueller_matrices_are_realizable():
 
     Reference: float64 rounding, 1e-12 of M00. Plugin: its matrix is assembled
     from realizable factors, so only the rounding of its entries counts:
-    eigenvalues within stress.REALIZABILITY_TOL (16 u) of M00; the output's
+    eigenvalues within realizability.REALIZABILITY_TOL (16 u) of M00; the output's
     polarized part moves by at most ||dM||_2 <= ||dM||_F <= 16 u M00 per unit
     input, 32 u allowed for the DOP excess."""
     rows = physics.realizability(pairs=10_000)
@@ -126,9 +132,44 @@ def test_mueller_matrices_are_realizable():
     for name, engine, count, lam, excess, _ in rows:
         assert count > 5000, (name, engine)
         lam_tol, dop_tol = ((1e-12, 1e-12) if engine == "reference"
-                            else (stress.REALIZABILITY_TOL, 2 * stress.REALIZABILITY_TOL))
+                            else (realizability.REALIZABILITY_TOL,
+                                  2 * realizability.REALIZABILITY_TOL))
         assert lam >= -lam_tol, (name, engine, lam)
         assert excess <= dop_tol, (name, engine, excess)
+
+
+def test_reciprocity_and_realizability_checks_apply_to_any_bsdf():
+    """The same checks on Mitsuba's own ``roughconductor`` (Al, Beckmann alpha
+    0.2), through the functions a user would call on any BSDF: 10,000 random
+    pairs x 3 wavelengths.
+
+    Realizability: roughconductor also multiplies a Jones-derived Fresnel
+    matrix by a non-negative D G / (4 cos) and rotates frames, so the same
+    bounds as the plugin's hold (realizability.REALIZABILITY_TOL, twice that
+    for the DOP excess), above M00 = 1e-30 (NORMAL_FLOOR of float32).
+    Reciprocity: in this reduced case it equals pbrdf within 1e-5 M00 per
+    element (tests/test_roughconductor.py), which is within 1e-4 M00 of the
+    exactly reciprocal reference: 2 x (1e-4 + 1e-5) = 2.2e-4 for the difference
+    of two evaluations."""
+    import mitsuba as mi
+
+    from mitsuba_pbrdf import frames
+
+    bsdf = mi.load_dict({"type": "roughconductor", "material": "Al", "alpha": 0.2,
+                         "distribution": "beckmann"})
+    to_viewer, to_light = frames.random_directions(10_000, np.random.default_rng(5))
+    M = physics.mueller_global(bsdf, to_viewer, to_light, (450.0, 550.0, 650.0))
+    count, lam, excess, _ = realizability.realizability(M, floor=physics.NORMAL_FLOOR["plugin"])
+    print(f"\nroughconductor: {count} matrices, min eigenvalue {lam:.2e} M00, "
+          f"DOP excess {excess:.2e} M00")
+    assert count > 20_000
+    assert lam >= -realizability.REALIZABILITY_TOL
+    assert excess <= 2 * realizability.REALIZABILITY_TOL
+    m00, full = physics.reciprocity_errors(
+        lambda v, l: physics.mueller_global(bsdf, v, l, (450.0, 550.0, 650.0)),
+        to_viewer, to_light)
+    print(f"reciprocity: M00 {m00:.2e}, Q M^T Q {full:.2e}")
+    assert m00 <= 2.2e-4 and full <= 2.2e-4
 
 
 # ---------------------------------------------------------------------------
@@ -216,7 +257,7 @@ def test_rendered_stokes_image_polarization(scene, metal):
     Systematic allowances: the reference's footprint quadrature (a third of its
     8x8 - 4x4 difference, Richardson), and for the geometric AoLP rule its
     evaluation on the pixel's central ray instead of the footprint."""
-    r = rendered_stokes.measure(scene, metal, spp=128, passes=8)
+    r = rendered.measure(scene, metal, spp=128, passes=8)
     print("\n" + ", ".join(f"{k}: {v:.3g}" if isinstance(v, float) else f"{k}: {v}"
                            for k, v in r.items() if k != "images"))
     assert r["pixels"] >= 300 and r["polarized_pixels"] >= 300

@@ -2,52 +2,42 @@
 
     python validation/bad_input.py   (-> bad_input.md)
 
-Loads a ``pbrdf`` with every entry of the table in ``tests/test_bad_input.py``
-(``llvm_ad_spectral_polarized``) and writes the error message it gets. The
-test asserts that each is rejected at load time and that the message names
-the parameter; this page shows the messages a user sees.
+Loads a ``pbrdf`` with every entry of the table in
+``mitsuba_pbrdf/checks/bad_input.py`` (``llvm_ad_spectral_polarized``) and
+writes the error message it gets. ``tests/test_bad_input.py`` asserts on the
+same table that each is rejected at load time and that the message names the
+parameter; this page shows the messages a user sees.
 """
 
+import argparse
 import os
 import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from validation import common  # noqa: E402
-
-
-def describe(params):
-    out = []
-    for key, value in params.items():
-        if isinstance(value, dict):
-            value = f"<{value.get('type')} texture>"
-        elif not isinstance(value, (str, int, float, list)):
-            value = type(value).__name__
-        out.append(f"{key} = {value!r}")
-    return ", ".join(out)
+from mitsuba_pbrdf.checks import bad_input  # noqa: E402
 
 
 def main(argv=None):
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args(argv)
     common.use_variant()
-    sys.path.insert(0, os.path.join(common.ROOT, "tests"))
-    import test_bad_input as t
-
     start = time.perf_counter()
     rows = []
-    for params, error, fragment in t.BAD_INPUT:
-        message = t.load_error(params) or "**loaded without error**"
+    for params, error, fragment in bad_input.cases():
+        message = bad_input.load_error(params) or "**loaded without error**"
         named = fragment in message
-        rows.append((describe(params), message[:160], named))
+        rows.append((bad_input.describe(params), message[:160], named))
     text = (f"# Study 5: bad input\n\n`python validation/bad_input.py` "
             f"({time.perf_counter() - start:.1f} s): every invalid parameter of the table in "
-            f"`tests/test_bad_input.py` ({len(rows)} cases; the test also covers XML, scenes, "
-            "`mi.traverse` updates and other variants) and the last line of the error Mitsuba "
-            "reports when loading it. Found by that test and fixed since (regression tests "
-            "there): bitmap textures were checked on a 64×64 grid of texels only (the centre "
-            "in scalar variants), roughness below Mitsuba's floor (α = 1e-4) was clamped "
-            "silently, tabulated spectra not covering 360–830 nm evaluated to n = k = 0 "
-            "outside their table, and a negative inline XML spectrum got Mitsuba's message "
-            "without the parameter's name.\n\n"
+            f"`mitsuba_pbrdf/checks/bad_input.py` ({len(rows)} cases; `tests/test_bad_input.py` "
+            "also covers XML, scenes, `mi.traverse` updates and other variants) and the last "
+            "line of the error Mitsuba reports when loading it. Found by that test and fixed "
+            "since (regression tests there): bitmap textures were checked on a 64×64 grid of "
+            "texels only (the centre in scalar variants), roughness below Mitsuba's floor "
+            "(α = 1e-4) was clamped silently, tabulated spectra not covering 360–830 nm "
+            "evaluated to n = k = 0 outside their table, and a negative inline XML spectrum "
+            "got Mitsuba's message without the parameter's name.\n\n"
             + common.table(["parameters", "message (last line)", "names the parameter"], rows))
     common.write_markdown("bad_input", text)
     if not all(r[2] for r in rows):

@@ -22,14 +22,12 @@ more than once). Lobes:
   reflectance R(theta_i) it would have without roughness.
 * **ideal diffuse lobe** (kid = 1): exactly 1.
 
-Two estimates per point, independent of each other:
-
-* reference: deterministic quadrature over the half vector h (the lobe's
-  natural variable; dwo = 4 (wi.h) dwh), Gauss-Legendre in
-  v = (2/pi) arctan(tan(theta_h) / alpha) and the trapezoid rule in phi_h; its
-  error is estimated by halving the number of points;
-* plugin: Monte Carlo with its own importance sampling, a = E[weight_00] over
-  ``bsdf.sample`` (weight = eval / pdf, cosine included), with its standard error.
+Two estimates per point, independent of each other (``mitsuba_pbrdf.checks.furnace``):
+the reference's deterministic quadrature over the half vector, with its error
+estimated by halving the number of points, and the plugin's Monte Carlo over its
+own importance sampling, with its standard error. This script runs them at the
+study's sizes and writes the report; ``tests/test_physics.py`` runs the same
+functions with fewer samples.
 
 With ``shadowing="smith"`` the plugin uses Mitsuba's rational approximation of
 the Beckmann Smith G1 (< 0.35 % per factor, as ``roughconductor``): up to 0.7 %
@@ -45,140 +43,18 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from validation import common  # noqa: E402
-from mitsuba_pbrdf import reference  # noqa: E402
-
-ANGLES = (0.0, 20.0, 40.0, 60.0, 70.0, 80.0, 85.0, 88.0, 89.5)
-SIGMAS = (0.05, 0.2, 0.5, 1.0)
-SHADOWING = ("vgroove", "smith")
-PERFECT_CONDUCTOR = dict(eta=1.0, k=1e4)
-WAVELENGTH = 550.0
-
-
-# ---------------------------------------------------------------------------
-# Reference: quadrature over the half vector
-# ---------------------------------------------------------------------------
-
-def _half_vector_nodes(alpha, n_theta, n_phi):
-    """Nodes (theta_h, phi_h) and weights of dwh over the upper hemisphere."""
-    x, w = np.polynomial.legendre.leggauss(n_theta)
-    v = 0.5 * (x + 1.0)                               # (0, 1)
-    w = 0.5 * w
-    t = np.tan(0.5 * np.pi * v)
-    theta = np.arctan(alpha * t)
-    dtheta = alpha * 0.5 * np.pi / np.cos(0.5 * np.pi * v) ** 2 / (1 + (alpha * t) ** 2)
-    phi = (np.arange(n_phi) + 0.5) * 2 * np.pi / n_phi
-    th, ph = np.meshgrid(theta, phi, indexing="ij")
-    weight = (w * dtheta * np.sin(theta))[:, None] * (2 * np.pi / n_phi) * np.ones_like(ph)
-    return th.ravel(), ph.ravel(), weight.ravel()
-
-
-def reference_albedo(lobe, theta_i_deg, sigma, shadowing, n_theta=256, n_phi=256):
-    """Albedo of one lobe at incidence theta_i by half-vector quadrature.
-
-    ``lobe``: "beckmann" or "ggx" (microfacet lobe without Fresnel) or a
-    metal name (its specular lobe at WAVELENGTH)."""
-    ti = np.radians(theta_i_deg)
-    alpha = np.sqrt(2.0) * sigma
-    th, ph, weight = _half_vector_nodes(alpha, n_theta, n_phi)
-    wi = np.array([np.sin(ti), 0.0, np.cos(ti)])
-    h = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], axis=-1)
-    cos_b = h @ wi
-    wo = 2 * cos_b[:, None] * h - wi
-    keep = (cos_b > 0) & (wo[:, 2] > 0)
-    h, cos_b, wo, weight = h[keep], cos_b[keep], wo[keep], weight[keep]
-    theta_o = np.arccos(np.clip(wo[:, 2], -1, 1))
-    phi_o = np.arctan2(wo[:, 1], wo[:, 0])
-    if lobe in ("beckmann", "ggx"):
-        f = reference.directional_diffuse(ti, 0.0, theta_o, phi_o, sigma, shadowing, lobe)
-    else:
-        n, k = reference.conductor_ior(lobe, WAVELENGTH)
-        f = reference.specular(ti, 0.0, theta_o, phi_o, n, k, sigma, shadowing)[..., 0, 0]
-    return float(np.sum(f * wo[:, 2] * 4 * cos_b * weight))
-
-
-def reference_albedo_with_error(lobe, theta_i_deg, sigma, shadowing, n=256):
-    """(albedo, |albedo(n) - albedo(n/2)|: an upper estimate of the quadrature error)."""
-    a = reference_albedo(lobe, theta_i_deg, sigma, shadowing, n, n)
-    b = reference_albedo(lobe, theta_i_deg, sigma, shadowing, n // 2, n // 2)
-    return a, abs(a - b)
-
-
-def fresnel_reflectance(metal, theta_i_deg):
-    n, k = reference.conductor_ior(metal, WAVELENGTH)
-    r_s, r_p = reference.fresnel_amplitudes(np.cos(np.radians(theta_i_deg)), n, k)
-    return float(0.5 * (abs(r_s) ** 2 + abs(r_p) ** 2))
-
-
-# ---------------------------------------------------------------------------
-# Plugin: Monte Carlo with its own sampling
-# ---------------------------------------------------------------------------
-
-def plugin_params(lobe, sigma, shadowing):
-    if lobe == "beckmann":                       # the specular lobe of a perfect conductor
-        return dict(PERFECT_CONDUCTOR, sigma=sigma, shadowing=shadowing)
-    if lobe == "ggx":
-        return dict(ks=0.0, kdd=1.0, sigma_dd=sigma, dd_distribution="ggx", shadowing=shadowing)
-    if lobe == "beckmann-dd":
-        return dict(ks=0.0, kdd=1.0, sigma_dd=sigma, shadowing=shadowing)
-    if lobe == "lambert":
-        return dict(ks=0.0, kid=1.0)
-    return dict(material=lobe, sigma=sigma, shadowing=shadowing)
-
-
-def plugin_albedo(lobe, theta_i_deg, sigma, shadowing, samples=1 << 20, seed=0):
-    """(albedo, standard error) of the plugin's lobe by sampling, M00 of the weight."""
-    import drjit as dr
-    import mitsuba as mi
-
-    bsdf = mi.load_dict(dict({"type": "pbrdf"}, **plugin_params(lobe, sigma, shadowing)))
-    ti = np.radians(theta_i_deg)
-    rng = np.random.default_rng(seed)
-    si = dr.zeros(mi.SurfaceInteraction3f, samples)
-    si.wi = mi.Vector3f(float(np.sin(ti)), 0.0, float(np.cos(ti)))
-    si.wavelengths = mi.UnpolarizedSpectrum(WAVELENGTH)
-    _, weight = bsdf.sample(mi.BSDFContext(), si,
-                            mi.Float(rng.random(samples, dtype=np.float32)),
-                            mi.Point2f(*rng.random((2, samples), dtype=np.float32)))
-    w = np.asarray(weight[0, 0], dtype=np.float64)      # (4 wavelengths, samples)
-    w = w[0] if w.ndim == 2 else w
-    return float(w.mean()), float(w.std(ddof=1) / np.sqrt(samples))
-
-
-# ---------------------------------------------------------------------------
-# Study
-# ---------------------------------------------------------------------------
-
-def study(samples=1 << 20, angles=ANGLES, sigmas=SIGMAS, plugin=True, quadrature=256):
-    """List of dict rows: lobe, sigma, shadowing, angle, reference, quadrature
-    error, plugin, plugin standard error."""
-    rows = []
-    cases = [(lobe, s) for lobe in ("beckmann", "ggx") for s in sigmas]
-    cases += [(metal, 0.2) for metal in ("Al", "Cu")]
-    for lobe, sigma in cases:
-        for shadowing in SHADOWING + (("none",) if lobe == "beckmann" else ()):
-            for angle in angles:
-                ref, err = reference_albedo_with_error(lobe, angle, sigma, shadowing, quadrature)
-                mc, se = (plugin_albedo(lobe, angle, sigma, shadowing, samples)
-                          if plugin and shadowing != "none" else (np.nan, np.nan))
-                rows.append(dict(lobe=lobe, sigma=sigma, shadowing=shadowing, angle=angle,
-                                 reference=ref, quadrature_error=err, plugin=mc, stderr=se))
-    if plugin:
-        for angle in angles:
-            mc, se = plugin_albedo("lambert", angle, 1.0, "vgroove", samples)
-            rows.append(dict(lobe="lambert", sigma=np.nan, shadowing="–", angle=angle,
-                             reference=1.0, quadrature_error=0.0, plugin=mc, stderr=se))
-    return rows
+from mitsuba_pbrdf.checks import furnace  # noqa: E402
 
 
 def figure(rows):
     plt = common.pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(13, 5.0))
-    colors = dict(zip(SIGMAS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
+    colors = dict(zip(furnace.SIGMAS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
     styles = {"vgroove": "-", "smith": "--", "none": ":"}
     for ax, lobe, title in ((axes[0], "beckmann", "Beckmann microfacet lobe, F = 1 "
                              "(specular geometry)"),
                             (axes[1], "ggx", "GGX directional diffuse lobe")):
-        for sigma in SIGMAS:
+        for sigma in furnace.SIGMAS:
             for shadowing in ("vgroove", "smith", "none"):
                 sel = [r for r in rows if r["lobe"] == lobe and r["sigma"] == sigma
                        and r["shadowing"] == shadowing]
@@ -199,9 +75,9 @@ def figure(rows):
     ax = axes[2]
     for metal, color in (("Al", "tab:gray"), ("Cu", "tab:orange")):
         x = np.linspace(0, 89.5, 200)
-        ax.plot(x, [fresnel_reflectance(metal, a) for a in x], ":", color=color,
+        ax.plot(x, [furnace.fresnel_reflectance(metal, a) for a in x], ":", color=color,
                 label=f"{metal}: flat-surface Fresnel R")
-        for shadowing in SHADOWING:
+        for shadowing in furnace.SHADOWING:
             sel = [r for r in rows if r["lobe"] == metal and r["shadowing"] == shadowing]
             xs = [r["angle"] for r in sel]
             ax.plot(xs, [r["reference"] for r in sel], styles[shadowing], color=color,
@@ -209,7 +85,7 @@ def figure(rows):
             if not np.isnan(sel[0]["plugin"]):
                 ax.errorbar(xs, [r["plugin"] for r in sel], [3 * r["stderr"] for r in sel],
                             fmt="o", ms=3, mfc="none", color=color, lw=0.8)
-    ax.set_title(f"Specular lobe of Al and Cu at {WAVELENGTH:g} nm")
+    ax.set_title(f"Specular lobe of Al and Cu at {furnace.WAVELENGTH:g} nm")
     ax.set_xlabel("incidence angle θi (deg)")
     ax.set_ylim(0, 1.2)
     ax.legend(fontsize=6.5, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.16))
@@ -236,28 +112,12 @@ def _summary(rows):
     return out
 
 
-#: Systematic allowance of the plugin-vs-reference comparison, relative: the
-#: perfect conductor's R >= 0.9999 (1e-4) and float32 weights (~1e-6).
-SYSTEMATIC = 1e-4
-
-
-def compare(r):
-    """|plugin - reference| / uncertainty, uncertainty = sqrt(stderr^2 +
-    quadrature error^2) + SYSTEMATIC x reference. NaN for Smith shadowing on
-    Beckmann lobes: the plugin evaluates G with Mitsuba's approximate G1 (as
-    roughconductor), the reference with the exact one."""
-    if np.isnan(r["plugin"]) or (r["shadowing"] == "smith" and r["lobe"] != "ggx"):
-        return np.nan
-    uncertainty = np.hypot(r["stderr"], r["quadrature_error"]) + SYSTEMATIC * r["reference"]
-    return abs(r["plugin"] - r["reference"]) / uncertainty
-
-
 def report(samples=1 << 20, plugin=True):
     start = time.perf_counter()
-    rows = study(samples, plugin=plugin)
+    rows = furnace.study(samples, plugin=plugin)
     path = figure(rows)
     for r in rows:
-        r["z"] = compare(r)
+        r["z"] = furnace.compare(r)
     z = [r["z"] for r in rows if not np.isnan(r["z"]) and r["lobe"] != "lambert"]
     lambert = [r["plugin"] for r in rows if r["lobe"] == "lambert"]
     smith = [abs(r["plugin"] / r["reference"] - 1) for r in rows
@@ -277,7 +137,7 @@ Reference: half-vector quadrature of the float64 evaluator (256² nodes; worst d
 half the nodes: {qerr:.1e}). Plugin: Monte Carlo over its own `sample()` with {samples:,}
 samples per point. "beckmann" is the microfacet lobe without Fresnel (the specular lobe's
 geometry; plugin: specular lobe of a perfect conductor n = 1, k = 1e4), "ggx" the GGX
-directional diffuse lobe, "Al"/"Cu" the specular lobe of the metal at {WAVELENGTH:g} nm
+directional diffuse lobe, "Al"/"Cu" the specular lobe of the metal at {furnace.WAVELENGTH:g} nm
 (σ = 0.2), "lambert" the ideal diffuse lobe (exactly 1).
 
 ![furnace]({path})
@@ -324,7 +184,7 @@ def findings(rows):
     lines = []
     for lobe in ("beckmann", "ggx"):
         name = "Beckmann microfacet lobe (F = 1)" if lobe == "beckmann" else "GGX lobe"
-        for shadowing in SHADOWING + (("none",) if lobe == "beckmann" else ()):
+        for shadowing in furnace.SHADOWING + (("none",) if lobe == "beckmann" else ()):
             sel = [r for r in rows if r["lobe"] == lobe and r["shadowing"] == shadowing]
             if not sel:
                 continue
@@ -348,9 +208,9 @@ def findings(rows):
     for lobe in ("beckmann", "ggx"):
         name = "Beckmann (F = 1)" if lobe == "beckmann" else "GGX"
         parts = []
-        for angle in (min(ANGLES), max(ANGLES)):
+        for angle in (min(furnace.ANGLES), max(furnace.ANGLES)):
             more, less = [], []
-            for sigma in SIGMAS:
+            for sigma in furnace.SIGMAS:
                 v = [r["reference"] for r in rows if (r["lobe"], r["sigma"], r["angle"],
                                                       r["shadowing"]) == (lobe, sigma, angle, "vgroove")]
                 m = [r["reference"] for r in rows if (r["lobe"], r["sigma"], r["angle"],

@@ -1,27 +1,24 @@
 """Regenerate every validation table and figure.
 
-    python validation/run_all.py [--quick] [--only physics,furnace,...]
+    python validation/run_all.py [--quick] [--only physics,furnace,...] [--list]
 
-Runs each study in its own process (``validation/<study>.py``), in this order:
-
-====================  =====================================================
-``paper_claims``      study 1: P-G vs two- vs three-component, in-plane
-``physics``           study 2: Fresnel, pseudo-Brewster, s-polarization,
-                      reciprocity, realizability
-``furnace``           study 2: white furnace, albedo of each lobe
-``rendered_stokes``   study 3: rendered Stokes images vs physics
-``stress``            study 4: 10^6-sample stability stress test
-``bad_input``         study 5: the message of every invalid parameter
-``accuracy``          plugin vs reference, element by element
-====================  =====================================================
+Runs every study, each in its own process: every ``validation/<study>.py``
+that defines a ``main(argv)`` (found by reading the files, see
+:func:`studies`), except this script and ``common.py``, in alphabetical order,
+with the arguments of :data:`ARGUMENTS` (none for a study not listed there).
+A new study is therefore run without editing this file.
 
 Each writes ``validation/<study>.md`` (and figures under ``validation/figures/``);
 this script writes ``validation/summary.md`` with the run times. ``--quick``
-uses fewer samples everywhere (a smoke test, minutes less; the committed
-tables come from a full run). Exit status 1 if a study fails.
+uses fewer samples everywhere (a smoke test; the committed tables come from a
+full run, and a quick run overwrites them: restore them with git). ``--only``
+takes a comma-separated subset; an unknown name is a one-line error (exit 2).
+``--list`` prints the command of each selected study, one a line, and runs
+nothing. Exit status 1 if a study fails.
 """
 
 import argparse
+import ast
 import os
 import subprocess
 import sys
@@ -29,42 +26,94 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-
-STUDIES = {
-    "paper_claims": ([], []),
-    "physics": (["--pairs", "100000"], ["--pairs", "10000"]),
+#: Scripts in validation/ that are not studies.
+NOT_STUDIES = ("common", "run_all")
+#: Command-line arguments per study: (full run, ``--quick`` run).
+ARGUMENTS = {
+    "accuracy": (["--pairs", "100000"], ["--pairs", "10000"]),
+    "fit_pbsdf": ([], ["--quick"]),
+    "fit_synthetic": ([], ["--quick"]),
     "furnace": (["--samples", "1048576"], ["--samples", "65536"]),
+    "inverse_memory": ([], ["--quick"]),
+    "inverse_rendering": ([], ["--size", "32", "--iterations", "40"]),
+    "measured_oracle": ([], ["--quick"]),
+    "path_replay_gradients": ([], ["--quick"]),
+    "physics": (["--pairs", "100000"], ["--pairs", "10000"]),
     "rendered_stokes": (["--spp", "256", "--passes", "8"], ["--spp", "64", "--passes", "8"]),
     "stress": (["--samples", "1000000"], ["--samples", "100000"]),
-    "bad_input": ([], []),
-    "accuracy": (["--pairs", "100000"], ["--pairs", "10000"]),
+    "svbrdf_recovery": ([], ["--quick"]),
 }
-TITLES = {
-    "paper_claims": "Paper's claims: Priest-Germer vs two- vs three-component",
-    "physics": "Physics checks (Fresnel, pseudo-Brewster, s-polarization, reciprocity, "
-               "realizability)",
-    "furnace": "White furnace: albedo of each lobe",
-    "rendered_stokes": "Rendered Stokes images vs physics",
-    "stress": "Stability stress test",
-    "bad_input": "Bad input",
-    "accuracy": "Plugin vs reference accuracy",
-}
+
+
+def _defines_main(path):
+    """Whether the script at ``path`` defines a top-level ``main`` taking an argument."""
+    with open(path, encoding="utf-8") as f:
+        tree = ast.parse(f.read(), path)
+    return any(isinstance(node, ast.FunctionDef) and node.name == "main"
+               and (node.args.args or node.args.vararg) for node in tree.body)
+
+
+def studies(folder=HERE):
+    """Names of the study scripts in ``folder``, sorted: every ``*.py`` with a
+    ``main(argv)``, except :data:`NOT_STUDIES`."""
+    names = []
+    for name in sorted(os.listdir(folder)):
+        stem, ext = os.path.splitext(name)
+        if ext == ".py" and stem not in NOT_STUDIES and _defines_main(os.path.join(folder, name)):
+            names.append(stem)
+    return names
+
+
+def title(study, folder=HERE):
+    """The first sentence of the study's module docstring."""
+    with open(os.path.join(folder, study + ".py"), encoding="utf-8") as f:
+        doc = ast.get_docstring(ast.parse(f.read())) or study
+    first = " ".join(doc.split("\n\n")[0].split())
+    return first.split(". ")[0].rstrip(".").replace("``", "`")
+
+
+def selected_studies(only, available):
+    """The studies ``--only`` names (comma-separated; all if empty), in the
+    order of ``available``; ValueError naming any unknown one."""
+    wanted = [s for s in only.split(",") if s] if only else list(available)
+    unknown = [s for s in wanted if s not in available]
+    if unknown:
+        raise ValueError(f"--only: unknown study {', '.join(map(repr, unknown))} "
+                         f"(studies: {', '.join(available)})")
+    return [s for s in available if s in wanted]
 
 
 def main(argv=None):
+    available = studies()
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer samples (smoke test)")
-    parser.add_argument("--only", default="", help="comma-separated subset of " + ", ".join(STUDIES))
+    parser.add_argument("--only", default="", help="comma-separated subset of "
+                        + ", ".join(available))
+    parser.add_argument("--list", action="store_true",
+                        help="print the selected studies' commands and run nothing")
     args = parser.parse_args(argv)
-    selected = [s for s in STUDIES if not args.only or s in args.only.split(",")]
+    stale = sorted(set(ARGUMENTS) - set(available))
+    if stale:
+        parser.exit(2, f"run_all.py: error: ARGUMENTS names {', '.join(stale)}, which "
+                       "is not a study (validation/<study>.py with a main(argv))\n")
+    try:
+        selected = selected_studies(args.only, available)
+    except ValueError as e:
+        parser.exit(2, f"run_all.py: error: {e}\n")
+    if args.list:
+        for study in selected:
+            extra = ARGUMENTS.get(study, ([], []))[1 if args.quick else 0]
+            print(" ".join(["python", f"validation/{study}.py"] + extra))
+        return 0
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [ROOT] + ([os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else [])),
         MPLBACKEND="Agg")
     rows, failed = [], []
     start = time.perf_counter()
     for study in selected:
-        full, quick = STUDIES[study]
-        command = [sys.executable, os.path.join(HERE, study + ".py")] + (quick if args.quick else full)
+        full, quick = ARGUMENTS.get(study, ([], []))
+        extra = quick if args.quick else full
+        command = [sys.executable, os.path.join(HERE, study + ".py")] + extra
         print(f"== {study}: {' '.join(command[1:])}", flush=True)
         t0 = time.perf_counter()
         result = subprocess.run(command, cwd=ROOT, env=env, stdout=subprocess.DEVNULL)
@@ -73,8 +122,8 @@ def main(argv=None):
         if result.returncode:
             failed.append(study)
         print(f"   {status}, {seconds:.0f} s", flush=True)
-        shown = " ".join(["python", f"validation/{study}.py"] + (quick if args.quick else full))
-        rows.append(f"| [{TITLES[study]}]({study}.md) | `{shown}` | {seconds:.0f} s | {status} |")
+        shown = " ".join(["python", f"validation/{study}.py"] + extra)
+        rows.append(f"| [{title(study)}]({study}.md) | `{shown}` | {seconds:.0f} s | {status} |")
     total = time.perf_counter() - start
     if not args.only:
         with open(os.path.join(HERE, "summary.md"), "w", encoding="utf-8") as f:

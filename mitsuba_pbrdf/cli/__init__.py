@@ -10,7 +10,8 @@
                [--kid W] [--shadowing vgroove|smith] [--dd-distribution beckmann|ggx]
                [--theta-i DEG] [--wavelengths NM,...] [--out PNG]
     pbrdf gallery [--out DIR] [--only ITEM,...] [--spp N] [--scale F] [--variant V]
-    pbrdf fit DATA.csv [--material M] [--model three|two|both] [--backend reference|drjit] ...
+    pbrdf fit DATA.csv|TABLE.pbsdf [--material M] [--model three|two|both] [--backend reference|drjit] ...
+    pbrdf export --out FILE.pbsdf [--material M | --eta N --k K] [--sigma S] ... [--grid default|kaist|PxDxH]
 
 ``render`` writes ``<out>.exr`` (the Stokes image, named float32 channels
 ``R, G, B, S0.R ... S3.B``) and ``<out>.png`` (by default intensity and DoLP
@@ -21,10 +22,11 @@ defaults to ``cuda_ad_spectral_polarized`` where a CUDA GPU is usable, else
 progress bar. ``view`` draws the Stokes sheet of an EXR; ``plot`` draws the
 model's pBRDF with the NumPy reference evaluator (no variant needed);
 ``gallery`` renders ``scenes/gallery`` and draws README's pictures; ``fit``
-fits the model to measurements. Errors (missing file, bad scene, unknown
-variant, bad parameter, unwritable output) print one line and exit with
-status 2; Ctrl-C prints ``interrupted`` and exits with status 130, leaving no
-partial file (:mod:`.common`).
+fits the model to measurements (CSV) or a ``.pbsdf`` table; ``export``
+tabulates the model into a ``.pbsdf`` table for ``measured_polarized``.
+Errors (missing file, bad scene, unknown variant, bad parameter, unwritable
+output) print one line and exit with status 2; Ctrl-C prints ``interrupted``
+and exits with status 130, leaving no partial file (:mod:`.common`).
 
 One module per subcommand (``run(args)`` and ``add_parser(subparsers)``), each a
 thin layer over functions users can call from Python; :mod:`.common` holds
@@ -37,11 +39,11 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import fit, gallery, plot, render, view
+from . import export, fit, gallery, plot, render, view
 from .common import PROG, run_command, version_text
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
-COMMANDS = (render, view, plot, gallery, fit)
+COMMANDS = (render, view, plot, gallery, fit, export)
 
 
 def build_parser() -> argparse.ArgumentParser:

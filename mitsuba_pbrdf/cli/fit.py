@@ -1,38 +1,105 @@
 """``pbrdf fit``: fit the three- and two-component models to measurements in a
-CSV file (format: :mod:`mitsuba_pbrdf.measured.measurements`). ``pbrdf-fit``
-is the same command."""
+CSV file (format: :mod:`mitsuba_pbrdf.measured.measurements`) or to a
+``.pbsdf`` table (the KAIST database's format: :mod:`mitsuba_pbrdf.measured.pbsdf`;
+the entries used: :mod:`mitsuba_pbrdf.fitting.table_sampling`). The file's
+kind is told by its first bytes. ``pbrdf-fit`` is the same command."""
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from typing import Optional, Sequence
 
 from ..options import DD_DISTRIBUTIONS, DEFAULTS, SHADOWING
 from ..outputs import atomic_path, write_json
-from .common import CliError, check_outputs, one_line
+from .common import CliError, check_outputs, one_line, positive_int
+
+
+def is_pbsdf(path) -> bool:
+    """Whether *path* is a tensor_file (``.pbsdf``) by its first bytes, or by its
+    extension when it cannot be read."""
+    from ..measured.pbsdf import MAGIC
+
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(MAGIC)) == MAGIC or path.lower().endswith(".pbsdf")
+    except OSError:
+        return path.lower().endswith(".pbsdf")
+
+
+def _check_options(args):
+    from ..fitting.layout import parse_assignments
+
+    positive_int("--starts", args.starts)
+    positive_int("--cells", args.cells)
+    for option, v in (("--rel-uncertainty", args.rel_uncertainty),
+                      ("--abs-uncertainty", args.abs_uncertainty)):
+        if not (math.isfinite(v) and v >= 0):
+            raise CliError(f"{option} must be a finite number >= 0, got {v:g}")
+    if not 0 < args.max_angle < 90:
+        raise CliError(f"--max-angle must be in (0, 90) degrees, got {args.max_angle:g}")
+    try:
+        init = parse_assignments(args.init, "--init")
+        fix = parse_assignments(args.fix, "--fix")
+    except ValueError as e:
+        raise CliError(one_line(e)) from e
+    check_outputs(args.plot, args.json)
+    return init, fix
+
+
+def _read(args):
+    from ..fitting.table_sampling import sample_table
+    from ..measured import MeasurementError, read_measurements
+    from ..measured.pbsdf import PbsdfError, read_pbsdf
+
+    path = args.data
+    if not os.path.exists(path):
+        raise CliError(f"measurement file not found: {path}")
+    try:
+        if is_pbsdf(path):
+            table = read_pbsdf(path)
+            quantities = args.observables.split(",") if args.observables else None
+            return table, sample_table(table, args.cells, args.max_angle, args.seed, quantities)
+        if args.observables:
+            raise CliError("--observables applies to .pbsdf tables (a CSV file fits its columns)")
+        return None, read_measurements(path)
+    except (MeasurementError, PbsdfError, ValueError) as e:
+        raise CliError(one_line(e)) from e
 
 
 def run(args) -> int:
     """``pbrdf fit``."""
     from ..fitting import fit_models, plot_fit, report
-    from ..measured import MeasurementError, read_measurements
+    from ..fitting.report import undetermined_warning
 
-    check_outputs(args.plot, args.json)
+    init, fix = _check_options(args)
+    table, data = _read(args)
     try:
-        data = read_measurements(args.csv)
         models = ("three", "two") if args.model == "both" else (args.model,)
         results = fit_models(data, models, backend=args.backend, shadowing=args.shadowing,
                              dd_distribution=args.dd_distribution, material=args.material,
-                             init=args.init, fix=args.fix, starts=args.starts,
+                             init=init, fix=fix, starts=args.starts,
                              rel_uncertainty=args.rel_uncertainty,
                              abs_uncertainty=args.abs_uncertainty)
-    except (MeasurementError, ValueError) as e:
+    except ValueError as e:
         raise CliError(one_line(e)) from e
+    if table is not None:
+        print(f"table: {table.describe()}; fitted {len(data)} cell-wavelength entries "
+              f"({len(data) // max(table.wavelengths.size, 1)} cells, both directions within "
+              f"{args.max_angle:g} deg of the normal)")
     print(report(data, results), end="")
+    for r in results.values():
+        if r.undetermined:
+            print(undetermined_warning(r), file=sys.stderr)
     if args.plot:
+        title = os.path.basename(args.data)
         with atomic_path(args.plot) as tmp:
-            plot_fit(data, results, tmp, title=os.path.basename(args.csv))
+            if table is not None:
+                from ..fitting.table_plots import plot_table_fit
+                plot_table_fit(table, results, tmp, title=title)
+            else:
+                plot_fit(data, results, tmp, title=title)
         print(f"\nplot: {args.plot}")
     if args.json:
         write_json(args.json, {m: r.as_dict() for m, r in results.items()})
@@ -42,12 +109,12 @@ def run(args) -> int:
 
 def add_parser(subparsers):
     p = subparsers.add_parser(
-        "fit", help="fit the model to measurements (CSV)",
+        "fit", help="fit the model to measurements (CSV) or a .pbsdf table",
         description="Fit the three-component pBRDF (and the two-component one) to "
-                    "measurements in a CSV file: theta_i, phi_i, theta_r, phi_r (deg), "
-                    "wavelength (nm), m00..m33 and/or dolp, optional <quantity>_err.")
-    p.add_argument("csv", help="measurements: theta_i, phi_i, theta_r, phi_r (deg), "
-                               "wavelength (nm), m00..m33 and/or dolp, optional <q>_err")
+                    "measurements in a CSV file (theta_i, phi_i, theta_r, phi_r (deg), "
+                    "wavelength (nm), m00..m33 and/or dolp, optional <quantity>_err) or to a "
+                    ".pbsdf table (KAIST database format; see docs/measured-data.md).")
+    p.add_argument("data", metavar="FILE", help="measurements (.csv) or a pBRDF table (.pbsdf)")
     p.add_argument("--model", choices=("three", "two", "both"), default="both")
     p.add_argument("--backend", choices=("reference", "drjit"), default="reference",
                    help="reference: NumPy float64 with scipy (default); drjit: the plugin")
@@ -58,8 +125,19 @@ def add_parser(subparsers):
     p.add_argument("--dd-distribution", choices=DD_DISTRIBUTIONS,
                    default=DEFAULTS["dd_distribution"])
     p.add_argument("--starts", type=int, default=3, help="number of starting points (default 3)")
-    p.add_argument("--rel-uncertainty", type=float, default=0.05)
-    p.add_argument("--abs-uncertainty", type=float, default=0.005)
+    p.add_argument("--rel-uncertainty", type=float, default=0.05,
+                   help="assumed relative uncertainty of each value (default 0.05)")
+    p.add_argument("--abs-uncertainty", type=float, default=0.005,
+                   help="assumed absolute floor, times the column's largest value (CSV) or "
+                        "the entry's M00 (.pbsdf) (default 0.005)")
+    p.add_argument("--cells", type=int, default=3000,
+                   help=".pbsdf: number of table cells to fit (default 3000)")
+    p.add_argument("--max-angle", type=float, default=80.0,
+                   help=".pbsdf: leave out cells with the light or viewer further than this "
+                        "from the normal (degrees, default 80)")
+    p.add_argument("--observables", default="",
+                   help=".pbsdf: quantities to fit, e.g. m00,dolp (default: m00..m33)")
+    p.add_argument("--seed", type=int, default=0, help=".pbsdf: seed of the cell sample")
     p.add_argument("--plot", help="write a PNG of fit versus data")
     p.add_argument("--json", help="write the results as JSON")
     p.set_defaults(func=run)

@@ -20,7 +20,13 @@ def weights(data, rel, abs_):
         if q in data.uncertainty:
             u = data.uncertainty[q][rows]
         else:
-            u = rel * np.abs(y[rows]) + abs_ * np.abs(y[rows]).max()
+            if data.row_scale is not None and q != "dolp":
+                # each element's floor is relative to its own entry's M00, with a
+                # floor of 1e-6 of the largest M00 (float32 tables' denormal tails)
+                scale = np.maximum(data.row_scale[rows], 1e-6 * np.nanmax(data.row_scale))
+            else:
+                scale = np.abs(y[rows]).max()
+            u = rel * np.abs(y[rows]) + abs_ * scale
             u = np.where(u > 0, u, 1.0)
         names.append(q)
         obs.append(y[rows])
@@ -50,7 +56,8 @@ class DrJitResiduals:
         import drjit as dr
         import mitsuba as mi
 
-        from ..variant import DEFAULT_VARIANT, use_variant
+        from ..registry import use_variant
+        from ..variant import DEFAULT_VARIANT
         if mi.variant() is None or not mi.is_polarized or mi.variant().startswith("scalar"):
             use_variant(DEFAULT_VARIANT)
         self.dr, self.mi = dr, mi

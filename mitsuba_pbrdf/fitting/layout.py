@@ -3,6 +3,8 @@ solver's vector (n and k per wavelength, the other parameters shared)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["SHARED", "DEFAULTS", "BOUNDS", "MODELS", "parse_assignments", "ParameterLayout"]
@@ -16,20 +18,30 @@ MODELS = {"three": "three-component (specular + directional diffuse + ideal diff
 
 
 def parse_assignments(text, what):
-    """'a=1,b=2' or a dict -> dict (values float)."""
+    """'a=1,b=2' or a dict -> dict (values float), each value finite and within
+    the parameter's bounds (:data:`BOUNDS`); errors name ``what`` (the option)."""
     if not text:
         return {}
     if isinstance(text, dict):
-        return {str(k): float(v) for k, v in text.items()}
+        items = [(str(k), v) for k, v in text.items()]
+    else:
+        items = []
+        for item in str(text).split(","):
+            key, sep, value = item.partition("=")
+            if not sep or not key.strip():
+                raise ValueError(f"{what}: expected name=value, got {item!r}")
+            items.append((key.strip(), value))
     out = {}
-    for item in str(text).split(","):
-        key, sep, value = item.partition("=")
-        if not sep:
-            raise ValueError(f"{what}: expected name=value, got {item!r}")
+    for key, value in items:
         try:
-            out[key.strip()] = float(value)
-        except ValueError:
-            raise ValueError(f"{what}: {key.strip()}={value!r} is not a number") from None
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{what}: {key}={value!r} is not a number") from None
+        lo, hi = BOUNDS.get(key.partition("@")[0], (-math.inf, math.inf))
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise ValueError(f"{what}: {key}={v:g} is outside the allowed range "
+                             f"[{lo:g}, {hi:g}]")
+        out[key] = v
     return out
 
 

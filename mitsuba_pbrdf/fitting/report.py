@@ -13,13 +13,24 @@ from .layout import MODELS, SHARED
 from .observables import model_observables
 from .solver import FitResult
 
-__all__ = ["report", "plot_fit"]
+__all__ = ["report", "plot_fit", "undetermined_warning"]
 
 
 def _fmt(v, e):
+    if np.isinf(e):
+        return f"{v:.5g} (undetermined)"
     if not np.isfinite(e):
         return f"{v:.5g} (fixed)"
     return f"{v:.5g} +/- {e:.2g}"
+
+
+def undetermined_warning(r: FitResult) -> str:
+    """The warning for parameters the data leave undetermined (empty if none)."""
+    if not r.undetermined:
+        return ""
+    groups = "; ".join("{" + ", ".join(g) + "}" for g in r.correlated)
+    return (f"warning: {r.model}-component fit: the data leave {', '.join(r.undetermined)} "
+            f"undetermined (no uncertainty given); parameters that move together: {groups}")
 
 
 def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Dict] = None) -> str:
@@ -52,6 +63,8 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
                 continue
             t = f" {truth[p]:.5g} |" if truth else ""
             lines.append(f"| {p} | {_fmt(r.values[p], r.errors[p])} |{t}")
+        if r.undetermined:
+            lines.append("\n" + undetermined_warning(r))
         if r.at_bound:
             lines.append(f"\nat a bound (uncertainty not meaningful): {', '.join(r.at_bound)}")
         lines += ["", f"chi2 = {r.chi2:.4g} for {r.dof} degrees of freedom "

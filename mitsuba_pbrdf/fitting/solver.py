@@ -18,10 +18,13 @@ plugin (float32), Jacobian by Dr.Jit forward-mode derivatives (one pass per
 parameter). Both give the same parameters; ``reference`` is faster on the
 data sizes of goniometer measurements (``validation/fit_synthetic.md``, section 3).
 
-Parameter uncertainties are the square roots of the diagonal of
-(J^T J)^-1 of the weighted residuals at the optimum (times the reduced
-chi-square without given uncertainties): they are meaningful only where the
-fit is good and the parameter is not at a bound (reported).
+Parameter uncertainties come from the singular values of the weighted
+Jacobian at the optimum (:mod:`.identifiability`; without given
+uncertainties, those of the assumed ones, scaled up by the reduced chi-square
+when it exceeds 1): parameters the data cannot determine
+are reported as undetermined, never with a small +/- from a pseudo-inverse.
+They are meaningful only where the fit is good and the parameter is not at a
+bound (reported).
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ import numpy as np
 from .. import reference as ref
 from ..measured.measurements import Measurements
 from .backends import BACKENDS, weights
+from .identifiability import analyze
 from .layout import MODELS, SHARED, ParameterLayout, parse_assignments
 from .observables import model_observables
 
@@ -46,7 +50,10 @@ __all__ = ["FitResult", "fit_model", "fit_models"]
 class FitResult:
     """Outcome of :func:`fit_model`. ``values`` / ``errors``: ``n``, ``k``
     (arrays over ``wavelengths``) and the shared parameters; ``errors`` is NaN
-    for fixed parameters; ``at_bound`` lists parameters stopped at a bound."""
+    for fixed parameters and ``inf`` for parameters the data leave
+    undetermined (:mod:`.identifiability`; listed in ``undetermined``, with
+    the groups that move together in ``correlated``); ``at_bound`` lists
+    parameters stopped at a bound."""
     model: str
     backend: str
     wavelengths: np.ndarray
@@ -65,21 +72,33 @@ class FitResult:
     at_bound: List[str] = field(default_factory=list)
     shadowing: str = "vgroove"
     dd_distribution: str = "beckmann"
+    undetermined: List[str] = field(default_factory=list)   # labels, e.g. "n(633 nm)"
+    correlated: List[List[str]] = field(default_factory=list)  # groups moving together
+    fixed: List[str] = field(default_factory=list)
 
     @property
     def reduced_chi2(self):
         return self.chi2 / max(self.dof, 1)
 
     def as_dict(self):
-        conv = lambda v: v.tolist() if isinstance(v, np.ndarray) else v
+        """JSON-ready: an undetermined parameter's error is ``None`` (null), a
+        fixed one's NaN becomes ``None`` too (listed apart in ``fixed``)."""
+        def conv(v):
+            if isinstance(v, np.ndarray):
+                return [conv(float(a)) for a in v]
+            return None if isinstance(v, float) and not math.isfinite(v) else v
         return {"model": self.model, "backend": self.backend,
                 "wavelengths": self.wavelengths.tolist(),
                 "values": {k: conv(v) for k, v in self.values.items()},
                 "errors": {k: conv(v) for k, v in self.errors.items()},
                 "chi2": self.chi2, "dof": self.dof, "reduced_chi2": self.reduced_chi2,
-                "rms": self.rms, "relative_rms": self.relative_rms, "seconds": self.seconds,
+                "rms": {k: conv(v) for k, v in self.rms.items()},
+                "relative_rms": {k: conv(v) for k, v in self.relative_rms.items()},
+                "seconds": self.seconds,
                 "evaluations": self.evaluations, "success": self.success,
                 "message": self.message, "at_bound": self.at_bound,
+                "undetermined": self.undetermined, "correlated": self.correlated,
+                "fixed": self.fixed,
                 "shadowing": self.shadowing, "dd_distribution": self.dd_distribution}
 
 
@@ -103,6 +122,14 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
         raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, not {backend!r}")
     init = parse_assignments(init, "init")
     fix = parse_assignments(fix, "fix")
+    if isinstance(starts, bool) or not isinstance(starts, (int, np.integer)) or starts < 1:
+        raise ValueError(f"starts must be a whole number >= 1, got {starts!r}")
+    for name, v in (("rel_uncertainty", rel_uncertainty), ("abs_uncertainty", abs_uncertainty)):
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+    if rel_uncertainty == 0 and abs_uncertainty == 0 and set(data.observed) - set(data.uncertainty):
+        raise ValueError("rel_uncertainty and abs_uncertainty are both 0: the measurements "
+                         "without given uncertainties would have none")
     wavelengths = data.wavelengths
     if material is not None:
         try:
@@ -137,7 +164,7 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     t0 = time.perf_counter()
     best = None
     tol = 1e-10 if backend == "reference" else 1e-7   # float32 residuals: looser tolerances
-    for start in range(max(int(starts), 1)):
+    for start in range(starts):
         x_start = x0.copy()
         if start:
             for i, name in enumerate(layout.free):
@@ -153,14 +180,11 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     values = layout.unpack(best.x)
     chi2 = float(2 * best.cost)
     dof = n_obs - len(layout.free)
-    J = best.jac
-    try:
-        cov = np.linalg.pinv(J.T @ J)
-    except np.linalg.LinAlgError:
-        cov = np.full((len(layout.free),) * 2, np.nan)
-    if any(q not in data.uncertainty for q in names):
-        cov = cov * chi2 / max(dof, 1)
-    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    # assumed uncertainties: scaled up by the reduced chi-square when the residuals
+    # are larger, never down (a fit to exact data does not make the data exact)
+    chi2_scale = (max(chi2 / max(dof, 1), 1.0) if any(q not in data.uncertainty for q in names)
+                  else 1.0)
+    sd, undetermined, groups = analyze(best.jac, layout.free, best.x, chi2_scale)
     errors = {"n": np.full(len(wavelengths), np.nan), "k": np.full(len(wavelengths), np.nan)}
     errors.update({p: math.nan for p in SHARED})
     for name, s in zip(layout.free, sd):
@@ -185,7 +209,14 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
         rel[q] = float(np.sqrt(np.mean((r[pos] / y[pos]) ** 2))) if pos.any() else math.nan
     return FitResult(model, backend, wavelengths, values, errors, chi2, dof, resid, rms, rel,
                      seconds, evaluator.count, bool(best.success), str(best.message),
-                     [layout.label(n) for n in layout.free], at_bound, shadowing, dd_distribution)
+                     [layout.label(n) for n in layout.free], at_bound, shadowing, dd_distribution,
+                     [layout.label(n) for n in undetermined],
+                     [[layout.label(n) for n in g] for g in groups],
+                     [layout.label(n) for n in _all_names(len(wavelengths)) if n not in layout.free])
+
+
+def _all_names(W):
+    return [f"{p}@{j}" for p in ("n", "k") for j in range(W)] + list(SHARED)
 
 
 def fit_models(data: Measurements, models=("three", "two"), **options) -> Dict[str, FitResult]:

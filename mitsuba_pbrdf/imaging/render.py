@@ -40,7 +40,8 @@ from typing import Mapping, Optional
 
 import numpy as np
 
-from ..variant import default_variant, use_variant
+from ..registry import use_variant
+from ..variant import default_variant
 from .passes import pass_seeds, plan_passes, samples_per_pass
 from .progress import progress_reporter
 from .scene_params import check_loaded_scene, check_parameter_values

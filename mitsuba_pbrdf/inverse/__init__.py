@@ -15,20 +15,21 @@ determines::
     loss = inverse.stokes_loss(scene, target, components=(0, 1, 2))
     value, grads, stats = inverse.loss_and_gradient(
         scene, params, ["object.bsdf.sigma.value", "object.bsdf.eta.value"], loss,
-        spp=64, passes="auto", max_depth=3)
+        spp=64)   # method="auto": polarized path replay (stokes_prb) for this scene
 
 Modules: :mod:`.scenes` (a scene to invert), :mod:`.losses` (Stokes losses),
-:mod:`.gradients` (gradients by reverse or forward mode, in passes;
-Jacobians, Fisher information; the memory/time trade-off is in its
-docstring), :mod:`.optimize` (Adam). The Mueller matrices of a BSDF with
+:mod:`.gradients` (gradients by polarized path replay, or by reverse
+or forward mode in passes; Jacobians, Fisher information; the methods and
+their memory and time are in its docstring), :mod:`.optimize` (Adam). The Mueller matrices of a BSDF with
 derivatives, in the reference's frames, are
 :func:`mitsuba_pbrdf.frames.mueller_brdf`.
 """
 
 import warnings as _warnings
 
-from .gradients import (REVERSE_BYTES_PER_SAMPLE_AND_DEPTH, GradientStats, fisher_information,
-                        jacobian, loss_and_gradient, render, reverse_passes)
+from .gradients import (METHODS, REVERSE_BYTES_PER_SAMPLE_AND_DEPTH, GradientStats,
+                        fisher_information, gradient_method, jacobian, loss_and_gradient, render,
+                        reverse_passes)
 from .losses import stokes_indices, stokes_loss
 from .optimize import OptimizationResult, fit_parameters
 from .scenes import sphere_scene
@@ -41,6 +42,8 @@ __all__ = [
     "reverse_passes",
     "REVERSE_BYTES_PER_SAMPLE_AND_DEPTH",
     "GradientStats",
+    "METHODS",
+    "gradient_method",
     "loss_and_gradient",
     "jacobian",
     "fisher_information",

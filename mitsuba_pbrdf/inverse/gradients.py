@@ -2,38 +2,47 @@
 parameters, Jacobian images and the Fisher information (which parameters an
 image determines).
 
-**Memory and the two methods.** Mitsuba's path-replay integrators (``prb*``)
-ignore Mueller frame rotations, so polarized gradients need ``path`` (or
-``direct``/``volpath``) differentiated by plain AD. In reverse mode Mitsuba
-runs the path loop in *evaluated* mode and records every bounce of every
-sample: memory grows as pixels x spp x depth (~2.1 kB per sample at
-max_depth 4; 512 x 512 at 64 spp would need ~35 GiB). Two ways around it,
-both exact for the same estimator:
+**Methods.**
 
-* ``method="reverse"`` with ``passes`` (the default method; ``passes="auto"``
-  sizes them for a memory budget): reverse-mode AD with the samples split
-  into passes whose gradients are accumulated (``Integrator.render_backward``
-  once per pass, with the loss gradient of the full image). Memory divides by
-  the number of passes; cost about one AD render of all samples, whatever the
-  number of parameters K (use it for textures).
+* ``method="prb"``: polarized path replay, the package's ``stokes_prb``
+  integrator (docs/path-replay.md), built from the scene's ``stokes``/``path``
+  (same ``max_depth``, ``rr_depth``, ``hide_emitters``). One primal render and
+  one replay of all samples: memory of a primal render, whatever the number
+  of samples, the depth or the number of parameters (textures included).
+  ``method="auto"`` (the default) uses it wherever the scene allows
+  (:func:`mitsuba_pbrdf.integrators.stokes_prb.supports_scene`: ``stokes``
+  around ``path`` with a finite depth, an RGB film), else ``"reverse"``.
+* ``method="reverse"``: the scene's own integrator (``path``, ``direct``...)
+  differentiated by reverse-mode AD, which records every bounce of every
+  sample: memory grows as pixels x spp x depth (~2.1 kB per sample at
+  max_depth 4; 512 x 512 at 64 spp would need ~35 GiB), so the samples can
+  be split into ``passes`` (``passes="auto"`` sizes them for a memory budget)
+  whose gradients are accumulated.
 * ``method="forward"``: one forward-mode derivative render per scalar
-  parameter with Dr.Jit's *symbolic* loops kept on. Tangents are propagated
-  inside the megakernel, nothing per bounce or per sample is stored: memory
-  is that of a primal render, independent of spp and depth. Cost: K + 1
-  renders. (Mitsuba's own ``Integrator.render_forward`` switches symbolic
-  loops off, "recorded loops cannot be differentiated", true of reverse mode
-  only, and so stores the whole graph: this module calls ``render`` itself.)
+  parameter (``render_forward`` of ``stokes_prb``, or the scene's integrator
+  with Dr.Jit's symbolic loops kept on): memory of a primal render, K + 1
+  renders for K parameters.
+
+**Mitsuba 3.9's path AD and polarization.** When a sampled BSDF direction
+depends on a differentiated parameter (a roughness, or any parameter of
+``pbrdf``'s lobe-mixture sampling), Mitsuba's ``path`` re-evaluates the BSDF
+weight but leaves it in the BSDF's local Stokes frame: S1 and S2 of those
+renders, and their derivatives, are wrong (validation/inverse_memory.md).
+``stokes_prb`` rotates every Mueller matrix into the world frames, so
+``"prb"``/``"auto"`` are the methods to use for polarized gradients of
+``path`` scenes; ``"reverse"`` and ``"forward"`` through ``path`` are exact
+where the sampled directions do not depend on the parameters (e.g.
+``sampling="cosine"``, ``diffuse``), and with ``direct``.
 
 Measured (validation/inverse_memory.md; 512 x 512, 64 spp, depth 4, 7
-parameters, 2 cores): reverse with 9 passes 4.5 GiB peak, 29 s per gradient
-(49 s the first time, compiling); forward 0.27 GiB, 96 s. Reverse with
-passes is the default, forward is for tight memory or few parameters.
+parameters, 2 cores): see the table there for ``prb`` against reverse mode
+in passes and forward mode.
 
-With ``passes=1`` and the same seed, both give what ``mi.render`` and
-``dr.backward`` give (the same paths, the same estimator; tested); with more
-passes the samples differ and the gradients agree within Monte Carlo noise.
-The seed of the derivative renders differs from the primal one, as in
-``mi.render``, so the gradient of a non-linear loss is unbiased.
+With ``passes=1`` and the same seed, the reverse and forward methods give
+what ``mi.render`` and ``dr.backward`` give with the scene's integrator (the
+same paths, the same estimator; tested), and ``"prb"`` what they give with
+``stokes_prb``. The seed of the derivative renders differs from the primal
+one, as in ``mi.render``, so the gradient of a non-linear loss is unbiased.
 
 Passes and their seeds follow :mod:`mitsuba_pbrdf.imaging.passes`.
 """
@@ -51,8 +60,11 @@ import numpy as np
 
 from ..imaging.passes import derivative_seed, pass_seeds, plan_passes
 
-__all__ = ["render", "reverse_passes", "GradientStats", "loss_and_gradient", "jacobian",
-           "fisher_information"]
+__all__ = ["METHODS", "render", "reverse_passes", "GradientStats", "gradient_method",
+           "loss_and_gradient", "jacobian", "fisher_information"]
+
+#: Gradient methods of :func:`loss_and_gradient` (see the module docstring).
+METHODS = ("auto", "prb", "reverse", "forward")
 
 
 def _passes(seed, spp, passes):
@@ -114,27 +126,57 @@ def _scalar_grad(value):
     return np.array(g, dtype=np.float64).reshape(-1)
 
 
+def gradient_method(scene, method="auto"):
+    """The method :func:`loss_and_gradient` uses for ``method`` on ``scene``:
+    ``"auto"`` becomes ``"prb"`` where ``stokes_prb`` can replay the scene's
+    integrator, else ``"reverse"``. Raises ``ValueError`` for an unknown
+    method or ``"prb"`` on a scene it cannot replay (saying why)."""
+    from ..integrators.stokes_prb import supports_scene
+
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, not {method!r}")
+    if method in ("auto", "prb"):
+        ok, why = supports_scene(scene)
+        if method == "prb" and not ok:
+            raise ValueError(f"method='prb' needs stokes around path: {why}")
+        return "prb" if ok else "reverse"
+    return method
+
+
+def _is_replay(integrator):
+    from ..integrators.stokes_prb import integrator_class
+
+    return isinstance(integrator, integrator_class())
+
+
+def _replay_integrator(scene):
+    from ..integrators.stokes_prb import from_path
+
+    return from_path(scene)
+
+
 def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16, seed=0,
-                      method="reverse", passes=1, return_image=False, max_depth=None,
+                      method="auto", passes=1, return_image=False, max_depth=None,
                       memory_budget=4 * 1024**3):
     """Loss of the rendered image and its gradient with respect to the scene
     parameters ``keys`` (entries of ``params = mi.traverse(scene)``).
 
     ``loss(image) -> mi.Float`` (e.g. :func:`stokes_loss`). ``method``:
-    ``"reverse"`` (``passes`` AD renders; memory divided by ``passes``) or
-    ``"forward"`` (memory independent of spp and depth; K + 1 renders for K
-    scalar parameters); see the module docstring. ``passes="auto"`` (reverse
-    mode) picks the number of passes that keeps Dr.Jit's memory under
+    ``"auto"`` (``"prb"`` where the scene allows it, else ``"reverse"``),
+    ``"prb"`` (polarized path replay: memory of a primal render), ``"reverse"``
+    (``passes`` AD renders; memory divided by ``passes``) or ``"forward"``
+    (memory independent of spp and depth; K + 1 renders for K scalar
+    parameters); see the module docstring. ``passes="auto"`` (reverse mode)
+    picks the number of passes that keeps Dr.Jit's memory under
     ``memory_budget`` for a ``path`` integrator of depth ``max_depth``
-    (:func:`reverse_passes`). The primal image is rendered in ``passes`` parts
-    in both methods.
+    (:func:`reverse_passes`); other methods then use 1. The primal image is
+    rendered in ``passes`` parts in all methods.
 
     Returns ``(loss value, {key: gradient as float64 array}, stats)`` and, with
     ``return_image``, the primal image (NumPy) last. Gradients are left neither
     on ``params`` nor enabled afterwards.
     """
-    if method not in ("forward", "reverse"):
-        raise ValueError(f"method must be 'forward' or 'reverse', not {method!r}")
+    method = gradient_method(scene, method)
     keys = list(keys)
     if passes == "auto":
         if method != "reverse":
@@ -166,18 +208,20 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
     grads = {k: np.zeros(dr.width(params[k])) for k in keys}
     renders = len(plan)
     try:
-        if method == "reverse":
+        if method in ("reverse", "prb"):
+            backward = integrator if method == "reverse" else _replay_integrator(scene)
             for k in keys:
                 dr.enable_grad(params[k])
             params.update()
             for _, grad_seed, n in plan:
-                integrator.render_backward(scene, params, grad_image * (n / spp), sensor,
-                                           seed=grad_seed, spp=n)
+                backward.render_backward(scene, params, grad_image * (n / spp), sensor,
+                                         seed=grad_seed, spp=n)
                 renders += 1
             for k in keys:
                 grads[k] = _scalar_grad(params[k])
         else:
             # Symbolic loops stay on: tangents are propagated inside the kernel.
+            own_replay = integrator if _is_replay(integrator) else None
             with dr.scoped_set_flag(dr.JitFlag.SymbolicLoops, True):
                 for k in keys:
                     dr.enable_grad(params[k])
@@ -189,7 +233,8 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
                         tangent[j] = 1.0
                         grads[k][j] = _forward_derivative(
                             scene, params, keys, k, type(params[k])(tangent) if width > 1 else 1.0,
-                            plan, lambda d: float(dr.sum(d * grad_image, axis=None).array[0]))
+                            plan, lambda d: float(dr.sum(d * grad_image, axis=None).array[0]),
+                            integrator=own_replay)
                         renders += len(plan)
     finally:
         for k in keys:
@@ -202,32 +247,42 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
     return loss_value, grads, stats
 
 
-def _forward_derivative(scene, params, keys, key, tangent, plan, reduce):
+def _forward_derivative(scene, params, keys, key, tangent, plan, reduce, integrator=None):
     """Sum over the passes ``plan`` of ``(n / spp) * reduce(d image)``, d image
     being the forward-mode derivative render along ``tangent`` of
     ``params[key]``. The caller has enabled the gradients of ``keys`` and
     switched symbolic loops on (tangents propagate inside the kernel: the
-    memory of a primal render)."""
-    integrator, sensor = scene.integrator(), scene.sensors()[0]
+    memory of a primal render). ``integrator``: a ``stokes_prb`` integrator
+    (its ``render_forward``), else the scene's (a render differentiated
+    forward)."""
+    sensor = scene.sensors()[0]
     spp = sum(n for _, _, n in plan)
     total = None
     for _, grad_seed, n in plan:
         for other in keys:  # forward_to clears the input's gradient: set it every pass
             dr.set_grad(params[other], 0.0)
         dr.set_grad(params[key], tangent)
-        img = integrator.render(scene, sensor, seed=grad_seed, spp=n, develop=True,
-                                evaluate=False)
-        dr.forward_to(img)
-        part = reduce(dr.grad(img)) * (n / spp)
+        if integrator is not None:
+            d_image = integrator.render_forward(scene, params, sensor, seed=grad_seed, spp=n)
+        else:
+            img = scene.integrator().render(scene, sensor, seed=grad_seed, spp=n, develop=True,
+                                            evaluate=False)
+            dr.forward_to(img)
+            d_image = dr.grad(img)
+            del img
+        part = reduce(d_image) * (n / spp)
         total = part if total is None else total + part
-        del img
     return total
 
 
-def jacobian(scene, params, keys: Sequence[str], spp=64, seed=0, passes=1):
+def jacobian(scene, params, keys: Sequence[str], spp=64, seed=0, passes=1, method="auto"):
     """Derivative images ``{key: d image / d key}`` (NumPy (H, W, C)) of the
-    scalar parameters ``keys``, by forward-mode renders with symbolic loops
-    (memory of a primal render), ``passes`` renders per key."""
+    scalar parameters ``keys``, by forward-mode renders (memory of a primal
+    render), ``passes`` renders per key: ``stokes_prb``'s ``render_forward``
+    where the scene allows it (``method="auto"`` or ``"prb"``), else the
+    scene's integrator with symbolic loops (``"forward"``)."""
+    method = gradient_method(scene, method)
+    replay = _replay_integrator(scene) if method == "prb" else None
     out = {}
     with dr.scoped_set_flag(dr.JitFlag.SymbolicLoops, True):
         try:
@@ -239,7 +294,8 @@ def jacobian(scene, params, keys: Sequence[str], spp=64, seed=0, passes=1):
             plan = _passes(seed, spp, passes)
             for k in keys:
                 out[k] = _forward_derivative(scene, params, keys, k, 1.0, plan,
-                                             lambda d: np.asarray(d, dtype=np.float64))
+                                             lambda d: np.asarray(d, dtype=np.float64),
+                                             integrator=replay)
         finally:
             for k in keys:
                 dr.disable_grad(params[k])

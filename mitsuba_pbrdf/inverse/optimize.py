@@ -31,7 +31,7 @@ class OptimizationResult:
 
 
 def fit_parameters(scene, keys: Sequence[str], target, components=(0, 1, 2), initial=None,
-                   iterations=100, lr=0.05, spp=8, seed=0, method="reverse", passes=1,
+                   iterations=100, lr=0.05, spp=8, seed=0, method="auto", passes=1,
                    bounds=None, lr_decay=1.0, callback=None, max_depth=None):
     """Fit the positive scalar scene parameters ``keys`` so that the scene
     renders ``target`` (loss :func:`stokes_loss` on ``components``) with

@@ -1,9 +1,16 @@
 """Measured pBRDF data and the files it comes in: goniometer measurements in a
-CSV file (:mod:`.measurements`). Readers check what they read and name the
-file, row and column of anything wrong."""
+CSV file (:mod:`.measurements`) and tabulated pBRDFs in ``.pbsdf`` files, the
+KAIST database's and Mitsuba's ``measured_polarized`` format (:mod:`.pbsdf`;
+their geometry :mod:`.rusinkiewicz`, the plugin's lookup emulated in
+:mod:`.lookup`, the model tabulated by :mod:`.export`, Mitsuba's plugin as an
+oracle in :mod:`.oracle`). Readers check what they read and name the file,
+line and column (or field) of anything wrong. NumPy only, except
+:mod:`.oracle`, which renders."""
 
 from .measurements import (ANGLES, ELEMENTS, OBSERVABLES, MeasurementError, Measurements,
                            check_measurements, read_measurements, write_measurements)
+from .pbsdf import PbsdfError, PbsdfTable, check_renderable, read_pbsdf, write_pbsdf
 
 __all__ = ["ANGLES", "ELEMENTS", "OBSERVABLES", "MeasurementError", "Measurements",
-           "check_measurements", "read_measurements", "write_measurements"]
+           "check_measurements", "read_measurements", "write_measurements",
+           "PbsdfError", "PbsdfTable", "check_renderable", "read_pbsdf", "write_pbsdf"]

@@ -20,8 +20,10 @@ case-insensitive, columns in any order:
   --abs-uncertainty 0.005``) and the parameters' uncertainties are scaled by
   the reduced chi-square.
 
-Lines starting with ``#`` are comments. Other columns are ignored (and
-listed). Malformed files (missing columns, no
+Lines starting with ``#`` are comments; errors name the line of the file
+(comments and blank lines counted). Other columns are ignored (and listed).
+A file that ends without a newline in the middle of a row, or with a last
+number cut short (``2.``, ``1e``), is refused as truncated. Malformed files (missing columns, no
 observed quantity, non-numeric or NaN values where a value is required,
 angles or wavelengths out of range, negative M00, DoLP outside [0, 1],
 non-positive uncertainties) raise :class:`MeasurementError` naming the file,
@@ -40,7 +42,7 @@ import csv
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Dict, List
+from typing import Dict, List, Optional
 
 import numpy as np
 
@@ -71,6 +73,12 @@ class Measurements:
     uncertainty: Dict[str, np.ndarray] = field(default_factory=dict)
     source: str = "<memory>"
     ignored_columns: List[str] = field(default_factory=list)
+    #: Per-row intensity scale (M00, 1/sr) of the absolute uncertainty floor of
+    #: the Mueller elements, or None (then each column's largest value). Rows of a
+    #: ``.pbsdf`` table carry it: a polarimeter's errors scale with the intensity.
+    row_scale: Optional[np.ndarray] = None
+    #: Line number in the file of each row (for error messages), or None.
+    lines: Optional[np.ndarray] = None
 
     def __len__(self):
         return len(self.theta_i)
@@ -92,17 +100,17 @@ def _number(text, path, row, column, required):
     text = (text or "").strip()
     if text == "":
         if required:
-            raise MeasurementError(f"{path}: row {row}: column {column!r} is empty")
+            raise MeasurementError(f"{path}: line {row}: column {column!r} is empty")
         return math.nan
     try:
         value = float(text)
     except ValueError:
-        raise MeasurementError(f"{path}: row {row}: column {column!r} is not a number: "
+        raise MeasurementError(f"{path}: line {row}: column {column!r} is not a number: "
                                f"{text!r}") from None
     if math.isnan(value):
-        raise MeasurementError(f"{path}: row {row}: column {column!r} is NaN")
+        raise MeasurementError(f"{path}: line {row}: column {column!r} is NaN")
     if math.isinf(value):
-        raise MeasurementError(f"{path}: row {row}: column {column!r} is infinite")
+        raise MeasurementError(f"{path}: line {row}: column {column!r} is infinite")
     return value
 
 
@@ -112,12 +120,18 @@ def read_measurements(path) -> Measurements:
     if not os.path.isfile(path):
         raise MeasurementError(f"{path}: no such file")
     with open(path, newline="", encoding="utf-8-sig") as f:
-        lines = [line for line in f if line.strip() and not line.lstrip().startswith("#")]
+        text = f.read()
+    # (line number in the file, line): comments and blank lines are skipped
+    # but keep their place in the numbering of the error messages
+    lines = [(number, line) for number, line in enumerate(text.splitlines(), start=1)
+             if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise MeasurementError(f"{path}: empty file (expected a header row: "
                                f"{', '.join(ANGLES)}, wavelength, m00 ...)")
-    reader = csv.reader(lines)
-    header = [h.strip().lower() for h in next(reader)]
+    truncated = not text.endswith(("\n", "\r"))
+    reader = ((number, next(csv.reader([line]), [])) for number, line in lines)
+    header_line, header = next(reader)
+    header = [h.strip().lower() for h in header]
     duplicates = sorted({h for h in header if header.count(h) > 1})
     if duplicates:
         raise MeasurementError(f"{path}: duplicate column(s) {', '.join(duplicates)}")
@@ -140,43 +154,57 @@ def read_measurements(path) -> Measurements:
     ignored = [c for c in header if c not in known]
 
     columns = {c: [] for c in required + quantities + errors}
-    for row_number, row in enumerate(reader, start=2):
+    numbers = []
+    last = lines[-1][0]
+    for row_number, row in reader:
         if len(row) != len(header):
-            raise MeasurementError(f"{path}: row {row_number}: {len(row)} fields, "
-                                   f"the header has {len(header)}")
+            cut = " (the file ends there without a newline: cut short?)" if (
+                truncated and row_number == last) else ""
+            raise MeasurementError(f"{path}: line {row_number}: {len(row)} fields, "
+                                   f"the header has {len(header)}{cut}")
+        if truncated and row_number == last:
+            cell = row[-1].strip()
+            if cell and cell[-1] in ".eE+-":
+                raise MeasurementError(
+                    f"{path}: line {row_number}: column {header[-1]!r} = {cell!r} is cut "
+                    f"short (the file ends there without a newline)")
         cells = dict(zip(header, row))
         for c in required:
             columns[c].append(_number(cells[c], path, row_number, c, True))
         values = {c: _number(cells[c], path, row_number, c, False) for c in quantities}
         if all(math.isnan(v) for v in values.values()):
-            raise MeasurementError(f"{path}: row {row_number}: no measured value "
+            raise MeasurementError(f"{path}: line {row_number}: no measured value "
                                    f"({', '.join(quantities)} all empty)")
         for c in quantities:
             columns[c].append(values[c])
         for c in errors:
             v = _number(cells[c], path, row_number, c, False)
             if math.isnan(v) and not math.isnan(values[c[:-4]]):
-                raise MeasurementError(f"{path}: row {row_number}: {c!r} is empty but "
+                raise MeasurementError(f"{path}: line {row_number}: {c!r} is empty but "
                                        f"{c[:-4]!r} is given")
             columns[c].append(v)
+        numbers.append(row_number)
     if not columns["theta_i"]:
         raise MeasurementError(f"{path}: no data rows after the header")
     arrays = {c: np.array(v, dtype=np.float64) for c, v in columns.items()}
     data = Measurements(*(arrays[c] for c in ANGLES), arrays["wavelength"],
                         {c: arrays[c] for c in quantities},
-                        {c[:-4]: arrays[c] for c in errors}, path, ignored)
+                        {c[:-4]: arrays[c] for c in errors}, path, ignored,
+                        lines=np.array(numbers))
     check_measurements(data)
     return data
 
 
 def check_measurements(data: Measurements):
-    """Range checks (raise :class:`MeasurementError` naming the first bad row;
-    rows are numbered as in the file, the header being row 1)."""
+    """Range checks (raise :class:`MeasurementError` naming the first bad row:
+    its line in the file when read from one, else its index from 0)."""
     def fail(mask, message):
         rows = np.flatnonzero(mask)
         if rows.size:
             more = f" (and {rows.size - 1} more rows)" if rows.size > 1 else ""
-            raise MeasurementError(f"{data.source}: row {rows[0] + 2}: {message}{more}")
+            where = (f"line {data.lines[rows[0]]}" if data.lines is not None
+                     else f"row {rows[0]}")
+            raise MeasurementError(f"{data.source}: {where}: {message}{more}")
 
     for name in ("theta_i", "theta_r"):
         a = getattr(data, name)

@@ -66,14 +66,14 @@ class PBRDFParams:
     def ior(self, wavelengths_nm):
         """``(n, k)`` arrays at the wavelengths (nm)."""
         wavelengths = np.asarray(wavelengths_nm, dtype=np.float64)
-        if self.material is None:
+        if self.eta is not None:          # an explicit n + ik wins over the default material
             return (np.full(wavelengths.shape, float(self.eta)),
                     np.full(wavelengths.shape, float(self.k)))
         return conductor_ior(self.material, wavelengths)
 
     def label(self) -> str:
         """A one-line description for titles."""
-        what = self.material if self.material else f"n={self.eta:g}, k={self.k:g}"
+        what = f"n={self.eta:g}, k={self.k:g}" if self.eta is not None else self.material
         parts = [what, f"σ={self.sigma:g}", f"ks={self.ks:g}"]
         if self.kdd:
             parts.append(f"kdd={self.kdd:g} (σdd={self.sigma_dd:g}, {self.dd_distribution})")

@@ -1,0 +1,83 @@
+"""Which fitted parameters the data determine, and honest uncertainties for
+those that they do.
+
+The weighted Jacobian ``J`` (residuals divided by their uncertainties, one
+column per free parameter) is scaled column by column to each parameter's
+*scale* (its value, with a floor: see :func:`parameter_scales`), giving
+``Jn``. A singular value ``s`` of ``Jn`` with right singular vector ``v``
+means that moving the parameters by ``v`` times their scales (a 100 % change)
+changes chi-square by ``s^2``. Where ``s < 1`` (times the square root of the
+reduced chi-square when the uncertainties are assumed) the data cannot pin
+that combination to better than 100 % of the parameters' sizes: the
+parameters with a component larger than :data:`GROUP_SHARE` in ``v`` are
+**undetermined**. Their uncertainties are reported as undetermined (``None``
+in JSON, never a small +/- from a pseudo-inverse, which silently drops the
+direction) and the groups of parameters that move together are listed as
+``correlated``. A DoLP-only fit, for instance, leaves the common scale of
+ks, kdd and kid free (an exact null direction); an M00-only fit can trade n
+against k and ks.
+
+The other parameters' standard uncertainties are the square roots of the
+diagonal of ``(Jn^T Jn)^-1`` restricted to the determined directions, scaled
+back to the parameters' units.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["GROUP_SHARE", "parameter_scales", "analyze"]
+
+#: Share of an undetermined direction (component of the unit singular vector)
+#: above which a parameter belongs to its group.
+GROUP_SHARE = 0.1
+
+
+def parameter_scales(names, x):
+    """A scale per free parameter: ``|x|`` with a floor of 0.1 for n and k,
+    1e-3 for the roughnesses and 1 % of the largest lobe weight for ks, kdd
+    and kid (a weight at 0 is still measured against the others)."""
+    x = np.abs(np.asarray(x, dtype=np.float64))
+    base = [n.partition("@")[0] for n in names]
+    weights = [v for b, v in zip(base, x) if b in ("ks", "kdd", "kid")]
+    weight_floor = 0.01 * max(weights) if weights and max(weights) > 0 else 1e-3
+    floors = {"n": 0.1, "k": 0.1, "sigma": 1e-3, "sigma_dd": 1e-3}
+    return np.array([max(v, floors.get(b, weight_floor)) for b, v in zip(base, x)])
+
+
+def analyze(J, names, x, chi2_scale=1.0):
+    """``(sd, undetermined, groups)`` for a weighted Jacobian ``J`` (residuals x
+    parameters) at ``x``: standard uncertainties (``inf`` for undetermined
+    parameters), the undetermined parameters' names, and the groups (lists of
+    names) of parameters that move together in undetermined directions.
+    ``chi2_scale``: the reduced chi-square when the uncertainties are assumed
+    (then scaled to the fit), else 1."""
+    names = list(names)
+    J = np.asarray(J, dtype=np.float64)
+    scales = parameter_scales(names, x)
+    if not names:
+        return np.zeros(0), [], []
+    if not np.all(np.isfinite(J)):
+        return np.full(len(names), np.inf), names, [names]
+    Jn = J * scales[None, :]
+    _, s, Vt = np.linalg.svd(Jn, full_matrices=False)
+    s = np.concatenate([s, np.zeros(len(names) - s.size)])       # fewer residuals than parameters
+    if Vt.shape[0] < len(names):
+        Vt = np.linalg.svd(np.vstack([Jn, np.zeros((len(names) - Jn.shape[0], len(names)))]))[2]
+    # below 1 (in units of the fit's noise) or numerically zero (finite-
+    # difference Jacobians carry relative errors of ~1e-8)
+    weak = (s < np.sqrt(chi2_scale)) | (s <= 1e-6 * s.max())
+    groups = []
+    for v in Vt[weak]:
+        members = {names[j] for j in np.flatnonzero(np.abs(v) > GROUP_SHARE)}
+        merged = [g for g in groups if g & members]
+        for g in merged:
+            groups.remove(g)
+            members |= g
+        groups.append(members)
+    undetermined = sorted(set().union(*groups), key=names.index) if groups else []
+    strong = ~weak
+    cov = (Vt[strong].T / s[strong] ** 2) @ Vt[strong] * chi2_scale
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * scales
+    sd[[names.index(n) for n in undetermined]] = np.inf
+    return sd, undetermined, [sorted(g, key=names.index) for g in groups]

@@ -1,0 +1,117 @@
+"""Tabulate the model into a ``.pbsdf`` table that Mitsuba's
+``measured_polarized`` renders (``pbrdf export``).
+
+Every table cell is the float64 reference evaluator's pBRDF (1/sr, no cosine
+factor) at the cell's Rusinkiewicz angles, rotated from the reference's
+global s/p frames into the table's facet frames
+(:mod:`mitsuba_pbrdf.measured.rusinkiewicz`). Cells where the light or the
+viewer is on or below the horizon (theta_d + theta_h at or beyond 90 deg,
+depending on phi_d; a cosine below :data:`HORIZON`) hold the model's value
+there, 0: in floating point cos(90 deg) = 6e-17 > 0, and the model's 1/cos
+would put values up to 1e29 on horizon nodes. Computed in slabs of ``phi_d`` (NumPy,
+no loop over cells) and written as it goes, so a full KAIST-size table
+(about 1 GB) never sits in memory.
+
+Grids (:class:`Grid`): ``phi_d`` uniform on [-pi, pi], ``theta_d`` uniform on
+[0, pi/2], ``theta_h`` on [0, pi/2] either uniform or ``square``-spaced
+(``theta_h = pi/2 (i/(N-1))^2``, dense near the specular peak, the spacing of
+the MERL database). :data:`DEFAULT_GRID` renders the model's default roughness
+accurately in 96 MB (``validation/measured_oracle.md`` gives its
+interpolation error); :data:`KAIST_GRID` is the database's 361 x 91 x 91 grid
+(1-degree steps, uniform, about 1 GB with 5 wavelengths).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..reference.params import PBRDFParams
+from .pbsdf import write_pbsdf
+from .rusinkiewicz import angles, directions, global_to_facet
+
+__all__ = ["Grid", "DEFAULT_GRID", "KAIST_GRID", "KAIST_WAVELENGTHS", "parse_grid",
+           "tabulate", "export_pbsdf"]
+
+#: Cells with the light or the viewer closer to the horizon than this cosine
+#: (0.06 mrad) hold 0, the model's value at and below the horizon.
+HORIZON = 1e-6
+
+#: The KAIST database's five bands (nm).
+KAIST_WAVELENGTHS = (450, 500, 550, 600, 650)
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Sizes of the table's angle grids and the spacing of ``theta_h``."""
+    phi_d: int
+    theta_d: int
+    theta_h: int
+    theta_h_spacing: str = "square"
+
+    def __post_init__(self):
+        for name in ("phi_d", "theta_d", "theta_h"):
+            if not 2 <= getattr(self, name) <= 4096:
+                raise ValueError(f"grid: {name} needs 2 to 4096 points, got {getattr(self, name)}")
+        if self.theta_h_spacing not in ("square", "uniform"):
+            raise ValueError(f"grid: theta_h spacing must be square or uniform, "
+                             f"got {self.theta_h_spacing!r}")
+
+    def axes(self):
+        """``(phi_d, theta_d, theta_h)`` in radians (float64)."""
+        u = np.linspace(0.0, 1.0, self.theta_h)
+        theta_h = 0.5 * np.pi * (u * u if self.theta_h_spacing == "square" else u)
+        return (np.linspace(-np.pi, np.pi, self.phi_d), np.linspace(0.0, 0.5 * np.pi, self.theta_d),
+                theta_h)
+
+    def nbytes(self, wavelengths=5):
+        return self.phi_d * self.theta_d * self.theta_h * wavelengths * 16 * 4
+
+    def __str__(self):
+        return f"{self.phi_d}x{self.theta_d}x{self.theta_h}" + (
+            "" if self.theta_h_spacing == "square" else "-uniform")
+
+
+DEFAULT_GRID = Grid(49, 80, 80, "square")
+KAIST_GRID = Grid(361, 91, 91, "uniform")
+
+
+def parse_grid(text) -> Grid:
+    """``default``, ``kaist`` or ``PxDxH`` (phi_d x theta_d x theta_h sizes),
+    optionally ``-uniform`` for a uniform theta_h (default: square-spaced)."""
+    text = str(text).strip().lower()
+    if text == "default":
+        return DEFAULT_GRID
+    if text == "kaist":
+        return KAIST_GRID
+    m = re.fullmatch(r"(\d+)x(\d+)x(\d+)(-uniform|-square)?", text)
+    if not m:
+        raise ValueError(f"--grid must be default, kaist or PxDxH (e.g. 49x80x80), got {text!r}")
+    return Grid(int(m[1]), int(m[2]), int(m[3]), (m[4] or "-square")[1:])
+
+
+def tabulate(params: PBRDFParams, phi_d, theta_d, theta_h, wavelengths):
+    """The table ``(len(phi_d), len(theta_d), len(theta_h), W, 4, 4)`` (float64)
+    of the model at these grid values (radians) and wavelengths (nm)."""
+    pd, td, th = np.meshgrid(phi_d, theta_d, theta_h, indexing="ij")
+    L, V = directions(pd, td, th)
+    ti, pi_, tr, pr = angles(L, V)
+    M = params.evaluate(ti, pi_, tr, pr, np.asarray(wavelengths, dtype=np.float64))
+    # on the horizon (cos 90 deg = 6e-17 in floating point) the model's 1/cos
+    # gives up to 1e29: such a node would leak into every lookup near the horizon
+    # (fireflies). The model's value at and below the horizon is 0.
+    on_horizon = np.minimum(L[..., 2], V[..., 2]) < HORIZON
+    M[on_horizon] = 0.0
+    return global_to_facet(M, L, V)
+
+
+def export_pbsdf(path, params: PBRDFParams, grid: Grid = DEFAULT_GRID,
+                 wavelengths=KAIST_WAVELENGTHS):
+    """Write the model with ``params`` as a ``.pbsdf`` table (atomically)."""
+    params.validate()
+    phi_d, theta_d, theta_h = grid.axes()
+    slab = lambda p0, p1: tabulate(params, phi_d[p0:p1], theta_d, theta_h,
+                                   wavelengths).astype(np.float32)
+    return write_pbsdf(path, slab, phi_d, theta_d, theta_h, wavelengths, slab_bytes=4 << 20)
