@@ -174,14 +174,26 @@ def scale_value(name: str, text: str):
     return value
 
 
-def check_outputs(*paths):
-    """Before any long work: each output path can be written (:func:`
-    mitsuba_pbrdf.outputs.check_writable`; ``OSError`` naming the path)."""
+def check_outputs(*outputs, create_folders: bool = True):
+    """Before any long work: each output can be written
+    (:func:`mitsuba_pbrdf.outputs.check_writable`). *outputs* are paths or
+    ``(option, path)`` pairs (the option then opens the message); None is
+    skipped. With ``create_folders=False`` the output's folder must exist.
+    Raises :class:`CliError`."""
     from ..outputs import check_writable
 
-    for path in paths:
-        if path is not None:
+    for item in outputs:
+        option, path = item if isinstance(item, tuple) else (None, item)
+        if path is None:
+            continue
+        prefix = f"{option}: " if option else ""
+        folder = os.path.dirname(os.path.abspath(path))
+        if not create_folders and not os.path.isdir(folder):
+            raise CliError(f"{prefix}folder {folder} does not exist")
+        try:
             check_writable(path)
+        except OSError as e:
+            raise CliError(prefix + describe_error(e)) from None
 
 
 def picture_options(parser, panels_default: str):

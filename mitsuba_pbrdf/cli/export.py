@@ -28,7 +28,7 @@ def run(args) -> int:
     folder = os.path.dirname(os.path.abspath(args.out))
     if not os.path.isdir(folder):
         raise CliError(f"--out: folder {folder} does not exist")
-    check_outputs(args.out)
+    check_outputs(("--out", args.out))
     wavelengths = float_list(args.wavelengths, "--wavelengths")
     if len(wavelengths) != 5:
         raise CliError(f"--wavelengths: measured_polarized reads exactly 5 wavelengths, "

@@ -44,7 +44,7 @@ def _check_options(args):
         fix = parse_assignments(args.fix, "--fix")
     except ValueError as e:
         raise CliError(one_line(e)) from e
-    check_outputs(args.plot, args.json)
+    check_outputs(("--plot", args.plot), ("--json", args.json), create_folders=False)
     return init, fix
 
 

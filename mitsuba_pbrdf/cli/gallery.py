@@ -22,8 +22,9 @@ def run(args) -> int:
         raise CliError(f"--scale must be in (0, 100), got {args.scale}")
     renders = any(item in RENDERED_ITEMS for item in only or GALLERY_ITEMS)
     # the folders can hold files: checked with a file name in each, before rendering
-    check_outputs(os.path.join(args.out, "pbrdf_plot.png"),
-                  os.path.join(args.exr_dir, "default.exr") if args.exr_dir and renders else None)
+    check_outputs(("--out", os.path.join(args.out, "pbrdf_plot.png")),
+                  ("--exr-dir", os.path.join(args.exr_dir, "default.exr")
+                   if args.exr_dir and renders else None))
     variant = chosen_variant(args) if renders else None
     if variant is not None:
         from ..imaging.render import require_polarized

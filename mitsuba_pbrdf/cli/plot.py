@@ -20,7 +20,7 @@ def run(args) -> int:
                          ks=args.ks, kdd=args.kdd, sigma_dd=args.sigma_dd, kid=args.kid,
                          shadowing=args.shadowing, dd_distribution=args.dd_distribution)
     wavelengths = float_list(args.wavelengths, "--wavelengths")
-    check_outputs(args.out)
+    check_outputs(("--out", args.out))
     try:
         params.validate()
         path = save_pbrdf_plot(args.out, params, args.theta_i, wavelengths)

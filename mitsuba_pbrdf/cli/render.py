@@ -63,7 +63,7 @@ def run(args) -> int:
     check_parameter_values(scene, params)
     stem = _out_stem(args.out, scene)
     exr_path, png_path = stem + ".exr", stem + ".png"
-    check_outputs(exr_path, png_path)
+    check_outputs(("--out", exr_path), ("--out", png_path))
     existed = [os.path.exists(exr_path), os.path.exists(png_path)]
 
     try:

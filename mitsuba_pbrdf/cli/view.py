@@ -21,7 +21,7 @@ def run(args) -> int:
     require_file(args.exr, "EXR file")
     picture_kwargs(args)  # the options' own checks, before reading anything
     out = args.out or os.path.splitext(args.exr)[0] + ".png"
-    check_outputs(out)
+    check_outputs(("--out", out))
     existed = os.path.exists(out)
     try:
         image = read_stokes_exr(args.exr)
