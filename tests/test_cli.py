@@ -223,21 +223,21 @@ def test_usage_error_exits_2():
 
 def test_plan_passes():
     from mitsuba_pbrdf.imaging.passes import (SAMPLES_PER_GPU_PASS, SAMPLES_PER_PASS,
-                                              SAMPLES_PER_THREAD, derivative_seed, pass_seeds,
-                                              plan_passes, samples_per_pass)
+                                              derivative_seed, pass_seeds, plan_passes,
+                                              samples_per_pass)
 
     assert plan_passes(4, pixels=320 * 240) == [4]  # within the budget: one pass
-    # scenes/default.xml (320 x 240, 64 spp) on 2 threads: 4 passes of 16 spp, each 2^20 x 2
-    # samples at most, a power of two (the kernel of one-pass power-of-two renders)
+    # scenes/default.xml (320 x 240, 64 spp): 4 passes of 16 spp, each 2^21 samples at most,
+    # a power of two (the kernel of one-pass power-of-two renders), whatever the machine
     assert plan_passes(64, pixels=320 * 240) == [16] * 4
-    assert 320 * 240 * 16 <= SAMPLES_PER_PASS == 2 * SAMPLES_PER_THREAD
+    assert 320 * 240 * 16 <= SAMPLES_PER_PASS == 1 << 21
     assert plan_passes(100, pixels=320 * 240) == [16] * 6 + [4]  # the rest in a last pass
     assert plan_passes(5, pixels=4000 * 4000) == [1] * 5          # cannot split below 1 spp
     assert plan_passes(10, passes=4) == [3, 3, 2, 2]               # a given count: equal passes
     assert plan_passes(3, passes=8) == [1, 1, 1]
-    big = plan_passes(1024, pixels=640 * 480, budget=samples_per_pass("llvm", 16))
-    assert big == [32] * 32 and 640 * 480 * 32 <= 16 * SAMPLES_PER_THREAD
-    assert samples_per_pass("cuda", 2) == SAMPLES_PER_GPU_PASS
+    big = plan_passes(1024, pixels=640 * 480, budget=samples_per_pass("llvm"))
+    assert big == [4] * 256 and 640 * 480 * 4 <= SAMPLES_PER_PASS
+    assert samples_per_pass("cuda") == SAMPLES_PER_GPU_PASS
     assert plan_passes(64, pixels=320 * 240, budget=SAMPLES_PER_GPU_PASS) == [64]
     with pytest.raises(ValueError):
         plan_passes(0)

@@ -11,7 +11,7 @@ pass's samples as one wavefront), and split reverse-mode differentiation
 
 * :func:`plan_passes`: automatic passes hold at most a budget of samples
   (pixels x spp) sized to about a second of rendering
-  (:func:`samples_per_pass`: per CPU thread of the LLVM backend, or per GPU),
+  (:func:`samples_per_pass`: one budget for the LLVM backend, one for CUDA),
   in passes of a power-of-two spp (which share one compiled kernel with
   single-pass renders of a power-of-two spp) and a last pass with the rest;
   a render within the budget is one pass. Given a count, passes are equal
@@ -25,11 +25,12 @@ pass's samples as one wavefront), and split reverse-mode differentiation
 A render split into several passes is a different, equally valid, noise
 realization of the same seed: Mitsuba seeds each sample from the seed and the
 sample's index within its pass. The automatic plan depends on the image size,
-the spp and the budget, so on the backend and, for the LLVM backend, on the
-number of CPU threads: the same seed gives the same image on machines with
-as many threads; a given pass count (``passes=N``, ``--passes N``) gives the
-same image everywhere. Splitting costs one trace of the integrator per pass,
-about 0.07 s on 2 cores (measured in docs/cli.md), about 5 % of a pass.
+the spp and the backend's budget, never on the machine's number of cores, so
+the same seed gives the same image on every machine of the same backend (and
+a given pass count, ``passes=N`` or ``--passes N``, everywhere). Splitting
+costs one trace of the integrator per pass, about 0.1 s of CPU time, about 2 %
+of a pass on 2 cores (measured in docs/cli.md); on machines with many cores a
+pass renders faster, so that share grows (``passes=1`` avoids it).
 Pure Python (no Mitsuba needed).
 """
 
@@ -37,29 +38,26 @@ from __future__ import annotations
 
 from typing import Optional
 
-__all__ = ["SAMPLES_PER_THREAD", "SAMPLES_PER_GPU_PASS", "SAMPLES_PER_PASS", "MAX_AUTO_PASSES",
-           "samples_per_pass", "plan_passes", "pass_seeds", "derivative_seed"]
+__all__ = ["SAMPLES_PER_PASS", "SAMPLES_PER_GPU_PASS", "MAX_AUTO_PASSES", "samples_per_pass",
+           "plan_passes", "pass_seeds", "derivative_seed"]
 
-#: Budget of an automatic pass per CPU thread of Dr.Jit's LLVM backend:
-#: 2^20 samples, about 1.7 s of rendering of scenes/default.xml per pass on
-#: 2 threads (3.3 s of CPU time), so that the ~0.1 s of CPU time each pass
-#: costs stays near 3 % (docs/cli.md has the measurement).
-SAMPLES_PER_THREAD = 1 << 20
+#: Budget of an automatic pass of Dr.Jit's LLVM backend: 2^21 samples, about
+#: 1.7 s of rendering of scenes/default.xml per pass on 2 cores (3.3 s of CPU
+#: time), so that the ~0.1 s of CPU time each pass costs stays near 3 %
+#: (docs/cli.md has the measurement). The same on every machine, so that a
+#: seed gives the same image whatever the number of cores.
+SAMPLES_PER_PASS = 1 << 21
 #: Budget of an automatic pass on a CUDA GPU (which also bounds its memory).
 SAMPLES_PER_GPU_PASS = 1 << 24
-#: The budget when none is given: two CPU threads' worth.
-SAMPLES_PER_PASS = 2 * SAMPLES_PER_THREAD
 #: Kept for compatibility: automatic passes are no longer capped in number
 #: (a render of more than this many passes is split all the same).
 MAX_AUTO_PASSES = 1 << 16
 
 
-def samples_per_pass(backend: str, threads: int = 2) -> int:
+def samples_per_pass(backend: str) -> int:
     """The budget of an automatic pass: :data:`SAMPLES_PER_GPU_PASS` for the
-    ``cuda`` backend, else :data:`SAMPLES_PER_THREAD` per CPU thread."""
-    if backend == "cuda":
-        return SAMPLES_PER_GPU_PASS
-    return SAMPLES_PER_THREAD * max(1, int(threads))
+    ``cuda`` backend, else :data:`SAMPLES_PER_PASS`."""
+    return SAMPLES_PER_GPU_PASS if backend == "cuda" else SAMPLES_PER_PASS
 
 
 def plan_passes(spp: int, passes: Optional[int] = None, pixels: int = 0,

@@ -233,7 +233,7 @@ def render_scene_timed(
     size = sensor.film().crop_size()
     backend = "cuda" if variant.startswith("cuda") else "llvm"
     plan = plan_passes(total_spp, passes, pixels=int(size[0]) * int(size[1]),
-                       budget=samples_per_pass(backend, dr.thread_count()))
+                       budget=samples_per_pass(backend))
     seeds = pass_seeds(seed, len(plan))
 
     history_was_on = dr.flag(dr.JitFlag.KernelHistory)
