@@ -9,7 +9,9 @@ with the arguments of :data:`ARGUMENTS` (none for a study not listed there).
 A new study is therefore run without editing this file.
 
 Each writes ``validation/<study>.md`` (and figures under ``validation/figures/``);
-this script writes ``validation/summary.md`` with the run times. ``--quick``
+this script writes ``validation/summary.md`` with the run times (with
+``--only``, it refreshes those studies' rows and keeps the others; ``--quick
+--only`` leaves it alone). ``--quick``
 uses fewer samples everywhere (a smoke test; the committed tables come from a
 full run, and a quick run overwrites them: restore them with git). ``--only``
 takes a comma-separated subset; an unknown name is a one-line error (exit 2).
@@ -20,6 +22,7 @@ nothing. Exit status 1 if a study fails.
 import argparse
 import ast
 import os
+import re
 import subprocess
 import sys
 import time
@@ -83,6 +86,45 @@ def selected_studies(only, available):
     return [s for s in available if s in wanted]
 
 
+def _row_study(row):
+    """The study a summary row links to (``[...](study.md)``), or None."""
+    match = re.search(r"\]\(([A-Za-z0-9_]+)\.md\)", row)
+    return match.group(1) if match else None
+
+
+def _row_seconds(row):
+    """The time column of a summary row, in seconds (0 if unreadable)."""
+    match = re.search(r"\| (\d+) s \|", row)
+    return int(match.group(1)) if match else 0
+
+
+def merged_rows(summary, new_rows, available):
+    """Rows of ``summary`` with those of ``new_rows`` ({study: row}) replaced or
+    added, ordered as ``available``: ``--only`` refreshes part of the table."""
+    old = {}
+    if os.path.exists(summary):
+        with open(summary, encoding="utf-8") as f:
+            for line in f:
+                study = _row_study(line)
+                if line.startswith("| [") and study in available:
+                    old[study] = line.rstrip("\n")
+    old.update(new_rows)
+    return [old[s] for s in available if s in old]
+
+
+def write_summary(summary, rows, quick=False, partial=False):
+    """Write ``validation/summary.md``: one row per study, total time = sum of rows."""
+    total = sum(_row_seconds(row) for row in rows)
+    how = ("rows refreshed one study at a time with `--only`; the total is the sum of the rows"
+           if partial else "one run")
+    with open(summary, "w", encoding="utf-8") as f:
+        f.write("# Validation summary\n\n"
+                f"`python validation/run_all.py{' --quick' if quick else ''}`: "
+                f"{total / 60:.1f} min on this machine (2 cores; {how}).\n\n"
+                "| study | command | time | status |\n|---|---|---|---|\n"
+                + "\n".join(rows) + "\n")
+
+
 def main(argv=None):
     available = studies()
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -125,13 +167,12 @@ def main(argv=None):
         shown = " ".join(["python", f"validation/{study}.py"] + extra)
         rows.append(f"| [{title(study)}]({study}.md) | `{shown}` | {seconds:.0f} s | {status} |")
     total = time.perf_counter() - start
-    if not args.only:
-        with open(os.path.join(HERE, "summary.md"), "w", encoding="utf-8") as f:
-            f.write("# Validation summary\n\n"
-                    f"`python validation/run_all.py{' --quick' if args.quick else ''}`: "
-                    f"{total / 60:.1f} min on this machine.\n\n"
-                    "| study | command | time | status |\n|---|---|---|---|\n"
-                    + "\n".join(rows) + "\n")
+    summary = os.path.join(HERE, "summary.md")
+    if args.only and not args.quick:
+        write_summary(summary, merged_rows(summary, dict(zip(selected, rows)), available),
+                      partial=True)
+    elif not args.only:
+        write_summary(summary, rows, quick=args.quick)
     print(f"total {total:.0f} s" + (f"; failed: {', '.join(failed)}" if failed else ""))
     return 1 if failed else 0
 
