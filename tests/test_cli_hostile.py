@@ -117,6 +117,43 @@ TABLE = [
      "not a readable OpenEXR file", "{tmp}/x.png"),
     ("view: unknown band", ["view", "{exr}", "--band", "Q", "--out", "{tmp}/q.png"], 2,
      "no band 'Q'", "{tmp}/q.png"),
+    ("polcam: missing EXR", ["polcam", "{tmp}/none.exr", "--out", "{tmp}/cam"], 2,
+     "EXR file not found", "{tmp}/cam"),
+    ("polcam: not an EXR", ["polcam", "{text}", "--out", "{tmp}/cam"], 2,
+     "not a readable OpenEXR file", "{tmp}/cam"),
+    ("polcam: truncated EXR", ["polcam", "{truncated}", "--out", "{tmp}/cam"], 2,
+     "truncated or corrupt", "{tmp}/cam"),
+    ("polcam: EXR without Stokes channels", ["polcam", "{plain_exr}", "--out", "{tmp}/cam"], 2,
+     "no Stokes channels", "{tmp}/cam"),
+    ("polcam: NaN Stokes values", ["polcam", "{nan_exr}", "--out", "{tmp}/cam"], 2,
+     "non-finite Stokes values", "{tmp}/cam"),
+    ("polcam: odd image size", ["polcam", "{odd_exr}", "--out", "{tmp}/cam"], 2,
+     "need an even image width and height, got 16x13", "{tmp}/cam"),
+    ("polcam: unwritable folder", ["polcam", "{exr}", "--out", "/sys/cam"], 2,
+     "cannot write /sys/cam/good_I0.exr", None),
+    ("polcam: --out is a file", ["polcam", "{exr}", "--out", README], 2,
+     "README.md is not a folder", None),
+    ("polcam: --bits 17", ["polcam", "{exr}", "--out", "{tmp}/cam", "--bits", "17"], 2,
+     "--bits must be in 1..16, got 17", "{tmp}/cam"),
+    ("polcam: --full-well negative", ["polcam", "{exr}", "--out", "{tmp}/cam", "--full-well",
+                                      "-5"], 2, "--full-well must be a finite number > 0",
+     "{tmp}/cam"),
+    ("polcam: --read-noise nan", ["polcam", "{exr}", "--out", "{tmp}/cam", "--full-well", "100",
+                                  "--read-noise", "nan"], 2,
+     "--read-noise must be a finite number >= 0", "{tmp}/cam"),
+    ("polcam: --read-noise without --full-well", ["polcam", "{exr}", "--out", "{tmp}/cam",
+                                                  "--read-noise", "2"], 2,
+     "--read-noise (electrons) needs --full-well", "{tmp}/cam"),
+    ("polcam: --exposure 0", ["polcam", "{exr}", "--out", "{tmp}/cam", "--exposure", "0"], 2,
+     "--exposure must be a finite number > 0", "{tmp}/cam"),
+    ("polcam: unknown band", ["polcam", "{exr}", "--out", "{tmp}/cam", "--band", "Q"], 2,
+     "no band 'Q'; bands are R, G, B", "{tmp}/cam"),
+    ("polcam: --band with the colour sensor", ["polcam", "{exr}", "--out", "{tmp}/cam",
+                                               "--sensor", "colour", "--band", "R"], 2,
+     "--band is for the mono sensor", "{tmp}/cam"),
+    ("polcam: colour sensor on a one-band image", ["polcam", "{y_exr}", "--out", "{tmp}/cam",
+                                                   "--sensor", "colour"], 2,
+     "the colour sensor needs Stokes bands R, G, B", "{tmp}/cam"),
     ("plot: unwritable output", ["plot", "--out", "/sys/p.png"], 2, "cannot write /sys/p.png",
      None),
     ("gallery: output folder is a file", ["gallery", "--only", "plot", "--out", README + "/g"],
@@ -139,7 +176,12 @@ def files(tmp_path):
         data = f.read()
     (tmp_path / "truncated.exr").write_bytes(data[: len(data) // 2])
     (tmp_path / "text.exr").write_text("not an image\n")
-    return dict(tmp=str(tmp_path), scene=str(scene), exr=good,
+    from mitsuba_pbrdf.imaging.exr import write_exr
+
+    plain = write_exr(tmp_path / "plain.exr", {"Y": np.ones((4, 4), np.float32)})
+    y_exr = write_stokes_exr(tmp_path / "y.exr", np.ones((4, 4, 4), np.float32) * [1, 0, 0, 0])
+    return dict(tmp=str(tmp_path), scene=str(scene), exr=good, plain_exr=plain, y_exr=y_exr,
+                odd_exr=stokes_exr(tmp_path / "odd.exr", h=13),
                 nan_exr=stokes_exr(tmp_path / "nan.exr", set_nan),
                 truncated=str(tmp_path / "truncated.exr"), text=str(tmp_path / "text.exr"))
 
