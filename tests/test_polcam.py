@@ -218,3 +218,14 @@ def test_frame_convention_matches_renders_through_mitsubas_polarizer(tmp_path):
         assert np.abs(ours[a] - mitsuba)[centre].max() <= 1e-5 * scale, a
     flipped = np.abs(polarizer_images(clear)[135] - filtered[45].s0).max()
     assert flipped > 5e-2 * scale
+
+
+def test_polcam_figure_draws_eight_panels(tmp_path):
+    from mitsuba_pbrdf.figures.polcam_figure import _most_polarized_block, polcam_figure
+
+    image = random_stokes(24, 32, seed=5, smooth=True)
+    image.stokes[8:16, 12:20, 1] *= 3  # the most polarized block
+    assert _most_polarized_block(image, 8) == (8, 12)
+    fig = polcam_figure(image, title="t")
+    assert len(fig.axes) == 8
+    fig.savefig(tmp_path / "f.png")
