@@ -5,7 +5,9 @@
    interior (the border that OpenCV's Bayer filter recomputes left out);
 2. the frame convention: polcam's I_θ of a Stokes render against renders
    through Mitsuba's polarizer turned to θ (scenes/gallery/polarizer.xml);
-3. the time of ``polcam_outputs`` on a 512 x 512 RGB Stokes image.
+3. the time of ``polcam_outputs`` on a 512 x 512 RGB Stokes image;
+4. narrow-band renders (632.8 nm line, 632.8:20 band) against the reference
+   evaluator, with the renders and tolerance of tests/test_narrowband.py.
 
     python benchmarks/polcam_figures.py [--spp 16]
 """
@@ -73,6 +75,45 @@ def linear_image(h=180, w=240, seed=0) -> StokesImage:
     return StokesImage(stokes, ["R", "G", "B"])
 
 
+def narrowband():
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_narrowband as t
+
+    from mitsuba_pbrdf import use_variant
+    from mitsuba_pbrdf.imaging import render_scene
+    from mitsuba_pbrdf.imaging.narrowband import parse_wavelength
+
+    use_variant(t.VARIANT)
+
+    def render(wavelength, seed):
+        return render_scene(t.SCENE, spp=t.SPP, seed=seed, params=t.params(), passes=1,
+                            variant=t.VARIANT, wavelength=wavelength).stokes[..., 0]
+
+    print("\n## Narrow-band renders against the reference (scenes/analytic_plane.xml)\n")
+    for wavelength in ("632.8", "632.8:20"):
+        band = parse_wavelength(wavelength)
+        passes = np.stack([render(wavelength, 11 + i) for i in range(t.PASSES)])
+        mean = passes.mean(axis=0).astype(np.float64)
+        low, high = band.limits
+        lams = [band.centre] if band.width == 0 else list(
+            low + (np.arange(21) + 0.5) * (high - low) / 21)
+        expected = t.reference_image(lams)
+        s0 = expected[..., :1]
+        stderr = passes[..., 0].std(axis=0, ddof=1) / np.sqrt(t.PASSES) / mean[..., 0]
+        bound = (5 * float(np.sqrt(np.mean(stderr ** 2))) + 2e-3) * s0
+        error = np.abs(mean - expected)
+        p_mean = np.hypot(mean[..., 1], mean[..., 2]) / mean[..., 0]
+        p_ref = np.hypot(expected[..., 1], expected[..., 2]) / expected[..., 0]
+        print(f"{wavelength}: image-mean S0 render / reference - 1 = "
+              f"{mean[..., 0].mean() / expected[..., 0].mean() - 1:+.2e}; largest error / "
+              f"tolerance {(error / bound).max():.2f}; DoLP within {np.abs(p_mean - p_ref).max():.1e}")
+        if band.width == 0:
+            other = render("600", 11)
+            print(f"  600 nm render against the 632.8 nm reference: largest error / tolerance "
+                  f"{(np.abs(other - expected) / bound).max():.2f}, image-mean S0 "
+                  f"{other[..., 0].mean() / expected[..., 0].mean() - 1:+.2e}")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--spp", type=int, default=16)
@@ -114,6 +155,7 @@ def main(argv=None) -> int:
                 times.append(time.perf_counter() - t)
             print(f"\npolcam_outputs 512x512 RGB, {sensor}, sensor model "
                   f"{'on' if m else 'off'}: {1e3 * min(times):.0f} ms (best of 5)")
+    narrowband()
     return 0
 
 
