@@ -42,11 +42,12 @@ from typing import Optional, Sequence, Union
 
 import numpy as np
 
-from .colours import (MARKERS, MASKED_GREY, aolp_colormap, aolp_rgb, auto_limit, colour_image,
+from .colours import (MARKERS, MASKED_GREY, aolp_colormap, aolp_rgb, colour_image,
                       paint, resolve_limit)
 from .quality import StokesQuality, assess
 from .png import save_png
 from .stokes import StokesImage, aolp, docp, dolp
+from .composites import polarization_hsv, stokes_limit, stokes_ratios
 from .tonemap import _LUMA, auto_exposure, linear_rgb, pixel_stokes, tonemap
 
 __all__ = [
@@ -221,30 +222,6 @@ def draw_aolp(ax, image: StokesImage, min_dolp: float = 0.01, band: Optional[str
                    f"AoLP (DoLP ≥ {min_dolp:g})", values=shown, legend=legend)
 
 
-def polarization_hsv(
-    image: StokesImage,
-    dolp_max: Union[float, str] = 1.0,
-    exposure: Optional[float] = None,
-    percentile: float = 99.0,
-    band: Optional[str] = None,
-) -> np.ndarray:
-    """The usual polarization composite as RGB in [0, 1], shape (H, W, 3):
-    hue = AoLP (a full turn of hue for 180°, as :func:`draw_aolp`), saturation
-    = DoLP / *dolp_max* (``"auto"``: see :func:`draw_dolp`), value =
-    tone-mapped intensity (luminance)."""
-    from matplotlib.colors import hsv_to_rgb
-
-    s = pixel_stokes(image, band)
-    with np.errstate(invalid="ignore"):
-        d = np.nan_to_num(dolp(s, axis=-1))
-        hue = (np.nan_to_num(np.degrees(aolp(s, axis=-1))) % 180.0) / 180.0
-    top, _ = resolve_limit(dolp_max, np.where(s[..., 0] > 0, d, np.nan))
-    saturation = np.clip(d / top, 0.0, 1.0)
-    srgb, _ = tonemap(linear_rgb(image, band), exposure, percentile)
-    value = np.clip(srgb @ _LUMA, 0.0, 1.0)
-    return hsv_to_rgb(np.stack([hue, saturation, value], axis=-1).astype(np.float32))
-
-
 def draw_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = 1.0,
                           exposure: Optional[float] = None, band: Optional[str] = None,
                           quality: Optional[StokesQuality] = None) -> Drawing:
@@ -262,25 +239,6 @@ def draw_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = 
                    [-90, -45, 0, 45, 90],
                    f"AoLP (hue) · DoLP (saturation, {scale}) · S0" + _band_suffix(band),
                    "AoLP·DoLP·S0", legend=legend)
-
-
-def stokes_ratios(image: StokesImage, band: Optional[str] = None,
-                  quality: Optional[StokesQuality] = None) -> np.ndarray:
-    """S1/S0, S2/S0, S3/S0, shape (H, W, 3); NaN where S0 <= 0 or the pixel is
-    unusable."""
-    quality = _quality(image, band, quality)
-    s = pixel_stokes(image, band).astype(np.float64)
-    ok = ~quality.unusable & (s[..., 0] > 1e-12)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(ok[..., None], s[..., 1:] / s[..., :1], np.nan)
-
-
-def stokes_limit(image: StokesImage, components=(1, 2, 3), percentile: float = 99.0,
-                 band: Optional[str] = None, quality: Optional[StokesQuality] = None) -> float:
-    """One symmetric scale for S_i/S0 of *components*: the *percentile*-th
-    percentile of their |values| rounded up (1, 2, 2.5, 5 x 10^k), at most 1."""
-    ratios = stokes_ratios(image, band, quality)[..., [i - 1 for i in components]]
-    return auto_limit(np.abs(ratios), percentile=percentile)
 
 
 def draw_stokes_component(ax, image: StokesImage, i: int, cmap: str = "RdBu_r",
