@@ -6,6 +6,8 @@
                            [-D key=value ...] [--panels P,...] [--no-progress]
     pbrdf view STOKES.exr [--out PNG] [--panels all|P,...] [--band B] [--dolp-cmap gray]
                           [--dolp-max X] [--min-dolp X] [--exposure EV]
+    pbrdf polcam STOKES.exr --out DIR [--sensor mono|colour] [--band B] [--exposure X]
+                 [--full-well E] [--read-noise E] [--bits N] [--seed S]
     pbrdf plot [--material M | --eta N --k K] [--sigma S] [--ks W] [--kdd W] [--sigma-dd S]
                [--kid W] [--shadowing vgroove|smith] [--dd-distribution beckmann|ggx]
                [--theta-i DEG] [--wavelengths NM,...] [--out PNG]
@@ -19,7 +21,8 @@ side by side); ``<out>`` defaults to ``out/<scene stem>``. ``-D key=value``
 overrides the scene's ``<default name="key" value="..."/>``. The variant
 defaults to ``cuda_ad_spectral_polarized`` where a CUDA GPU is usable, else
 ``llvm_ad_spectral_polarized``. Long renders run in sample passes with a
-progress bar. ``view`` draws the Stokes sheet of an EXR; ``plot`` draws the
+progress bar. ``view`` draws the Stokes sheet of an EXR; ``polcam`` computes a
+polarization camera's four polarizer images and raw mosaic of one; ``plot`` draws the
 model's pBRDF with the NumPy reference evaluator (no variant needed);
 ``gallery`` renders ``scenes/gallery`` and draws README's pictures; ``fit``
 fits the model to measurements (CSV) or a ``.pbsdf`` table; ``export``
@@ -39,11 +42,11 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import export, fit, gallery, plot, render, view
+from . import export, fit, gallery, plot, polcam, render, view
 from .common import PROG, run_command, version_text
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
-COMMANDS = (render, view, plot, gallery, fit, export)
+COMMANDS = (render, view, polcam, plot, gallery, fit, export)
 
 
 def build_parser() -> argparse.ArgumentParser:

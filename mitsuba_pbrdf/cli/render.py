@@ -46,6 +46,7 @@ def _wrote(path: str, existed: bool, detail: str = "") -> str:
 def run(args) -> int:
     """``pbrdf render``."""
     from ..imaging.exr import write_stokes_exr
+    from ..imaging.narrowband import parse_wavelength
     from ..imaging.panels import save_overview_png
     from ..imaging.render import SceneLoadError, render_scene_timed, require_polarized
     from ..imaging.scene_params import check_parameter_values
@@ -56,10 +57,18 @@ def run(args) -> int:
     positive_int("--spp", args.spp)
     positive_int("--passes", args.passes)
     picture = picture_kwargs(args)
-    if picture["band"] not in (None, "R", "G", "B"):  # what Mitsuba's stokes integrator writes
-        raise CliError(f"no band {picture['band']!r} in a render; bands are R, G, B")
+    band = None
+    if args.wavelength is not None:
+        band = parse_wavelength(args.wavelength)
+        bands = [band.name]
+    else:
+        bands = ["R", "G", "B"]  # what Mitsuba's stokes integrator writes
+    if picture["band"] not in (None, *bands):
+        raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(bands)}")
     variant = chosen_variant(args)
     require_polarized(variant)
+    if band is not None and "_spectral_" not in variant:
+        raise CliError(f"--wavelength needs a spectral variant, not {variant}")
     check_parameter_values(scene, params)
     stem = _out_stem(args.out, scene)
     exr_path, png_path = stem + ".exr", stem + ".png"
@@ -69,7 +78,7 @@ def run(args) -> int:
     try:
         image, timings = render_scene_timed(
             scene, spp=args.spp, variant=variant, seed=args.seed, params=params,
-            passes=args.passes, progress=show_progress(args),
+            passes=args.passes, progress=show_progress(args), wavelength=band,
         )
     except SceneLoadError as e:
         raise CliError(f"cannot load {scene}: {e}") from e
@@ -83,7 +92,8 @@ def run(args) -> int:
     name = os.path.splitext(os.path.basename(scene))[0]
     passes = int(image.metadata.get("passes", 1))
     image.metadata["title"] = (f"{name}: {variant}, {image.metadata['spp']} spp"
-                               + (f" in {passes} passes" if passes > 1 else ""))
+                               + (f" in {passes} passes" if passes > 1 else "")
+                               + (f", {band.describe()}" if band is not None else ""))
     exr = write_stokes_exr(exr_path, image)
     png = save_overview_png(png_path, image, quality=quality, **picture)
     print(_wrote(exr, existed[0],
@@ -111,6 +121,11 @@ def add_parser(subparsers):
     r.add_argument("--out", metavar="DIR_OR_STEM", default=None,
                    help="output stem (writes STEM.exr and STEM.png, replacing existing files) or "
                         "existing directory / path ending in '/' (default: out/<scene stem>)")
+    r.add_argument("--wavelength", metavar="NM[:WIDTH]", default=None,
+                   help="render the Stokes image at one wavelength in nm (a laser line, e.g. "
+                        "632.8) or averaged over a band WIDTH nm wide (e.g. 550:10), as one "
+                        "Stokes band named after it; spectral variants only (see "
+                        "docs/polarization-camera.md)")
     r.add_argument("-D", dest="define", action="append", metavar="key=value",
                    help="override a scene <default> parameter (repeatable)")
     picture_options(r, "intensity,dolp")

@@ -14,6 +14,9 @@ Pictures (PNG, palette-quantized to stay small enough to commit):
   135° (``scenes/gallery/polarizer.xml``), as the four channels of a
   polarization camera, and the DoLP and AoLP computed from them; with the
   check of Malus's law against the Stokes render (:func:`polarizer_check`).
+* ``polcam.png``: what a polarization camera records of the copper sphere:
+  the four polarizer images and the raw mono and colour sensor frames
+  (:mod:`mitsuba_pbrdf.figures.polcam_figure`; ``pbrdf polcam``).
 * ``stokes_sheet.png``: every Stokes panel of ``scenes/default.xml`` (what
   ``pbrdf view --panels all`` draws).
 * ``pbrdf_plot.png``: the model's lobes and DoP (what ``pbrdf plot`` draws).
@@ -54,6 +57,7 @@ __all__ = [
     "render_materials",
     "render_roughness",
     "render_polarizer",
+    "render_polcam",
     "render_stokes_sheet",
     "render_pbrdf_plot",
     "run_gallery",
@@ -72,9 +76,9 @@ ROUGHNESS = (
 #: Polarizer angles of ``polarizer.png`` (degrees, counter-clockwise in the picture).
 POLARIZER_ANGLES = (0, 45, 90, 135)
 #: Everything ``run_gallery`` makes, in order.
-GALLERY_ITEMS = ("materials", "roughness", "polarizer", "sheet", "plot")
+GALLERY_ITEMS = ("materials", "roughness", "polarizer", "polcam", "sheet", "plot")
 #: The items that render scenes (the others need neither scenes nor a variant).
-RENDERED_ITEMS = ("materials", "roughness", "polarizer", "sheet")
+RENDERED_ITEMS = ("materials", "roughness", "polarizer", "polcam", "sheet")
 
 #: Colour quantization of committed PNGs (see imaging.panels.save_png).
 _PNG_COLOURS = 256
@@ -369,6 +373,16 @@ def render_polarizer(settings: _Settings):
     return save_png(fig, settings.out / "polarizer.png", dpi=100, colors=_PNG_COLOURS), check
 
 
+def render_polcam(settings: _Settings) -> str:
+    """``polcam.png``: sphere.xml in copper as a polarization camera records it."""
+    from .polcam_figure import polcam_figure
+
+    image = _render(settings, "sphere.xml", "sphere_polcam", material="Cu")
+    fig = polcam_figure(image, title="What a polarization camera records of the copper sphere "
+                        f"(pbrdf polcam; {_subtitle(image)})")
+    return save_png(fig, settings.out / "polcam.png", dpi=100, colors=_PNG_COLOURS)
+
+
 def render_stokes_sheet(settings: _Settings) -> str:
     """``stokes_sheet.png``: all panels of scenes/default.xml."""
     scene = settings.scenes.parent / "default.xml"
@@ -416,6 +430,8 @@ def run_gallery(out="gallery", scenes_dir=None, exr_dir="out/gallery", spp=None,
             result[item], result["polarizer_check"] = render_polarizer(settings)
             log("polarizer check (max error / max S0): " + ", ".join(
                 f"{k} {v:.1e}" for k, v in result["polarizer_check"].items()))
+        elif item == "polcam":
+            result[item] = render_polcam(settings)
         elif item == "sheet":
             result[item] = render_stokes_sheet(settings)
         elif item == "plot":

@@ -6,6 +6,9 @@
 * :mod:`.stokes`: the :class:`StokesImage` record and derived quantities
   (DoLP, AoLP, DoCP, ...);
 * :mod:`.exr`: Stokes images in OpenEXR files;
+* :mod:`.polcam`: what a polarization camera records (polarizer images, sensor
+  mosaics, sensor noise);
+* :mod:`.narrowband`: Stokes renders at one wavelength or over a narrow band;
 * :mod:`.panels`: pictures (intensity, DoLP, AoLP, ... panels and sheets).
 """
 

@@ -28,7 +28,7 @@ import numpy as np
 from ..outputs import atomic_path
 from .stokes import StokesImage, _from_channels, as_stokes_image
 
-__all__ = ["write_stokes_exr", "read_stokes_exr"]
+__all__ = ["write_stokes_exr", "read_stokes_exr", "write_exr", "read_exr_channels"]
 
 _UNNAMED = re.compile(r"^ch\d+$")
 #: Keys of StokesImage.metadata that are written to / read from the EXR header.
@@ -58,8 +58,6 @@ def write_stokes_exr(path, image, compression: str = "zip", bands=None) -> str:
     :func:`as_stokes_image`, which takes *bands*). *compression* is ``"zip"``
     (default, lossless), ``"piz"`` (lossless) or ``"none"``.
     """
-    import OpenEXR
-
     if not isinstance(image, StokesImage):
         image = as_stokes_image(image, bands)
     elif bands is not None and list(bands) != image.bands:
@@ -68,22 +66,32 @@ def write_stokes_exr(path, image, compression: str = "zip", bands=None) -> str:
     if bad:
         raise ValueError(f"band names must be non-empty and without commas, got {bad}")
 
+    channels = {}
+    if image.rgb is not None:
+        for c, name in enumerate("RGB"):
+            channels[name] = image.rgb[:, :, c]
+    for i in range(4):
+        for b, band in enumerate(image.bands):
+            channels[f"S{i}.{band}"] = image.stokes[:, :, i, b]
+    return write_exr(path, channels, image.metadata, compression,
+                     {_BANDS_ATTRIBUTE: ",".join(image.bands)})
+
+
+def write_exr(path, channels, metadata=None, compression: str = "zip", attributes=None) -> str:
+    """Write float32 images ``{channel name: (H, W) array}`` as an OpenEXR file,
+    atomically, with *metadata* as ``pbrdf:<key>`` string attributes (and
+    *attributes* as they are). Returns the path."""
+    import OpenEXR
+
     comp = {
         "zip": OpenEXR.ZIP_COMPRESSION,
         "piz": OpenEXR.PIZ_COMPRESSION,
         "none": OpenEXR.NO_COMPRESSION,
     }[compression]
     path = os.fspath(path)
-    channels = {}
-    if image.rgb is not None:
-        for c, name in enumerate("RGB"):
-            channels[name] = np.ascontiguousarray(image.rgb[:, :, c])
-    for i in range(4):
-        for b, band in enumerate(image.bands):
-            channels[f"S{i}.{band}"] = np.ascontiguousarray(image.stokes[:, :, i, b])
-    header = {"compression": comp, "type": OpenEXR.scanlineimage,
-              _BANDS_ATTRIBUTE: ",".join(image.bands)}
-    for key, value in image.metadata.items():
+    channels = {name: np.ascontiguousarray(a, dtype=np.float32) for name, a in channels.items()}
+    header = {"compression": comp, "type": OpenEXR.scanlineimage, **(attributes or {})}
+    for key, value in (metadata or {}).items():
         header[_HEADER_PREFIX + key] = str(value)
     with atomic_path(path) as tmp, OpenEXR.File(header, channels) as f:
         with _library_output() as noise:
@@ -184,3 +192,13 @@ def read_stokes_exr(path) -> StokesImage:
         if k.startswith(_HEADER_PREFIX)
     }
     return image
+
+
+def read_exr_channels(path) -> dict:
+    """The channels ``{name: (H, W) float32}`` of an OpenEXR file (any names)."""
+    import OpenEXR
+
+    with _library_output():
+        with OpenEXR.File(os.fspath(path), separate_channels=True) as f:
+            return {name: np.asarray(ch.pixels, dtype=np.float32)
+                    for name, ch in f.channels().items()}

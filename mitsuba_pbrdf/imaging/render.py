@@ -42,6 +42,8 @@ import numpy as np
 
 from ..registry import use_variant
 from ..variant import default_variant
+from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
+                         parse_wavelength)
 from .passes import pass_seeds, plan_passes, samples_per_pass
 from .progress import progress_reporter
 from .scene_params import check_loaded_scene, check_parameter_values
@@ -181,6 +183,7 @@ def render_scene_timed(
     params: Optional[Mapping[str, object]] = None,
     passes: Optional[int] = None,
     progress=False,
+    wavelength=None,
 ):
     """Render the scene file; return its Stokes image and the timings.
 
@@ -206,6 +209,11 @@ def render_scene_timed(
         Progress over the passes' samples on stderr: False (default), True or
         ``"bar"`` (a ``tqdm`` bar), ``"lines"`` (lines for logs) or ``"auto"``
         (:func:`~mitsuba_pbrdf.imaging.progress.progress_reporter`).
+    wavelength
+        None (R, G, B Stokes bands), or a narrow band: ``"632.8"``, ``"550:10"``
+        (centre and width in nm) or a :class:`~.narrowband.WavelengthBand`; the
+        image then has one Stokes band at that wavelength
+        (:mod:`mitsuba_pbrdf.imaging.narrowband`; spectral variants only).
 
     The returned image's ``metadata`` holds the scene, variant, spp, passes,
     seed, parameters and timings (keys ``time_<stage>_s``). Returns
@@ -221,10 +229,23 @@ def render_scene_timed(
         variant = default_variant()
     require_polarized(variant)
     check_parameter_values(scene_path, params)
+    response = None
+    if wavelength is not None:
+        if not isinstance(wavelength, WavelengthBand):
+            wavelength = parse_wavelength(wavelength)
+        if "_spectral_" not in variant:
+            raise ValueError(f"--wavelength needs a spectral variant, not {variant}")
     use_variant(variant)
+    if wavelength is not None:
+        response = band_response(wavelength)
 
     t0 = time.perf_counter()
-    scene = load_scene(scene_path, params)
+    if response is None:
+        scene = load_scene(scene_path, params)
+    else:
+        if not os.path.isfile(os.fspath(scene_path)):
+            raise FileNotFoundError(f"{os.fspath(scene_path)}: no such file")
+        scene = load_band_scene(scene_path, params, response)
     t1 = time.perf_counter()
     check_loaded_scene(scene, scene_path, params, spp)
 
@@ -259,6 +280,8 @@ def render_scene_timed(
                 history += dr.kernel_history()
                 bar.update(pass_spp)
         image = from_mitsuba(accumulated.astype(np.float32), sensor.film())
+        if response is not None:
+            image = band_image(image, response)
         t3 = time.perf_counter()
     finally:
         dr.set_flag(dr.JitFlag.KernelHistory, history_was_on)
