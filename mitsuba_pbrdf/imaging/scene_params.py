@@ -29,8 +29,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from typing import Dict, List, Mapping, Optional
 
-__all__ = ["SceneParameterError", "ParameterUse", "parameter_uses", "check_parameter_values",
-           "check_loaded_scene"]
+__all__ = ["SceneParameterError", "ParameterUse", "parameter_uses", "declared_parameters",
+           "check_parameter_values", "check_loaded_scene"]
 
 _REFERENCE = re.compile(r"\$(\w+)")
 _NUMBER_LISTS = ("rgb", "point", "vector", "spectrum")
@@ -83,6 +83,38 @@ def parameter_uses(scene_path) -> Dict[str, List[ParameterUse]]:
 
     walk(root, root.tag, "")
     return uses
+
+
+def declared_parameters(scene_path) -> Optional[set]:
+    """The names a scene takes as ``-D key=value``: its ``<default name=...>``
+    declarations and ``$key`` references, in the file and the files it
+    ``<include>`` s (Mitsuba rejects any other key). None when a file cannot
+    be read (loading it reports the problem)."""
+    names: set = set()
+    seen: set = set()
+
+    def visit(path) -> bool:
+        path = os.path.abspath(os.fspath(path))
+        if path in seen:
+            return True
+        seen.add(path)
+        try:
+            root = ET.parse(path).getroot()
+        except (ET.ParseError, OSError):
+            return False
+        for element in root.iter():
+            if element.tag == "default" and element.get("name"):
+                names.add(element.get("name"))
+            for attribute, value in element.attrib.items():
+                if not (attribute == "name" and element.tag == "default"):
+                    names.update(_REFERENCE.findall(value))
+            if element.tag == "include" and element.get("filename"):
+                included = os.path.join(os.path.dirname(path), element.get("filename"))
+                if "$" in included or not visit(included):
+                    return False
+        return True
+
+    return names if visit(scene_path) else None
 
 
 def _numbers(text: str) -> Optional[list]:
