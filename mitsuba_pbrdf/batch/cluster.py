@@ -26,7 +26,7 @@ import logging
 import os
 from typing import Optional
 
-__all__ = ["DrJitThreads", "available_cores", "local_threads", "connect"]
+__all__ = ["WorkerSetup", "available_cores", "local_threads", "connect"]
 
 #: Dask's default; a job may kill this many workers before it is failed.
 ALLOWED_FAILURES = 3
@@ -54,19 +54,31 @@ def _plugin_base():
     return WorkerPlugin
 
 
-class DrJitThreads(_plugin_base()):
-    """A Dask worker plugin that sets Dr.Jit's thread count when a worker
-    starts (restarted workers included)."""
+class WorkerSetup(_plugin_base()):
+    """A Dask worker plugin run when a worker starts (restarted workers
+    included): sets Dr.Jit's thread count and, for local workers, ignores
+    SIGINT. Ctrl-C in a terminal reaches the whole process group; the sweep's
+    own process handles it (records what finished, closes the cluster), while
+    a worker that saw it would stop its render early and the job would write
+    a partial image (Mitsuba's integrator winds down on SIGINT)."""
 
-    name = "pbrdf-drjit-threads"
+    name = "pbrdf-worker-setup"
 
-    def __init__(self, count: int):
-        self.count = int(count)
+    def __init__(self, drjit_threads: Optional[int], ignore_sigint: bool = False):
+        self.drjit_threads = drjit_threads
+        self.ignore_sigint = ignore_sigint
 
     def setup(self, worker):
         from .job import set_drjit_threads
 
-        set_drjit_threads(self.count)
+        if self.ignore_sigint:
+            import signal
+
+            try:
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+            except ValueError:  # pragma: no cover - not the main thread
+                pass
+        set_drjit_threads(self.drjit_threads)
 
 
 @contextlib.contextmanager
@@ -83,7 +95,7 @@ def connect(workers: Optional[int] = None, scheduler: Optional[str] = None,
         client = Client(scheduler, timeout="30s")
         try:
             if drjit_threads:
-                client.register_plugin(DrJitThreads(drjit_threads))
+                client.register_plugin(WorkerSetup(drjit_threads))
             yield client, drjit_threads
         finally:
             client.close()
@@ -99,7 +111,7 @@ def connect(workers: Optional[int] = None, scheduler: Optional[str] = None,
         try:
             client = Client(cluster)
             try:
-                client.register_plugin(DrJitThreads(threads))
+                client.register_plugin(WorkerSetup(threads, ignore_sigint=True))
                 yield client, threads
             finally:
                 client.close()

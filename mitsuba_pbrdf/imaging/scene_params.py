@@ -60,15 +60,26 @@ class ParameterUse:
 
 def parameter_uses(scene_path) -> Dict[str, List[ParameterUse]]:
     """``{key: [ParameterUse, ...]}`` for every ``$key`` in the scene file's
-    attribute values (included files are not followed). An unreadable file
-    gives ``{}``: loading it reports the problem."""
+    attribute values, and in the files it ``<include>`` s. An unreadable file
+    gives ``{}`` (an unreadable included file is skipped): loading it reports
+    the problem."""
     try:
         root = ET.parse(os.fspath(scene_path)).getroot()
     except (ET.ParseError, OSError):
         return {}
     uses: Dict[str, List[ParameterUse]] = {}
+    seen = {os.path.abspath(os.fspath(scene_path))}
 
-    def walk(element, plugin, plugin_type):
+    def walk(element, plugin, plugin_type, folder):
+        if element.tag == "include" and "$" not in element.get("filename", "$"):
+            included = os.path.abspath(os.path.join(folder, element.get("filename")))
+            if included not in seen:
+                seen.add(included)
+                try:
+                    walk(ET.parse(included).getroot(), plugin, plugin_type,
+                         os.path.dirname(included))
+                except (ET.ParseError, OSError):
+                    pass
         if element.get("type") is not None:
             plugin, plugin_type = element.tag, element.get("type")
         for attribute, value in element.attrib.items():
@@ -79,9 +90,9 @@ def parameter_uses(scene_path) -> Dict[str, List[ParameterUse]]:
                     tag=element.tag, name=element.get("name", attribute), plugin=plugin,
                     plugin_type=plugin_type, whole=value.strip() == f"${key}"))
         for child in element:
-            walk(child, plugin, plugin_type)
+            walk(child, plugin, plugin_type, folder)
 
-    walk(root, root.tag, "")
+    walk(root, root.tag, "", os.path.dirname(os.path.abspath(os.fspath(scene_path))))
     return uses
 
 
