@@ -17,6 +17,8 @@ What :func:`run_sweep` guarantees:
   worker that the nanny restarted or on another one, with the same seed; one
   that kills ``allowed-failures + 1`` workers is recorded as failed
   (:mod:`mitsuba_pbrdf.batch.cluster`);
+* temporary files that a worker killed while writing left behind are
+  removed at the end;
 * only this process writes ``manifest.csv``, whole and atomically, after
   each finished job (at most every ``MANIFEST_INTERVAL_S`` seconds) and at
   the end, also on Ctrl-C (then ``KeyboardInterrupt`` propagates) and on any
@@ -84,6 +86,21 @@ def _lost_worker_error(error: BaseException) -> str:
     from ..cli.common import describe_error
 
     return f"{type(error).__name__}: {describe_error(error)}"
+
+
+def _remove_stale_temporaries(sweep: Sweep):
+    """Remove the temporary files of outputs (``.<job>.exr.<random>.tmp.exr``,
+    :func:`mitsuba_pbrdf.outputs.atomic_path`) that a worker killed while
+    writing left behind; called once the sweep's workers are stopped."""
+    import glob
+
+    folder = glob.escape(sweep.out)
+    for job in sweep.jobs:
+        for path in glob.glob(os.path.join(folder, f".{glob.escape(job.name)}*.tmp.exr")):
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
 
 
 def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[str] = None,
@@ -157,6 +174,7 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
                     future.cancel()
     finally:
         save()  # Ctrl-C or any error: what finished is recorded
+        _remove_stale_temporaries(sweep)
         ran = {job.name for job in todo}
         for job in sweep.jobs:
             status = rows.get(job.name, {}).get("status", "pending")

@@ -29,7 +29,8 @@ def run(args) -> int:
     try:
         import distributed  # noqa: F401
     except ImportError:
-        raise CliError("pbrdf batch needs Dask: pip install 'dask[distributed]'") from None
+        raise CliError("pbrdf batch needs Dask: pip install 'mitsuba-pbrdf[batch]' "
+                       "(or 'dask[distributed]')") from None
 
     summary = run_sweep(sweep, workers=args.workers, scheduler=args.scheduler,
                         drjit_threads=args.drjit_threads, progress=show_progress(args))
