@@ -281,3 +281,62 @@ def test_benchmark_quick_reports_throughput_overhead_and_memory(tmp_path):
     for row in rows:
         cells = [c.strip() for c in row.strip("|").split("|")]
         assert float(cells[5]) > 0 and all(float(m) > 50 for m in cells[9].split(","))
+
+
+def _worker_processes():
+    """Pids of this process's Dask worker processes (children started by the
+    local cluster's nannies through multiprocessing's spawn)."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as f:
+                parent = int(f.read().rsplit(")", 1)[1].split()[1])
+            with open(f"/proc/{entry}/cmdline", "rb") as f:
+                command = f.read()
+        except OSError:
+            continue
+        if parent == os.getpid() and b"spawn_main" in command:
+            found.append(int(entry))
+    return found
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads /proc to find the workers")
+def test_a_job_that_outlives_allowed_failures_is_recorded_failed(tmp_path):
+    """With allowed-failures = 0, the job running on a worker that is killed
+    is recorded as failed with the one-line reason, the others finish, and a
+    rerun renders exactly the failed ones."""
+    from mitsuba_pbrdf.batch.runner import run_sweep
+
+    sweep = load_sweep(write_sweep(tmp_path, TINY.replace("spp = 4", "spp = 256")
+                                   + "sigma = [0.05, 0.1, 0.15, 0.2]\n"))
+    killed = []
+
+    def killer():
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            workers = _worker_processes()
+            if len(workers) == 2 and os.path.isdir(sweep.out) \
+                    and list(Path(sweep.out).glob("*.exr")):
+                os.kill(workers[0], signal.SIGKILL)
+                killed.append(workers[0])
+                return
+            time.sleep(0.05)
+
+    thread = threading.Thread(target=killer, daemon=True)
+    thread.start()
+    summary = run_sweep(sweep, workers=2, drjit_threads=2, progress=False, allowed_failures=0)
+    thread.join(5)
+    assert killed
+    rows = list(read_manifest(sweep.manifest).values())
+    failed = [r for r in rows if r["status"] == "failed"]
+    # the job the worker ran fails; at a job boundary also the one just sent to it
+    assert summary.failed == len(failed) <= 2 and summary.done + summary.failed == 4
+    for row in failed:  # none if the worker died between two jobs
+        assert "worker running it died" in row["error"] and "\n" not in row["error"]
+    for row in rows:
+        if row["status"] == "done":
+            assert read_stokes_exr(os.path.join(sweep.out, row["file"])).stokes.shape[0] == 16
+    rerun = run_sweep(sweep, workers=1, drjit_threads=2, progress=False)
+    assert (rerun.skipped, rerun.done, rerun.failed) == (4 - len(failed), len(failed), 0)

@@ -107,7 +107,7 @@ def connect(workers: Optional[int] = None, scheduler: Optional[str] = None,
                 "distributed.scheduler.allowed-failures": int(allowed_failures)}
     with dask.config.set(settings):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.CRITICAL)
+                               dashboard_address=":0", silence_logs=logging.CRITICAL)
         try:
             client = Client(cluster)
             try:
@@ -120,6 +120,11 @@ def connect(workers: Optional[int] = None, scheduler: Optional[str] = None,
 
 
 def default_workers() -> int:
-    """Local workers when ``--workers`` is not given: one per core, up to 4
-    (more workers than that split Dr.Jit's thread pool too finely to gain)."""
-    return max(1, min(4, available_cores()))
+    """Local workers when ``--workers`` is not given: one per 2 cores, at
+    least 1 and at most 4. Each render already runs on its worker's Dr.Jit
+    threads; more workers overlap the parts of a job that run on one thread
+    (scene loading, the plugin's Python set-up, writing files). On 2 cores, 2
+    workers rendered 3 % more per minute than 1 (within the spread of the runs:
+    benchmarks/batch.md), hence 1 there; the rule above 2 cores is a guess,
+    not a measurement: run benchmarks/batch_throughput.py to choose."""
+    return max(1, min(4, available_cores() // 2))

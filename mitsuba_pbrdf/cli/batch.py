@@ -23,8 +23,6 @@ def run(args) -> int:
     if args.drjit_threads is not None and args.drjit_threads < 2:
         raise CliError(f"--drjit-threads must be at least 2 (Mitsuba 3.9.1 hangs loading an "
                        f"envmap with one thread), got {args.drjit_threads}")
-    if args.scheduler is not None and args.workers is not None:
-        raise CliError("--workers starts a local cluster; it cannot go with --scheduler")
     sweep = load_sweep(args.sweep)
     try:
         import distributed  # noqa: F401
@@ -53,8 +51,8 @@ def add_parser(subparsers):
     b.add_argument("sweep", metavar="SWEEP.toml", help="sweep file (TOML)")
     where = b.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, default=None, metavar="N",
-                       help="worker processes of the local cluster (default: one per core, "
-                            "at most 4)")
+                       help="worker processes of the local cluster (default: one per 2 cores, "
+                            "1 to 4)")
     where.add_argument("--scheduler", default=None, metavar="ADDRESS",
                        help="run on an existing Dask scheduler (e.g. tcp://node:8786) instead "
                             "of a local cluster")
