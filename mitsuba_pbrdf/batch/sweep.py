@@ -19,8 +19,8 @@ unwritable ``out`` folder, a parameter the scene does not declare, a value the
 scene cannot use (:mod:`mitsuba_pbrdf.imaging.scene_params`), an unknown or
 unpolarized variant.
 
-Each :class:`Job` has a file-system-safe unique name made of its parameters
-(``material-Al_sigma-0.05``) and a seed fixed by the sweep: the sweep's
+Each :class:`Job` has a file-system-safe unique name made of the parameters
+that take several values (``material-Al_sigma-0.05``) and a seed fixed by the sweep: the sweep's
 ``seed`` plus a hash of the job's parameters (mod 2^32), so a job keeps its
 seed when values are added to the sweep and a retried job renders with the
 same seed.
@@ -111,12 +111,13 @@ def _safe(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.+]+", "-", text).strip("-.") or "x"
 
 
-def _job_names(combos: List[Dict[str, str]], fallback: str) -> List[str]:
-    """File-system-safe, unique names: ``key-value`` pairs joined by ``_``;
-    names that collide after cleaning (or are too long) get a short hash."""
+def _job_names(combos: List[Dict[str, str]], varying: List[str], fallback: str) -> List[str]:
+    """File-system-safe, unique names: ``key-value`` pairs of the *varying*
+    parameters (those with several values) joined by ``_``; names that collide
+    after cleaning (or are too long) get a short hash."""
     names = []
     for params in combos:
-        name = "_".join(f"{_safe(k)}-{_safe(v)}" for k, v in params.items()) or _safe(fallback)
+        name = "_".join(f"{_safe(k)}-{_safe(params[k])}" for k in varying) or _safe(fallback)
         names.append(name)
     counts: Dict[str, int] = {}
     for name in names:
@@ -272,7 +273,8 @@ def load_sweep(path) -> Sweep:
 
     keys = list(values)
     combos = [dict(zip(keys, combo)) for combo in itertools.product(*values.values())]
-    names = _job_names(combos, os.path.splitext(os.path.basename(scene))[0])
+    varying = [key for key in keys if len(values[key]) > 1]
+    names = _job_names(combos, varying, os.path.splitext(os.path.basename(scene))[0])
     jobs = [Job(name=n, params=p, seed=job_seed(seed, p)) for n, p in zip(names, combos)]
     return Sweep(path=path, scene=scene, out=out, spp=spp, seed=seed, variant=variant,
                  outputs=tuple(outputs), param_names=keys, jobs=jobs)
