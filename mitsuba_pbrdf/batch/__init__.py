@@ -1,3 +1,18 @@
 """Many renders at once: parameter sweeps and datasets built from Stokes renders
-(home of sweep files, polarization-camera outputs and distributed runs).
-Empty so far: single renders live in :mod:`mitsuba_pbrdf.imaging`."""
+(``pbrdf batch``, docs/batch.md).
+
+::
+
+    from mitsuba_pbrdf.batch import load_sweep, run_sweep
+    summary = run_sweep(load_sweep("scenes/sweeps/materials.toml"), workers=2)
+
+:mod:`.sweep` reads and checks sweep files, :mod:`.job` renders one job on a
+worker, :mod:`.manifest` keeps ``out/manifest.csv``, :mod:`.cluster` starts or
+joins a Dask cluster, :mod:`.runner` runs a sweep without losing work. Single
+renders live in :mod:`mitsuba_pbrdf.imaging`. Importing this package does not
+import Dask; running a sweep needs it (``pip install 'mitsuba-pbrdf[batch]'``)."""
+
+from .runner import SweepSummary, run_sweep
+from .sweep import Job, Sweep, SweepError, load_sweep
+
+__all__ = ["Job", "Sweep", "SweepError", "SweepSummary", "load_sweep", "run_sweep"]

@@ -14,6 +14,7 @@
     pbrdf gallery [--out DIR] [--only ITEM,...] [--spp N] [--scale F] [--variant V]
     pbrdf fit DATA.csv|TABLE.pbsdf [--material M] [--model three|two|both] [--backend reference|drjit] ...
     pbrdf export --out FILE.pbsdf [--material M | --eta N --k K] [--sigma S] ... [--grid default|kaist|PxDxH]
+    pbrdf batch SWEEP.toml [--workers N | --scheduler ADDRESS] [--drjit-threads N]
 
 ``render`` writes ``<out>.exr`` (the Stokes image, named float32 channels
 ``R, G, B, S0.R ... S3.B``) and ``<out>.png`` (by default intensity and DoLP
@@ -26,7 +27,8 @@ polarization camera's four polarizer images and raw mosaic of one; ``plot`` draw
 model's pBRDF with the NumPy reference evaluator (no variant needed);
 ``gallery`` renders ``scenes/gallery`` and draws README's pictures; ``fit``
 fits the model to measurements (CSV) or a ``.pbsdf`` table; ``export``
-tabulates the model into a ``.pbsdf`` table for ``measured_polarized``.
+tabulates the model into a ``.pbsdf`` table for ``measured_polarized``;
+``batch`` renders a sweep file's parameter grid on Dask (``docs/batch.md``).
 Errors (missing file, bad scene, unknown variant, bad parameter, unwritable
 output) print one line and exit with status 2; Ctrl-C prints ``interrupted``
 and exits with status 130, leaving no partial file (:mod:`.common`).
@@ -42,11 +44,11 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import export, fit, gallery, plot, polcam, render, view
+from . import batch, export, fit, gallery, plot, polcam, render, view
 from .common import PROG, run_command, version_text
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
-COMMANDS = (render, view, polcam, plot, gallery, fit, export)
+COMMANDS = (render, view, polcam, plot, gallery, fit, export, batch)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -29,8 +29,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from typing import Dict, List, Mapping, Optional
 
-__all__ = ["SceneParameterError", "ParameterUse", "parameter_uses", "check_parameter_values",
-           "check_loaded_scene"]
+__all__ = ["SceneParameterError", "ParameterUse", "parameter_uses", "declared_parameters",
+           "check_parameter_values", "check_loaded_scene"]
 
 _REFERENCE = re.compile(r"\$(\w+)")
 _NUMBER_LISTS = ("rgb", "point", "vector", "spectrum")
@@ -60,15 +60,26 @@ class ParameterUse:
 
 def parameter_uses(scene_path) -> Dict[str, List[ParameterUse]]:
     """``{key: [ParameterUse, ...]}`` for every ``$key`` in the scene file's
-    attribute values (included files are not followed). An unreadable file
-    gives ``{}``: loading it reports the problem."""
+    attribute values, and in the files it ``<include>`` s. An unreadable file
+    gives ``{}`` (an unreadable included file is skipped): loading it reports
+    the problem."""
     try:
         root = ET.parse(os.fspath(scene_path)).getroot()
     except (ET.ParseError, OSError):
         return {}
     uses: Dict[str, List[ParameterUse]] = {}
+    seen = {os.path.abspath(os.fspath(scene_path))}
 
-    def walk(element, plugin, plugin_type):
+    def walk(element, plugin, plugin_type, folder):
+        if element.tag == "include" and "$" not in element.get("filename", "$"):
+            included = os.path.abspath(os.path.join(folder, element.get("filename")))
+            if included not in seen:
+                seen.add(included)
+                try:
+                    walk(ET.parse(included).getroot(), plugin, plugin_type,
+                         os.path.dirname(included))
+                except (ET.ParseError, OSError):
+                    pass
         if element.get("type") is not None:
             plugin, plugin_type = element.tag, element.get("type")
         for attribute, value in element.attrib.items():
@@ -79,10 +90,42 @@ def parameter_uses(scene_path) -> Dict[str, List[ParameterUse]]:
                     tag=element.tag, name=element.get("name", attribute), plugin=plugin,
                     plugin_type=plugin_type, whole=value.strip() == f"${key}"))
         for child in element:
-            walk(child, plugin, plugin_type)
+            walk(child, plugin, plugin_type, folder)
 
-    walk(root, root.tag, "")
+    walk(root, root.tag, "", os.path.dirname(os.path.abspath(os.fspath(scene_path))))
     return uses
+
+
+def declared_parameters(scene_path) -> Optional[set]:
+    """The names a scene takes as ``-D key=value``: its ``<default name=...>``
+    declarations and ``$key`` references, in the file and the files it
+    ``<include>`` s (Mitsuba rejects any other key). None when a file cannot
+    be read (loading it reports the problem)."""
+    names: set = set()
+    seen: set = set()
+
+    def visit(path) -> bool:
+        path = os.path.abspath(os.fspath(path))
+        if path in seen:
+            return True
+        seen.add(path)
+        try:
+            root = ET.parse(path).getroot()
+        except (ET.ParseError, OSError):
+            return False
+        for element in root.iter():
+            if element.tag == "default" and element.get("name"):
+                names.add(element.get("name"))
+            for attribute, value in element.attrib.items():
+                if not (attribute == "name" and element.tag == "default"):
+                    names.update(_REFERENCE.findall(value))
+            if element.tag == "include" and element.get("filename"):
+                included = os.path.join(os.path.dirname(path), element.get("filename"))
+                if "$" in included or not visit(included):
+                    return False
+        return True
+
+    return names if visit(scene_path) else None
 
 
 def _numbers(text: str) -> Optional[list]:

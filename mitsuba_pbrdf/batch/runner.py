@@ -1,0 +1,190 @@
+"""Running a sweep on Dask without losing work (docs/batch.md).
+
+::
+
+    from mitsuba_pbrdf.batch import load_sweep, run_sweep
+    summary = run_sweep(load_sweep("scenes/sweeps/materials.toml"), workers=2)
+    print(summary.line())
+
+What :func:`run_sweep` guarantees:
+
+* jobs already finished (:func:`mitsuba_pbrdf.batch.manifest.is_finished`:
+  row ``done``, same seed, files present and valid) are skipped; failed,
+  pending and missing ones run again;
+* a job that fails (an unknown material, a scene error) is recorded with its
+  one-line error and the others go on;
+* a job whose worker dies (killed, crashed, out of memory) is run again on a
+  worker that the nanny restarted or on another one, with the same seed; one
+  that kills ``allowed-failures + 1`` workers is recorded as failed
+  (:mod:`mitsuba_pbrdf.batch.cluster`);
+* temporary files that a worker killed while writing left behind are
+  removed at the end;
+* only this process writes ``manifest.csv``, whole and atomically, after
+  each finished job (at most every ``MANIFEST_INTERVAL_S`` seconds) and at
+  the end, also on Ctrl-C (then ``KeyboardInterrupt`` propagates) and on any
+  error: the manifest always describes files that exist.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import uuid
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional
+
+from .job import JobTask, run_job
+from .manifest import is_finished, job_row, read_manifest, write_manifest
+from .sweep import Sweep
+
+__all__ = ["SweepSummary", "run_sweep", "MANIFEST_INTERVAL_S"]
+
+#: Least seconds between two manifest rewrites while jobs finish.
+MANIFEST_INTERVAL_S = 2.0
+
+
+@dataclass
+class SweepSummary:
+    """What a sweep run did: job counts, wall-clock seconds, the manifest."""
+
+    jobs: int
+    skipped: int = 0
+    done: int = 0
+    failed: int = 0
+    pending: int = 0
+    seconds: float = 0.0
+    manifest: str = ""
+    failures: List[str] = field(default_factory=list)  # "job: error"
+    workers: int = 0
+
+    def line(self) -> str:
+        """One line for the user."""
+        ran = self.done + self.failed
+        rate = f", {60.0 * ran / self.seconds:.1f} jobs/min" if ran and self.seconds > 0 else ""
+        return (f"{self.jobs} jobs: {self.done} rendered, {self.skipped} already done, "
+                f"{self.failed} failed, {self.pending} pending, in {self.seconds:.1f} s{rate}; "
+                f"manifest {self.manifest}")
+
+
+def _task(sweep: Sweep, job) -> JobTask:
+    return JobTask(name=job.name, scene=sweep.scene, params=dict(job.params), seed=job.seed,
+                   spp=sweep.spp, variant=sweep.variant, out=sweep.out,
+                   outputs=tuple(sweep.outputs))
+
+
+def _result_row(job, result) -> Dict[str, str]:
+    return job_row(job, status=result.status, spp=result.spp, seconds=f"{result.seconds:.3f}",
+                   file=result.file, aov=result.aov, error=result.error)
+
+
+def _lost_worker_error(error: BaseException) -> str:
+    from distributed import KilledWorker
+
+    if isinstance(error, KilledWorker):
+        return ("the worker running it died each time it was tried (killed, crashed or out "
+                "of memory; Dask's distributed.scheduler.allowed-failures)")
+    from ..cli.common import describe_error
+
+    return f"{type(error).__name__}: {describe_error(error)}"
+
+
+def _remove_stale_temporaries(sweep: Sweep):
+    """Remove the temporary files of outputs (``.<job>.exr.<random>.tmp.exr``,
+    :func:`mitsuba_pbrdf.outputs.atomic_path`) that a worker killed while
+    writing left behind; called once the sweep's workers are stopped."""
+    import glob
+
+    folder = glob.escape(sweep.out)
+    for job in sweep.jobs:
+        for path in glob.glob(os.path.join(folder, f".{glob.escape(job.name)}*.tmp.exr")):
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
+
+
+def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[str] = None,
+              drjit_threads: Optional[int] = None, progress="auto",
+              allowed_failures: Optional[int] = None) -> SweepSummary:
+    """Run the jobs of *sweep* that are not finished, on a local Dask cluster
+    of *workers* processes or on the scheduler at *scheduler* (see the module
+    docstring). *drjit_threads*: Dr.Jit threads per worker (local default:
+    the cores shared out). *progress*: as for
+    :func:`~mitsuba_pbrdf.imaging.progress.progress_reporter` (a bar over jobs).
+    Returns a :class:`SweepSummary`."""
+    from dask.distributed import as_completed
+
+    from ..imaging.progress import progress_reporter
+    from .cluster import ALLOWED_FAILURES, connect
+
+    start = time.perf_counter()
+    summary = SweepSummary(jobs=len(sweep.jobs), manifest=sweep.manifest)
+    previous = read_manifest(sweep.manifest)
+    names = {job.name for job in sweep.jobs}
+    extra = [row for name, row in previous.items() if name not in names]
+    rows: Dict[str, Dict[str, str]] = {}
+    todo = []
+    for job in sweep.jobs:
+        if is_finished(sweep, job, previous.get(job.name)):
+            rows[job.name] = previous[job.name]
+            summary.skipped += 1
+        else:
+            todo.append(job)
+
+    def save():
+        write_manifest(sweep, rows, extra)
+
+    if not todo:
+        save()
+        summary.seconds = time.perf_counter() - start
+        return summary
+
+    last_save = 0.0
+    try:
+        with connect(workers=workers, scheduler=scheduler, drjit_threads=drjit_threads,
+                     allowed_failures=ALLOWED_FAILURES if allowed_failures is None
+                     else allowed_failures) as (client, threads):
+            summary.workers = len(client.scheduler_info().get("workers", {}))
+            run = f"{uuid.uuid4().hex[:8]}"
+            futures = {}
+            for job in todo:
+                future = client.submit(run_job, _task(sweep, job), threads, pure=False,
+                                       key=f"pbrdf-{job.name}-{run}")
+                futures[future] = job
+            try:
+                with progress_reporter(len(todo), f"batch {os.path.basename(sweep.path)}",
+                                       progress, steps=len(todo), unit="jobs") as bar:
+                    for future in as_completed(futures):
+                        job = futures.pop(future)
+                        try:
+                            result = future.result()
+                            rows[job.name] = _result_row(job, result)
+                        except Exception as e:  # the job's workers died, or Dask failed
+                            rows[job.name] = job_row(job, status="failed",
+                                                     error=_lost_worker_error(e))
+                        future.release()
+                        bar.update(1)
+                        now = time.perf_counter()
+                        if now - last_save >= MANIFEST_INTERVAL_S:
+                            save()
+                            last_save = now
+            finally:
+                save()  # before the cluster closes: Ctrl-C there must not lose it
+                for future in futures:
+                    future.cancel()
+    finally:
+        save()  # Ctrl-C or any error: what finished is recorded
+        _remove_stale_temporaries(sweep)
+        ran = {job.name for job in todo}
+        for job in sweep.jobs:
+            status = rows.get(job.name, {}).get("status", "pending")
+            if job.name in ran:
+                if status == "done":
+                    summary.done += 1
+                elif status == "failed":
+                    summary.failed += 1
+                    summary.failures.append(f"{job.name}: {rows[job.name].get('error', '')}")
+                else:
+                    summary.pending += 1
+        summary.seconds = time.perf_counter() - start
+    return summary
