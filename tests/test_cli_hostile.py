@@ -407,7 +407,11 @@ def test_ctrl_c_stops_a_render_between_passes(tmp_path):
     assert process.returncode == 130, err
     last = err.replace("\r", "\n").strip().splitlines()[-1]
     assert last == "pbrdf render: interrupted"
-    assert "Traceback" not in err and not stdout
+    assert "Traceback" not in err
+    # Mitsuba's C++ SIGINT handler logs this warning (to stdout) when the signal
+    # lands inside mi.render rather than between passes; nothing else may appear
+    assert all("Received interrupt signal, winding down" in line
+               for line in stdout.decode(errors="replace").splitlines()), stdout
     # it stopped within about a pass, far sooner than the 15 passes left would take
     assert stopped < 3 * pass_time + 5.0, (stopped, pass_time)
     assert sorted(os.listdir(tmp_path)) == ["default.exr", "default.png"]
