@@ -63,8 +63,21 @@ height = 16
                                                   "sigma"]),
     ('out = "o"\n[params]\nwidth = [0, 8]\n', ["params.width", "positive integer"]),
     ('out = "o"\n[params]\nsigma = ["rough"]\n', ["params.sigma", "must be a number"]),
-    ('out = "o"\noutputs = ["stokes", "polcam"]\n', ["outputs: unknown output 'polcam'",
-                                                     "stokes, aov"]),
+    ('out = "o"\noutputs = ["stokes", "camera"]\n', ["outputs: unknown output 'camera'",
+                                                     "stokes, aov, polcam"]),
+    ('out = "o"\n[polcam]\nsensor = "mono"\n', ["[polcam] table needs 'polcam' in outputs"]),
+    ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nsensor = "rgb"\n',
+     ["polcam.sensor must be 'mono' or 'colour'"]),
+    ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nfull_well = -5\n',
+     ["polcam.full_well must be a finite number > 0"]),
+    ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nread_noise = 2\n',
+     ["polcam.read_noise", "needs polcam.full_well"]),
+    ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nbits = 20\n',
+     ["polcam.bits must be an integer in [1, 16]"]),
+    ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\ngain = 2\n',
+     ["polcam: unknown key 'gain'"]),
+    ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nsensor = "colour"\nband = "R"\n',
+     ["polcam.band is for the mono sensor"]),
     ('out = "o"\noutputs = ["aov"]\n', ["outputs must include 'stokes'"]),
     ('out = "o"\nvariant = "llvm_ad_rgb"\n', ["variant:", "polarization"]),
     ('out = "o"\nvariant = "no_such_variant"\n', ["variant: unknown variant"]),
@@ -126,10 +139,10 @@ def test_job_names_are_safe_unique_and_seeds_do_not_depend_on_the_grid(tmp_path)
 
 
 def test_cli_bad_sweep_is_one_line_exit_2(tmp_path, capsys):
-    path = write_sweep(tmp_path, 'out = "o"\noutputs = ["stokes", "polcam"]\n')
+    path = write_sweep(tmp_path, 'out = "o"\noutputs = ["stokes", "camera"]\n')
     assert main(["batch", str(path)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("pbrdf batch: error: ") and "'polcam'" in err and "\n" not in err
+    assert err.startswith("pbrdf batch: error: ") and "'camera'" in err and "\n" not in err
     assert main(["batch", str(tmp_path / "none.toml")]) == 2
     assert "sweep file not found" in capsys.readouterr().err
     assert main(["batch", str(path), "--drjit-threads", "1"]) == 2
@@ -237,6 +250,53 @@ def test_failing_job_is_recorded_and_the_others_go_on(tmp_path, cluster):
     assert "\n" not in bad["error"] and not bad["file"]
     assert rows["Al"]["status"] == "done" and (Path(sweep.out) / rows["Al"]["file"]).is_file()
     assert [p.name for p in Path(sweep.out).glob("*.exr")] == [rows["Al"]["file"]]
+
+
+def test_polcam_outputs_are_pbrdf_polcam_of_the_job_s_stokes_image(tmp_path, cluster):
+    """``outputs = ["stokes", "polcam"]``: each job also writes what ``pbrdf
+    polcam`` writes of its Stokes EXR, with the sensor noise seeded by the job's
+    seed: the files equal a recomputation from the written Stokes EXR (noise
+    included, same seed), the manifest lists them, and a rerun checks them
+    (one deleted file makes only its job run again)."""
+    from mitsuba_pbrdf.batch.runner import run_sweep
+    from mitsuba_pbrdf.imaging.exr import read_exr_channels, read_stokes_exr
+    from mitsuba_pbrdf.imaging.polcam import SensorModel, polcam_outputs
+
+    _, address = cluster
+    body = (TINY.replace('out = "out"', 'out = "out"\noutputs = ["stokes", "polcam"]')
+            + 'material = ["Al", "Cu"]\n[polcam]\nsensor = "colour"\nfull_well = 5000\n'
+              'read_noise = 3.0\nbits = 10\n')
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    assert sweep.polcam == {"sensor": "colour", "full_well": 5000.0, "read_noise": 3.0,
+                            "bits": 10}
+    summary = run_sweep(sweep, scheduler=address, drjit_threads=2, progress=False)
+    assert (summary.done, summary.failed) == (2, 0)
+    out = Path(sweep.out)
+    rows = read_manifest(sweep.manifest)
+    for job in sweep.jobs:
+        row = rows[job.name]
+        names = row["polcam"].split(";")
+        assert names == [f"{job.name}_{s}" for s in ("I0.exr", "I45.exr", "I90.exr", "I135.exr",
+                                                       "mosaic_rgb.exr", "mosaic_rgb.png")]
+        image = read_stokes_exr(out / row["file"])
+        want = polcam_outputs(image, sensor="colour", model=SensorModel(
+            full_well=5000.0, read_noise=3.0, bits=10, seed=job.seed))
+        for angle in (0, 45, 90, 135):
+            got = read_exr_channels(out / f"{job.name}_I{angle}.exr")
+            for band in ("R", "G", "B"):
+                np.testing.assert_array_equal(got[band], want[f"I{angle}"][band])
+        mosaic = read_exr_channels(out / f"{job.name}_mosaic_rgb.exr")["Y"]
+        np.testing.assert_array_equal(mosaic, want["mosaic_rgb"]["Y"])
+        assert len(np.unique(mosaic)) <= 2 ** 10  # quantized by the 10-bit ADC
+        import cv2
+
+        counts = cv2.imread(str(out / f"{job.name}_mosaic_rgb.png"), cv2.IMREAD_UNCHANGED)
+        assert counts.dtype == np.uint16 and counts.max() <= 1023
+        np.testing.assert_array_equal(counts, want["mosaic_rgb.png"])
+    (out / f"{sweep.jobs[0].name}_I45.exr").unlink()
+    again = run_sweep(sweep, scheduler=address, drjit_threads=2, progress=False)
+    assert (again.done, again.skipped) == (1, 1)
+    assert (out / f"{sweep.jobs[0].name}_I45.exr").is_file()
 
 
 def test_ctrl_c_leaves_a_consistent_manifest(tmp_path):

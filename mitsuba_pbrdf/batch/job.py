@@ -1,7 +1,9 @@
 """One job of a sweep, as a worker runs it: render the scene with the job's
 ``-D`` values and seed through :func:`mitsuba_pbrdf.imaging.render.render_scene_timed`
 (the path ``pbrdf render`` takes), write the Stokes EXR and, if asked, the AOV
-EXR (normals and depth), each atomically (:mod:`mitsuba_pbrdf.outputs`).
+EXR (normals and depth) and a polarization camera's images (the files of
+``pbrdf polcam``, :mod:`mitsuba_pbrdf.imaging.polcam`; the sensor noise is
+seeded with the job's seed), each atomically (:mod:`mitsuba_pbrdf.outputs`).
 
 :func:`run_job` never raises for a job that fails (bad value, scene error,
 unwritable file): it returns a result with ``status="failed"`` and the
@@ -47,6 +49,8 @@ class JobTask:
     variant: Optional[str]
     out: str
     outputs: tuple = ("stokes",)
+    #: ``[polcam]`` options as ``((key, value), ...)`` (sensor, band, sensor model)
+    polcam: tuple = ()
 
 
 @dataclass
@@ -61,6 +65,7 @@ class JobResult:
     spp: str = ""
     file: str = ""
     aov: str = ""
+    polcam: str = ""
     error: str = ""
     pid: int = 0
 
@@ -112,6 +117,18 @@ def _write_aov(path: str, scene_path: str, params: Dict[str, str], spp: int, see
         f.write(tmp)
 
 
+def _write_polcam(task: JobTask, image) -> str:
+    """Write the job's polarization-camera files; returns their names, ``;``-separated."""
+    from ..imaging.polcam import SensorModel, polcam_outputs, write_polcam_files
+
+    options = dict(task.polcam)
+    sensor, band = options.pop("sensor", "mono"), options.pop("band", None)
+    model = SensorModel(seed=task.seed, **options)
+    outputs = polcam_outputs(image, sensor=sensor, band=band, model=model)
+    metadata = {k: v for k, v in image.metadata.items() if not k.startswith("time_")}
+    return ";".join(write_polcam_files(outputs, task.out, task.name, metadata))
+
+
 def run_job(task: JobTask, drjit_threads: Optional[int] = None) -> JobResult:
     """Run one job (see the module docstring); returns its :class:`JobResult`."""
     from ..imaging.exr import write_stokes_exr
@@ -135,6 +152,8 @@ def run_job(task: JobTask, drjit_threads: Optional[int] = None) -> JobResult:
                 _write_aov(os.path.join(task.out, aov), task.scene, task.params,
                            spp=int(result.spp), seed=task.seed)
                 result.aov = aov
+            if "polcam" in task.outputs:
+                result.polcam = _write_polcam(task, image)
             result.status = "done"
         except KeyboardInterrupt:
             raise

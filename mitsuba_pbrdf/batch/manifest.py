@@ -3,7 +3,8 @@
 Columns: ``job``, one column per sweep parameter (its value as ``-D`` gets
 it), ``seed``, ``spp``, ``status`` (``done``, ``failed`` or ``pending``),
 ``seconds`` (wall clock on the worker), ``file`` (the Stokes EXR, relative to
-the output folder), ``aov`` (the AOV EXR, if asked), ``error`` (one line, for
+the output folder), ``aov`` (the AOV EXR, if asked), ``polcam`` (the polarization-camera files,
+``;``-separated, if asked), ``error`` (one line, for
 failed jobs).
 
 Only the process that runs the sweep writes the manifest, always whole and
@@ -29,7 +30,7 @@ STATUSES = ("done", "failed", "pending")
 
 def columns(sweep: Sweep) -> List[str]:
     """The manifest's header for *sweep*."""
-    return ["job", *sweep.param_names, "seed", "spp", "status", "seconds", "file", "aov", "error"]
+    return ["job", *sweep.param_names, "seed", "spp", "status", "seconds", "file", "aov", "polcam", "error"]
 
 
 def read_manifest(path) -> Dict[str, Dict[str, str]]:
@@ -114,5 +115,11 @@ def is_finished(sweep: Sweep, job: Job, row: Optional[Dict[str, str]]) -> bool:
         return False
     if "aov" in sweep.outputs:
         if not row.get("aov") or not _valid_exr(os.path.join(sweep.out, row["aov"]), False):
+            return False
+    if "polcam" in sweep.outputs:
+        names = [n for n in row.get("polcam", "").split(";") if n]
+        if not names or not all(_valid_exr(os.path.join(sweep.out, n), False)
+                                if n.endswith(".exr") else os.path.isfile(os.path.join(sweep.out, n))
+                                for n in names):
             return False
     return True

@@ -69,12 +69,13 @@ class SweepSummary:
 def _task(sweep: Sweep, job) -> JobTask:
     return JobTask(name=job.name, scene=sweep.scene, params=dict(job.params), seed=job.seed,
                    spp=sweep.spp, variant=sweep.variant, out=sweep.out,
-                   outputs=tuple(sweep.outputs))
+                   outputs=tuple(sweep.outputs), polcam=tuple(sorted(sweep.polcam.items())))
 
 
 def _result_row(job, result) -> Dict[str, str]:
     return job_row(job, status=result.status, spp=result.spp, seconds=f"{result.seconds:.3f}",
-                   file=result.file, aov=result.aov, error=result.error)
+                   file=result.file, aov=result.aov, polcam=result.polcam,
+                   error=result.error)
 
 
 def _lost_worker_error(error: BaseException) -> str:

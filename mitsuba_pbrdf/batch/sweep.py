@@ -7,7 +7,9 @@ Cartesian product defines the jobs of ``pbrdf batch`` (docs/batch.md).
     spp = 16
     seed = 0
     out = "renders"                   # relative to the sweep file
-    outputs = ["stokes", "aov"]       # optional; default ["stokes"]
+    outputs = ["stokes", "aov"]       # optional; default ["stokes"]; also "polcam"
+    [polcam]                          # optional, with "polcam": the camera (pbrdf polcam)
+    sensor = "colour"
     [params]
     material = ["Al", "Cu", "Au"]
     sigma = [0.05, 0.2]
@@ -38,7 +40,7 @@ import zlib
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
-__all__ = ["SweepError", "Job", "Sweep", "OUTPUTS", "MANIFEST_NAME", "load_sweep",
+__all__ = ["SweepError", "Job", "Sweep", "OUTPUTS", "POLCAM_KEYS", "MANIFEST_NAME", "load_sweep",
            "format_value", "job_seed"]
 
 if sys.version_info >= (3, 11):
@@ -48,13 +50,17 @@ else:  # pragma: no cover - Python 3.9/3.10 (pyproject installs tomli there)
 
 #: What a job can write, by the name used in the sweep's ``outputs`` list.
 #: ``stokes``: the Stokes EXR (always); ``aov``: normals and depth from
-#: Mitsuba's ``aov`` integrator. New outputs (e.g. polarization-camera images)
-#: are added here and in :mod:`mitsuba_pbrdf.batch.job`.
-OUTPUTS = ("stokes", "aov")
+#: Mitsuba's ``aov`` integrator; ``polcam``: what a polarization camera records
+#: (``pbrdf polcam``'s files, set by the ``[polcam]`` table). New outputs are
+#: added here and in :mod:`mitsuba_pbrdf.batch.job`.
+OUTPUTS = ("stokes", "aov", "polcam")
+#: Keys of the ``[polcam]`` table: the ``pbrdf polcam`` options (the noise seed
+#: is the job's seed).
+POLCAM_KEYS = ("sensor", "band", "exposure", "full_well", "read_noise", "bits")
 MANIFEST_NAME = "manifest.csv"
 #: Manifest columns that are not parameters (a parameter may not take these names).
-FIXED_COLUMNS = ("job", "seed", "spp", "status", "seconds", "file", "aov", "error")
-_KEYS = ("scene", "spp", "seed", "out", "variant", "outputs", "params")
+FIXED_COLUMNS = ("job", "seed", "spp", "status", "seconds", "file", "aov", "polcam", "error")
+_KEYS = ("scene", "spp", "seed", "out", "variant", "outputs", "polcam", "params")
 _NAME_MAX = 120
 
 
@@ -83,6 +89,7 @@ class Sweep:
     seed: int = 0
     variant: Optional[str] = None
     outputs: Tuple[str, ...] = ("stokes",)
+    polcam: Dict[str, object] = field(default_factory=dict)
     param_names: List[str] = field(default_factory=list)
     jobs: List[Job] = field(default_factory=list)
 
@@ -188,6 +195,40 @@ def _check_variant(path, variant: str):
         _fail(path, f"variant: {e}")
 
 
+def _polcam_options(path, table, outputs) -> Dict[str, object]:
+    """The checked ``[polcam]`` table: ``{key: value}`` of :data:`POLCAM_KEYS`."""
+    if table is None:
+        return {}
+    if "polcam" not in outputs:
+        _fail(path, "polcam: the [polcam] table needs 'polcam' in outputs")
+    if not isinstance(table, dict):
+        _fail(path, f"polcam must be a table ([polcam]), got {table!r}")
+    unknown = [k for k in table if k not in POLCAM_KEYS]
+    if unknown:
+        _fail(path, f"polcam: unknown key {unknown[0]!r}; [polcam] has {', '.join(POLCAM_KEYS)}")
+    options = dict(table)
+    if options.get("sensor", "mono") not in ("mono", "colour"):
+        _fail(path, f"polcam.sensor must be 'mono' or 'colour', got {options['sensor']!r}")
+    if "band" in options:
+        _string(path, "polcam.band", options["band"])
+        if options.get("sensor") == "colour":
+            _fail(path, "polcam.band is for the mono sensor; the colour sensor sees R, G, B")
+    for key in ("exposure", "full_well", "read_noise"):
+        if key in options:
+            value = options[key]
+            if (isinstance(value, bool) or not isinstance(value, (int, float))
+                    or not math.isfinite(value) or value < 0
+                    or (value == 0 and key != "read_noise")):
+                low = ">= 0" if key == "read_noise" else "> 0"
+                _fail(path, f"polcam.{key} must be a finite number {low}, got {value!r}")
+            options[key] = float(value)
+    if options.get("read_noise") and "full_well" not in options:
+        _fail(path, "polcam.read_noise (electrons) needs polcam.full_well")
+    if "bits" in options:
+        _int(path, "polcam.bits", options["bits"], 1, 16)
+    return options
+
+
 def _scene_path(path: str, folder: str, scene: str) -> str:
     from ..imaging.scene_files import packaged_scene
 
@@ -249,6 +290,8 @@ def load_sweep(path) -> Sweep:
     if len(set(outputs)) != len(outputs):
         _fail(path, "outputs: a name is listed twice")
 
+    polcam = _polcam_options(path, data.get("polcam"), outputs)
+
     table = data.get("params", {})
     if not isinstance(table, dict):
         _fail(path, f"params must be a table ([params]), got {table!r}")
@@ -277,4 +320,4 @@ def load_sweep(path) -> Sweep:
     names = _job_names(combos, varying, os.path.splitext(os.path.basename(scene))[0])
     jobs = [Job(name=n, params=p, seed=job_seed(seed, p)) for n, p in zip(names, combos)]
     return Sweep(path=path, scene=scene, out=out, spp=spp, seed=seed, variant=variant,
-                 outputs=tuple(outputs), param_names=keys, jobs=jobs)
+                 outputs=tuple(outputs), polcam=polcam, param_names=keys, jobs=jobs)

@@ -11,7 +11,6 @@ first file is written, and each file is written atomically
 from __future__ import annotations
 
 import os
-import sys
 
 from .common import CliError, check_outputs, finite_float, one_line, require_file
 
@@ -33,8 +32,8 @@ def sensor_model(args):
 
 def run(args) -> int:
     """``pbrdf polcam``."""
-    from ..imaging.exr import read_stokes_exr, write_exr
-    from ..imaging.polcam import polcam_outputs, write_png16
+    from ..imaging.exr import read_stokes_exr
+    from ..imaging.polcam import polcam_file_names, polcam_outputs, write_polcam_files
     from ..imaging.stokes import StokesChannelError
 
     require_file(args.exr, "EXR file")
@@ -49,17 +48,12 @@ def run(args) -> int:
         outputs = polcam_outputs(image, sensor=args.sensor, band=args.band, model=model)
     except (StokesChannelError, ValueError, KeyError) as e:
         raise CliError(f"{args.exr}: {one_line(e).removeprefix(args.exr + ': ')}") from e
-    paths = {suffix: os.path.join(args.out, f"{stem}_{suffix}"
-                                  + ("" if suffix.endswith(".png") else ".exr"))
-             for suffix in outputs}
+    names = polcam_file_names(outputs, stem)
+    paths = {suffix: os.path.join(args.out, name) for suffix, name in names.items()}
     check_outputs(*[("--out", p) for p in paths.values()])
     metadata = {k: v for k, v in image.metadata.items() if not k.startswith("time_")}
     metadata["source"] = os.path.basename(args.exr)
-    for suffix, value in outputs.items():
-        if suffix.endswith(".png"):
-            write_png16(paths[suffix], value)
-        else:
-            write_exr(paths[suffix], value, dict(metadata, polcam=suffix))
+    write_polcam_files(outputs, args.out, stem, metadata)
     print(f"wrote {len(paths)} files in {args.out}: "
           + ", ".join(os.path.basename(p) for p in paths.values()))
     return 0

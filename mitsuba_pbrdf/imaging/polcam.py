@@ -42,7 +42,7 @@ from .stokes import StokesImage, luminance_stokes
 
 __all__ = ["ANGLES", "MONO_LAYOUT", "BAYER_LAYOUT", "polarizer_images", "malus",
            "mono_layout", "colour_layout", "mono_mosaic", "colour_mosaic", "SensorModel",
-           "write_png16"]
+           "write_png16", "polcam_outputs", "polcam_file_names", "write_polcam_files"]
 
 #: Polarizer angles of the four channels, degrees.
 ANGLES = (0, 45, 90, 135)
@@ -247,3 +247,26 @@ def polcam_outputs(image: StokesImage, sensor: str = "mono", band: Optional[str]
     if counts is not None:
         result[name + ".png"] = counts
     return result
+
+
+def polcam_file_names(outputs: dict, stem: str) -> Dict[str, str]:
+    """``{suffix: file name}`` of :func:`polcam_outputs`' results:
+    ``<stem>_<suffix>.exr``, or ``<stem>_mosaic.png`` for the ADC counts."""
+    return {suffix: f"{stem}_{suffix}" + ("" if suffix.endswith(".png") else ".exr")
+            for suffix in outputs}
+
+
+def write_polcam_files(outputs: dict, folder, stem: str, metadata=None) -> list:
+    """Write :func:`polcam_outputs`' results in *folder* (each file atomically:
+    EXRs with *metadata* and a ``polcam`` attribute, counts as 16-bit PNGs);
+    returns the file names, in the order of *outputs*."""
+    from .exr import write_exr
+
+    names = polcam_file_names(outputs, stem)
+    for suffix, value in outputs.items():
+        path = os.path.join(os.fspath(folder), names[suffix])
+        if suffix.endswith(".png"):
+            write_png16(path, value)
+        else:
+            write_exr(path, value, dict(metadata or {}, polcam=suffix))
+    return list(names.values())
