@@ -37,11 +37,12 @@ def restore_mitsuba_variant():
 
 
 def mitsuba_variant(name):
-    mi = pytest.importorskip("mitsuba")
-    try:
-        mi.set_variant(name)
-    except Exception as e:  # variant not compiled into this build
-        pytest.skip(f"Mitsuba variant {name} unavailable: {e}")
+    """Mitsuba with variant ``name`` set. Mitsuba is a dependency and the
+    variants named here ship in its wheel: a broken install fails these tests
+    (they pin the sign conventions) instead of skipping them."""
+    import mitsuba as mi
+
+    mi.set_variant(name)
     return mi
 
 
@@ -126,9 +127,13 @@ def test_fresnel_bounded_and_matches_real_form():
     Rs, Rp = moeller_reflectances(cos_b, n, k)
     np.testing.assert_allclose(abs(r_s) ** 2, Rs, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(abs(r_p) ** 2, Rp, rtol=1e-9, atol=1e-12)
-    # the wave decays into the metal: Im(N cos theta_t) >= 0 for exp(-i w t)
-    N = n + 1j * k
-    assert np.all(np.imag(np.sqrt(N**2 - (1 - cos_b**2))) >= 0)
+    # The wave decays into the metal: with exp(-i w t) and N = n + ik,
+    # w = N cos(theta_t) has Im(w) >= 0, so r_s = (cos b - w) / (cos b + w) has
+    # Im(r_s) = -2 cos(b) Im(w) / |cos b + w|^2 <= 0, strictly where k > 0 and
+    # cos b > 0 (N = n - ik would flip it, and the sign of every retardance).
+    assert np.all(np.imag(r_s) <= 1e-15)
+    strict = (k > 1e-3) & (cos_b > 1e-3)
+    assert np.all(np.imag(r_s[strict]) < 0)
 
 
 def assert_realizable(M, rng, n_inputs=64):
