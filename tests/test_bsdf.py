@@ -188,3 +188,46 @@ def test_register_after_switching_variant(variant):
     assert np.all(np.isfinite(value)) and np.max(value) > 0
     if mi.is_polarized:
         assert value.shape[-2:] == (4, 4)
+
+
+# ---------------------------------------------------------------- gaps found by mutation testing
+# (validation/mutation.md)
+
+def test_smallest_accepted_roughness_loads():
+    """sigma and sigma_dd exactly at the floor MIN_SIGMA (alpha = 1e-4) are
+    valid; only smaller ones are rejected (tests/test_bad_input.py)."""
+    use_variant("llvm_ad_spectral_polarized")
+    from mitsuba_pbrdf.plugin.bsdf import MIN_SIGMA
+
+    floor = float(np.float32(MIN_SIGMA))
+    while floor < MIN_SIGMA:                     # the float32 value at or above the floor
+        floor = float(np.nextafter(np.float32(floor), np.float32(1)))
+    bsdf = mi.load_dict({"type": "pbrdf", "sigma": floor, "kdd": 0.1, "sigma_dd": floor})
+    assert bsdf.component_count() == 2
+
+
+def test_parameter_update_to_negative_eta_raises():
+    use_variant("llvm_ad_spectral_polarized")
+    params = mi.traverse(mi.load_dict({"type": "pbrdf", "eta": 1.5, "k": 0.0}))
+    params["eta.value"] = -1.0
+    with pytest.raises(ValueError, match="'eta'"):
+        params.update()
+
+
+def test_short_ior_table_holds_its_last_value_to_830_nm():
+    """A conductor table that stops short of Mitsuba's spectral range (AlSb:
+    302-590 nm) is held at its end values beyond it (an irregular spectrum
+    would be 0 there): the same BSDF as the constant index of the last row."""
+    use_variant("llvm_ad_spectral_polarized")
+    from mitsuba_pbrdf.reference.materials import _ior_tables
+
+    (_, n), (_, k) = _ior_tables("AlSb")
+    tabulated = mi.load_dict({"type": "pbrdf", "material": "AlSb", "sigma": 0.2})
+    constant = mi.load_dict({"type": "pbrdf", "eta": float(n[-1]), "k": float(k[-1]),
+                             "sigma": 0.2})
+    si = make_si([[0.3, 0.1, 0.9]])
+    si.wavelengths = mi.UnpolarizedSpectrum(600.0, 700.0, 800.0, 830.0)
+    wo = to_vector([[-0.3, -0.2, 0.8]])
+    a = as_numpy(tabulated.eval(mi.BSDFContext(), si, wo))
+    b = as_numpy(constant.eval(mi.BSDFContext(), si, wo))
+    np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7 * np.abs(b).max())

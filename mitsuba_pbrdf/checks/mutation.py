@@ -44,7 +44,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
-from .mutation_tables import SUBSETS
+from .mutation_tables import DEFECTS, EQUIVALENT, SUBSETS  # noqa: F401 (re-exported)
 
 #: The repository: the package's parent folder.
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -235,13 +235,13 @@ def make_copy(tests_rev=None):
     return folder
 
 
-def run_tests(folder, tests, timeout):
+def run_tests(folder, tests, timeout, stop_first=True):
     """``pytest -x`` of ``tests`` in ``folder`` (those of its files that exist
     there: an older tests/ may lack some): (status, seconds, last line)."""
     tests = [t for t in tests if os.path.exists(os.path.join(folder, t.split("::")[0]))]
     env = dict(os.environ, PYTHONPATH=folder, PYTHONDONTWRITEBYTECODE="1", MPLBACKEND="Agg")
-    command = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
-               "-p", "no:randomly", *tests]
+    command = [sys.executable, "-m", "pytest", *(["-x"] if stop_first else []), "-q", "-rs",
+               "-p", "no:cacheprovider", *tests]
     start = time.perf_counter()
     try:
         r = subprocess.run(command, cwd=folder, env=env, capture_output=True, text=True,
@@ -251,7 +251,7 @@ def run_tests(folder, tests, timeout):
     seconds = time.perf_counter() - start
     lines = [x for x in r.stdout.splitlines() if x.strip()]
     failed = [x for x in lines if x.startswith(("FAILED", "ERROR"))]
-    last = failed[0] if failed else (lines[-1] if lines else r.stderr[-200:])
+    last = "; ".join(failed[:2]) if failed else (lines[-1] if lines else r.stderr[-200:])
     status = {0: "survived", 1: "killed"}.get(r.returncode, f"killed (exit {r.returncode})")
     return status, seconds, last
 
@@ -318,3 +318,22 @@ def as_records(mutants):
     return [dict(key=m.key, path=m.path, line=m.line, kind=m.kind, function=m.function,
                  before=m.before, after=m.after, status=m.status, seconds=round(m.seconds, 2),
                  detail=m.detail[:300]) for m in mutants]
+
+
+def run_defect(defect, folder, tests, timeout=900):
+    """Apply ``defect`` (a one-line text mutant, mutation_tables.DEFECTS) in
+    ``folder`` and run ``tests`` there: (status, seconds, last line), the file
+    restored afterwards. "missing" if the line is not in that copy."""
+    target = os.path.join(folder, defect["path"])
+    with open(target, encoding="utf-8") as f:
+        original = f.read()
+    if original.count(defect["old"]) < 1:
+        return "missing", 0.0, f"{defect['old']!r} not in {defect['path']}"
+    try:
+        with open(target, "w", encoding="utf-8") as f:
+            f.write(original.replace(defect["old"], defect["new"]))
+        status, seconds, last = run_tests(folder, tests, timeout, stop_first=False)
+    finally:
+        with open(target, "w", encoding="utf-8") as f:
+            f.write(original)
+    return status, seconds, last

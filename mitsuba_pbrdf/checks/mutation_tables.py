@@ -10,3 +10,105 @@ SUBSETS = {
 }
 EQUIVALENT = {}
 DEFECTS = []
+
+
+def _defect(name, path, old, new, new_tests, old_tests):
+    return dict(name=name, path=path, old=old, new=new, new_tests=new_tests, old_tests=old_tests)
+
+
+_MIX = "tests/test_mixture_sampling.py::"
+_FREQ = _MIX + "test_sampled_component_frequencies_follow_the_documented_probabilities"
+_WEIGHT = _MIX + "test_sample_weight_is_reference_value_over_mixture_pdf"
+_OLD_WEIGHT = "tests/test_bsdf.py::test_sample_weight_is_eval_over_pdf"
+_UNBIASED = "tests/test_sampling_unbiased.py"
+_GRAD = "tests/test_gradients.py::test_rendered_stokes_loss_gradient_matches_finite_differences_path"
+
+#: The defects of the suite found in review (issue 14), each as a one-line
+#: mutant (``old`` -> ``new`` in ``path``; a path under tests/ is a broken copy
+#: of the test itself) with the tests that now guard it (must fail) and the old
+#: suite's tests it was named for (``--tests-rev``; they passed on it).
+DEFECTS = [
+    _defect("Lobe selection: specular lobe picked without its Fresnel factor",
+            "mitsuba_pbrdf/plugin/bsdf.py", "                if lobe.polarizing:",
+            "                if lobe.polarizing and False:",
+            [_FREQ, _MIX + "test_pdf_is_the_documented_mixture_of_lobe_pdfs"],
+            ["tests/test_bsdf.py::test_components_sum_to_total_and_can_be_selected",
+             "tests/test_bsdf.py::test_sampled_component_and_type"]),
+    _defect("Lobe selection: uniform lobe probabilities", "mitsuba_pbrdf/plugin/bsdf.py",
+            "estimates[lobe.index] = dr.maximum(dr.mean(estimate, axis=0), 0.0)",
+            "estimates[lobe.index] = mi.Float(1.0)",
+            [_FREQ, _MIX + "test_pdf_is_the_documented_mixture_of_lobe_pdfs"],
+            ["tests/test_bsdf.py::test_components_sum_to_total_and_can_be_selected",
+             "tests/test_bsdf.py::test_sampled_component_and_type"]),
+    _defect("Circular weight test: G dropped from a lobe", "mitsuba_pbrdf/plugin/lobes.py",
+            "value = D * G * half.inv_4cos_i", "value = D * half.inv_4cos_i",
+            [_WEIGHT], [_OLD_WEIGHT + "[TransportMode.Radiance-full-vgroove]"]),
+    _defect("Circular weight test: 1 / (4 cos_o) in the pdf", "mitsuba_pbrdf/plugin/lobes.py",
+            "visible_g1(distribution, si.wi) * half.inv_4cos_i",
+            "visible_g1(distribution, si.wi) * dr.rcp(4.0 * mi.Frame3f.cos_theta(wo))",
+            [_WEIGHT], [_OLD_WEIGHT + "[TransportMode.Radiance-full-vgroove]"]),
+    _defect("Circular weight test: G1(wo) in the pdf", "mitsuba_pbrdf/plugin/lobes.py",
+            "visible_g1(distribution, si.wi) * half.inv_4cos_i",
+            "visible_g1(distribution, wo) * half.inv_4cos_i",
+            [_WEIGHT], [_OLD_WEIGHT + "[TransportMode.Radiance-full-vgroove]"]),
+    _defect("Circular cosine-sampling weight test: G dropped", "mitsuba_pbrdf/plugin/lobes.py",
+            "value = D * G * half.inv_4cos_i", "value = D * half.inv_4cos_i",
+            ["tests/test_sampling.py::test_cosine_sampling_weight_and_pdf"],
+            ["tests/test_sampling.py::test_cosine_sampling_weight_and_pdf"]),
+    _defect("Reference Fresnel with N = n - ik", "mitsuba_pbrdf/reference/fresnel.py",
+            "eta = np.asarray(n, dtype=np.float64) + 1j *",
+            "eta = np.asarray(n, dtype=np.float64) - 1j *",
+            ["tests/test_reference.py::test_fresnel_bounded_and_matches_real_form"],
+            ["tests/test_reference.py::test_fresnel_bounded_and_matches_real_form"]),
+    _defect("Fit: kdd reported 3 % high (stated 2 %, enforced 6.3 %)",
+            "mitsuba_pbrdf/fitting/solver.py", "    values = layout.unpack(best.x)",
+            "    values = layout.unpack(best.x); values['kdd'] = values['kdd'] * 1.03",
+            ["tests/test_fit.py::test_recovers_parameters_from_m00_and_dolp"],
+            ["tests/test_fit.py::test_recovers_parameters_from_m00_and_dolp"]),
+    _defect("Inverse: the optimizer does not move", "mitsuba_pbrdf/inverse/optimize.py",
+            "opt = mi.ad.Adam(lr=lr)", "opt = mi.ad.Adam(lr=0.0)",
+            ["tests/test_inverse.py::test_polarization_makes_n_k_ks_identifiable"],
+            ["tests/test_inverse.py::test_polarization_makes_n_k_ks_identifiable"]),
+    _defect("Normal incidence: M33 with the wrong sign", "mitsuba_pbrdf/plugin/fresnel.py",
+            "    M[3, 3] = C", "    M[3, 3] = -C",
+            ["tests/test_robustness.py::test_normal_incidence_reflectance_is_fresnel"],
+            ["tests/test_robustness.py::test_normal_incidence_reflectance_is_fresnel"]),
+    _defect("In-plane plot: specular lobe twice too bright", "mitsuba_pbrdf/reference/model.py",
+            'scale = D * G / (4.0 * g["cos_i"]', 'scale = D * G / (2.0 * g["cos_i"]',
+            ["tests/test_visualize.py::test_in_plane_mirror_direction_is_fresnel"],
+            ["tests/test_visualize.py::test_in_plane_mirror_direction_is_fresnel"]),
+    _defect("Broken install: a variant that cannot be set", "tests/test_reference.py",
+            'mitsuba_variant("llvm_ad_spectral_polarized")', 'mitsuba_variant("llvm_ad_no_such")',
+            ["tests/test_reference.py"], ["tests/test_reference.py"]),
+    _defect("Accuracy test's floor: 0.3 % error off the specular peak",
+            "mitsuba_pbrdf/plugin/lobes.py", "value = D * G * half.inv_4cos_i",
+            "value = D * G * half.inv_4cos_i * dr.select(half.cos_h < 0.93, 1.003, 1.0)",
+            ["tests/test_bsdf_vs_reference.py::test_plugin_matches_reference[Al-vgroove-beckmann-radiance]"],
+            ["tests/test_bsdf_vs_reference.py::test_plugin_matches_reference[Al-vgroove-beckmann-radiance]"]),
+    _defect("Fuzz accuracy: cos(beta) = wi.h (17 x error on nearly opposite pairs)",
+            "mitsuba_pbrdf/plugin/lobes.py", "mi.Frame3f.cos_theta(h), 0.5 * dr.norm(half),",
+            "mi.Frame3f.cos_theta(h), dr.dot(wi, h),",
+            ["tests/test_fuzz.py::test_fixed_hostile_pairs_at_moderate_roughness_have_tight_bounds",
+             "tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"],
+            ["tests/test_fuzz.py::test_fuzz_accuracy_within_float32_of_the_conditioning"]),
+    _defect("Transport modes differ by 1e-4", "mitsuba_pbrdf/plugin/bsdf.py",
+            "value = dr.select(active, value, zero)",
+            "value = dr.select(active, value * (1.0 + 1e-4 * (ctx.mode == mi.TransportMode.Importance)), zero)",
+            ["tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"],
+            ["tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"]),
+    _defect("Gradient: d/dkid with the wrong sign", "mitsuba_pbrdf/plugin/bsdf.py",
+            "weight = lobe.weight.eval(si, active) * value",
+            "weight = (2 * dr.detach(lobe.weight.eval(si, active)) - lobe.weight.eval(si, active) if lobe.name == 'ideal_diffuse' else lobe.weight.eval(si, active)) * value",
+            [_GRAD], [_GRAD]),
+    _defect("Unbiasedness: Smith lobes' pdf with Mitsuba's approximate Beckmann G1",
+            "mitsuba_pbrdf/plugin/lobes.py",
+            "pdf = prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i",
+            "pdf = prob * D * (distribution.smith_g1(si.wi, mi.Vector3f(0.0, 0.0, 1.0)) if self.shadowing == 'smith' else visible_g1(distribution, si.wi)) * half.inv_4cos_i",
+            [_UNBIASED], ["tests/test_physics.py::test_sample_weights_are_unbiased_for_beckmann_lobes",
+                          "tests/test_physics.py::test_albedo_of_each_lobe_plugin_sampling_vs_reference_quadrature"]),
+    _defect("Unbiasedness: every lobe pdf 0.3 % high", "mitsuba_pbrdf/plugin/lobes.py",
+            "pdf = prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i",
+            "pdf = 1.003 * prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i",
+            [_UNBIASED], ["tests/test_physics.py::test_sample_weights_are_unbiased_for_beckmann_lobes",
+                          "tests/test_physics.py::test_albedo_of_each_lobe_plugin_sampling_vs_reference_quadrature"]),
+]
