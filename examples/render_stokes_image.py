@@ -26,7 +26,8 @@ Run from the repository root::
 Writes the EXR and the PNG into ``out/examples/``, named after the scene
 (``--out STEM`` writes ``STEM.exr`` and ``STEM.png``). The default region is
 the chromium sphere's reflection of the back light in ``scenes/default.xml``,
-seen at 55-60 degrees of incidence, hence strongly polarized (DoLP about 0.3).
+seen at 55-60 degrees of incidence, hence strongly polarized (DoLP about 0.25: the
+large soft box is reflected over a range of angles and the diffuse lobes dilute it).
 """
 
 import argparse

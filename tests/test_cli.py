@@ -222,16 +222,23 @@ def test_usage_error_exits_2():
 
 
 def test_plan_passes():
-    from mitsuba_pbrdf.imaging.passes import (MAX_AUTO_PASSES, SAMPLES_PER_PASS, derivative_seed,
-                                              pass_seeds, plan_passes)
+    from mitsuba_pbrdf.imaging.passes import (SAMPLES_PER_GPU_PASS, SAMPLES_PER_PASS,
+                                              derivative_seed, pass_seeds, plan_passes,
+                                              samples_per_pass)
 
-    assert plan_passes(64, pixels=320 * 240) == [64]  # small renders: one pass
-    assert plan_passes(10, passes=4) == [3, 3, 2, 2]
+    assert plan_passes(4, pixels=320 * 240) == [4]  # within the budget: one pass
+    # scenes/default.xml (320 x 240, 64 spp): 4 passes of 16 spp, each 2^21 samples at most,
+    # a power of two (the kernel of one-pass power-of-two renders), whatever the machine
+    assert plan_passes(64, pixels=320 * 240) == [16] * 4
+    assert 320 * 240 * 16 <= SAMPLES_PER_PASS == 1 << 21
+    assert plan_passes(100, pixels=320 * 240) == [16] * 6 + [4]  # the rest in a last pass
+    assert plan_passes(5, pixels=4000 * 4000) == [1] * 5          # cannot split below 1 spp
+    assert plan_passes(10, passes=4) == [3, 3, 2, 2]               # a given count: equal passes
     assert plan_passes(3, passes=8) == [1, 1, 1]
-    big = plan_passes(1024, pixels=640 * 480)  # 315 M samples
-    assert sum(big) == 1024 and len(set(big)) == 1  # equal passes: one kernel
-    assert 16 <= len(big) <= MAX_AUTO_PASSES
-    assert all(640 * 480 * s >= SAMPLES_PER_PASS / 2 for s in big)
+    big = plan_passes(1024, pixels=640 * 480, budget=samples_per_pass("llvm"))
+    assert big == [4] * 256 and 640 * 480 * 4 <= SAMPLES_PER_PASS
+    assert samples_per_pass("cuda") == SAMPLES_PER_GPU_PASS
+    assert plan_passes(64, pixels=320 * 240, budget=SAMPLES_PER_GPU_PASS) == [64]
     with pytest.raises(ValueError):
         plan_passes(0)
     seeds = pass_seeds(7, 50)
@@ -267,7 +274,7 @@ def test_render_passes_and_progress_bar(scene, tmp_path, capsys):
     assert main(["render", str(scene), "--spp", "4", "--passes", "2", "--progress",
                  "--out", str(out)]) == 0
     captured = capsys.readouterr()
-    assert "rendering (2 passes)" in captured.err and "spp" in captured.err
+    assert "rendering tiny.xml (2 passes)" in captured.err and "spp" in captured.err
     assert read_stokes_exr(f"{out}.exr").metadata["passes"] == "2"
     assert main(["render", str(scene), "--passes", "0"]) == 2
     assert "--passes must be at least 1" in error_of(capsys)

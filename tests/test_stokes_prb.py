@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import use_variant
+from mitsuba_pbrdf.inverse.scenes import sphere_scene
 
 T = mi.ScalarTransform4f
 SIZE, SPP = 16, 4
@@ -53,27 +54,10 @@ def scene_dict(integrator, max_depth=3, bsdf=None, floor=None, extra=None, env=T
         inner = {"type": "stokes", "integrator": {"type": "path", **settings}}
     else:
         inner = {"type": "stokes_prb", **settings}
-    d = {
-        "type": "scene",
-        "integrator": inner,
-        "sensor": {"type": "perspective", "fov": 35,
-                   "to_world": T().look_at(origin=[0, 1.6, 5.0], target=[0, 0.9, 0], up=[0, 1, 0]),
-                   "sampler": {"type": "independent", "sample_count": SPP},
-                   "film": {"type": "hdrfilm", "width": SIZE, "height": SIZE,
-                            "pixel_format": "rgb", "rfilter": {"type": "box"}}},
-        "object": {"type": "sphere", "center": [0, 1, 0], "radius": 1.0,
-                   "bsdf": bsdf or pbrdf()},
-        "floor": {"type": "rectangle", "to_world": T().scale(20).rotate([1, 0, 0], -90),
-                  "bsdf": floor or {"type": "diffuse", "reflectance": 0.4}},
-        "key": {"type": "rectangle",
-                "to_world": T().look_at(origin=[-1.5, 4.5, 5.0], target=[0, 1, 0],
-                                        up=[0, 1, 0]).scale(0.7),
-                "emitter": {"type": "area", "radiance": 25.0}},
-        "back": {"type": "rectangle",
-                 "to_world": T().look_at(origin=[4.5, 2.5, -3.0], target=[0, 1, 0],
-                                         up=[0, 1, 0]).scale(0.8),
-                 "emitter": {"type": "area", "radiance": 40.0}},
-    }
+    d = sphere_scene(width=SIZE, height=SIZE, spp=SPP, fov=35, bsdf=bsdf or pbrdf())
+    d["integrator"] = inner
+    d["floor"]["bsdf"] = floor or {"type": "diffuse", "reflectance": 0.4}
+    del d["sky"]
     if env:
         d["sky"] = {"type": "constant", "radiance": 0.3}
     d.update(extra or {})

@@ -19,8 +19,14 @@ from mitsuba_pbrdf.figures.pbrdf_plots import (
     save_pbrdf_plot,
 )
 from mitsuba_pbrdf.imaging.stokes import StokesImage
+from matplotlib.figure import Figure
+
+from mitsuba_pbrdf.imaging.colours import nice_ceiling
 from mitsuba_pbrdf.imaging.panels import (
     PANEL_PRESETS,
+    draw_aolp,
+    draw_docp,
+    draw_dolp,
     overview_figure,
     parse_panels,
     polarization_hsv,
@@ -31,12 +37,13 @@ from mitsuba_pbrdf.imaging.panels import (
 
 
 def synthetic_image(h=24, w=32):
-    """A Stokes image whose AoLP turns with x and whose DoLP grows with y."""
+    """A Stokes image whose AoLP turns with x and whose DoLP grows with y
+    (to 0.99, with a DoCP of up to 0.1: physical, DoP <= 0.995)."""
     y, x = np.mgrid[0:h, 0:w]
     angle = np.pi * (x / w - 0.5)                     # AoLP from -90 to 90 degrees
-    p = y / (h - 1)                                   # DoLP from 0 to 1
+    p = y / (h - 1)                                   # DoLP from 0 to 0.99
     s0 = 1.0 + 0.5 * np.sin(x / 5.0)
-    stokes = np.stack([s0, s0 * p * np.cos(2 * angle), s0 * p * np.sin(2 * angle),
+    stokes = np.stack([s0, 0.99 * s0 * p * np.cos(2 * angle), 0.99 * s0 * p * np.sin(2 * angle),
                        0.1 * s0 * p], axis=-1)[..., None].repeat(3, axis=-1)
     return StokesImage(stokes.astype(np.float32), ["R", "G", "B"], metadata={"title": "synthetic"})
 
@@ -69,29 +76,87 @@ def test_full_sheet_has_every_panel_with_colour_bars(tmp_path):
     assert pixels.shape[1] > pixels.shape[0] > 200  # two rows of four
 
 
+def axes():
+    from matplotlib.figure import Figure
+
+    return Figure().subplots()
+
+
 def test_dolp_greyscale_and_band_options(tmp_path):
     image = synthetic_image()
     fig = overview_figure(image, ["dolp", "aolp"], dolp_cmap="gray", band="G", dolp_max=0.5)
     dolp_ax, aolp_ax = [ax for ax in fig.axes if ax.get_title()]
-    assert dolp_ax.images[0].get_cmap().name == "gray"
-    assert dolp_ax.images[0].get_clim() == (0.0, 0.5)
     assert "[G]" in dolp_ax.get_title()
-    # AoLP is masked where DoLP < min_dolp: the first row has DoLP 0
-    angle = aolp_ax.images[0].get_array()
-    assert angle.mask[0].all() and not angle.mask[-1].any()
+    bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert "DoLP (0–0.5)" in bars[0].get_ylabel()
+    drawing = draw_dolp(axes(), image, dolp_cmap="gray", dolp_max=0.5, band="G")
+    assert drawing.mappable.get_cmap().name == "gray"
+    assert drawing.mappable.get_clim() == (0.0, 0.5)
+    assert drawing.extend == "max"  # DoLP reaches 1: the bar says values are clipped
+    # AoLP is grey (no value) where DoLP < min_dolp: the first row has DoLP 0
+    angle = draw_aolp(axes(), image, band="G").values
+    assert np.isnan(angle[0]).all() and np.isfinite(angle[-1]).all()
     with pytest.raises(KeyError, match="no band 'X'"):
         overview_figure(image, ["dolp"], band="X")
 
 
+def test_automatic_scales_follow_the_data():
+    """DoLP and DoCP tops are the 99.5th percentile rounded up to 1, 2, 2.5 or
+    5 x 10^k; S1, S2, S3 / S0 share one symmetric scale in the sheet."""
+    image = synthetic_image()
+    image.stokes[..., 1:, :] *= 0.3          # DoLP up to 0.3, DoCP up to 0.03
+    assert draw_dolp(axes(), image).mappable.get_clim() == (0.0, 1.0)  # Python's default
+    d = draw_dolp(axes(), image, dolp_max="auto")
+    assert d.mappable.get_clim() == (0.0, 0.5) and "auto" in d.label
+    c = draw_docp(axes(), image)
+    assert c.mappable.get_clim() == (0.0, 0.05)
+    fig = overview_figure(image, ["s1", "s2", "s3"])
+    bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert [b.get_ylim() for b in bars] == [(-0.5, 0.5)] * 3
+    assert all("shared scale" in b.get_ylabel() for b in bars)
+    fig = overview_figure(image, ["s1", "s3"], stokes_scale="separate")
+    bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert bars[0].get_ylim() == (-0.5, 0.5) and bars[1].get_ylim() == (-0.05, 0.05)
+    assert nice_ceiling(0.031) == 0.05 and nice_ceiling(0.2) == 0.2 and nice_ceiling(1.7) == 2.0
+
+
 def test_aolp_panel_values_follow_the_stokes_angle():
     image = synthetic_image()
-    fig = overview_figure(image, ["aolp"])
-    angle = fig.axes[0].images[0].get_array()
+    angle = draw_aolp(axes(), image).values
     w = image.width
     expected = np.degrees(np.pi * (np.arange(w) / w - 0.5))
     expected = (expected + 90.0) % 180.0 - 90.0  # -90 and 90 are the same angle
     got = (np.asarray(angle[-1]) + 90.0) % 180.0 - 90.0
     np.testing.assert_allclose(got, expected, atol=1e-3)
+
+
+def test_aolp_colours_are_polanalysers_hue_wheel():
+    """The AoLP panel's colours are those of polanalyser's applyColorToAoLP
+    (hue = AoLP / 180 deg, full saturation and value) up to its 8-bit
+    rounding, no angle is dark, and grey marks DoLP below the threshold."""
+    from mitsuba_pbrdf.imaging.colours import MASKED_GREY, aolp_rgb
+
+    angles = np.linspace(-90.0, 90.0, 181)
+    rgb = aolp_rgb(angles)
+    assert rgb.max(axis=-1).min() > 0.99  # every angle at full value: none is dark
+    np.testing.assert_allclose(rgb[0], rgb[-1], atol=1e-9)  # -90 and +90 meet
+    polanalyser = pytest.importorskip("polanalyser")
+    from matplotlib.colors import rgb_to_hsv
+
+    bgr = polanalyser.applyColorToAoLP(np.radians(angles % 180.0)[None, :])[0]
+    theirs = rgb_to_hsv(bgr[:, ::-1] / 255.0)
+    ours = rgb_to_hsv(rgb)
+    # OpenCV stores hue in 2-degree steps, truncated, and scales AoLP by 179/180:
+    # at most 2 + 2 degrees of hue apart
+    gap = np.abs((ours[:, 0] - theirs[:, 0] + 0.5) % 1.0 - 0.5) * 360.0
+    assert gap.max() <= 4.0 + 1e-6
+    np.testing.assert_allclose(theirs[:, 1:], 1.0, atol=1 / 255)  # full saturation and value
+    image = synthetic_image()
+    fig = Figure()
+    ax = fig.subplots()
+    draw_aolp(ax, image, min_dolp=0.5)
+    drawn = ax.images[0].get_array()
+    np.testing.assert_allclose(drawn[0, 0], MASKED_GREY)  # first row: DoLP 0
 
 
 def test_polarization_hsv_colours():

@@ -23,8 +23,10 @@ progress bar. ``view`` draws the Stokes sheet of an EXR; ``plot`` draws the
 model's pBRDF with the NumPy reference evaluator (no variant needed);
 ``gallery`` renders ``scenes/gallery`` and draws README's pictures; ``fit``
 fits the model to measurements (CSV) or a ``.pbsdf`` table; ``export``
-tabulates the model into a ``.pbsdf`` table for ``measured_polarized``. Errors (missing file, bad scene, unknown
-variant, bad parameter) print one line and exit with status 2.
+tabulates the model into a ``.pbsdf`` table for ``measured_polarized``.
+Errors (missing file, bad scene, unknown variant, bad parameter, unwritable
+output) print one line and exit with status 2; Ctrl-C prints ``interrupted``
+and exits with status 130, leaving no partial file (:mod:`.common`).
 
 One module per subcommand (``run(args)`` and ``add_parser(subparsers)``), each a
 thin layer over functions users can call from Python; :mod:`.common` holds
@@ -38,7 +40,7 @@ import sys
 from typing import List, Optional
 
 from . import export, fit, gallery, plot, render, view
-from .common import EXIT_ERROR, PROG, CliError, one_line
+from .common import PROG, run_command, version_text
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
 COMMANDS = (render, view, plot, gallery, fit, export)
@@ -50,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="Render, look at, plot and fit polarized BRDFs with the pbrdf Mitsuba plugin.",
     )
+    parser.add_argument("--version", action="version", version=version_text())
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.add_parser(subparsers)
@@ -57,17 +60,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Optional[List[str]] = None) -> int:
-    """Run the command line; returns the exit status (0, or 2 on error).
-    Usage errors found by argparse exit through ``SystemExit(2)`` as usual."""
+    """Run the command line; returns the exit status: 0, 2 on error
+    (:func:`~.common.run_command`), 130 when interrupted (Ctrl-C). Usage
+    errors found by argparse exit through ``SystemExit(2)`` as usual."""
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except CliError as e:
-        print(f"{PROG} {args.command}: error: {e}", file=sys.stderr)
-        return EXIT_ERROR
-    except FileNotFoundError as e:
-        print(f"{PROG} {args.command}: error: {one_line(e)}", file=sys.stderr)
-        return EXIT_ERROR
+    return run_command(args.func, args, args.command)
 
 
 if __name__ == "__main__":

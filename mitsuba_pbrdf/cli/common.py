@@ -1,14 +1,34 @@
-"""What every ``pbrdf`` subcommand shares: the one error type (one line, exit
-status 2), argument checks, the progress and variant options."""
+"""What every ``pbrdf`` subcommand shares: the one error path (:func:`run_command`:
+one line, exit status 2; Ctrl-C: ``interrupted``, exit status 130), argument
+checks, output checks, the progress and variant options.
+
+Every command, present and future, reports through :func:`run_command`:
+
+* :class:`CliError`, ``OSError`` (``cannot write PATH: REASON``), ``ValueError``
+  (bad values, unusable files), ``RuntimeError`` and ``MemoryError`` (Mitsuba,
+  Dr.Jit): ``pbrdf COMMAND: error: MESSAGE`` on one line, exit status 2;
+* ``KeyboardInterrupt`` (Ctrl-C, SIGINT): ``pbrdf COMMAND: interrupted``, exit
+  status 130 (128 + SIGINT, as shells report it). Outputs are written
+  atomically (:mod:`mitsuba_pbrdf.outputs`), so nothing partial is left;
+* anything else is a bug: ``pbrdf COMMAND: internal error: ...``, exit status 1.
+
+``PBRDF_TRACEBACK=1`` in the environment shows Python's traceback instead.
+"""
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from typing import Optional
 
 PROG = "pbrdf"
 EXIT_ERROR = 2
+EXIT_INTERNAL = 1
+#: 128 + SIGINT, what a shell reports for a command stopped by Ctrl-C.
+EXIT_INTERRUPTED = 130
+#: Set to 1 to get Python's traceback instead of the one-line error.
+TRACEBACK_VARIABLE = "PBRDF_TRACEBACK"
 
 
 class CliError(Exception):
@@ -18,6 +38,55 @@ class CliError(Exception):
 def one_line(message) -> str:
     """A message (an exception's, possibly over several lines) on one line."""
     return " ".join(str(message).split())
+
+
+def describe_error(error: BaseException) -> str:
+    """The one-line message of an error: ``cannot write PATH: REASON`` for an
+    output (:class:`mitsuba_pbrdf.outputs.OutputError`), ``PATH: REASON`` for
+    other ``OSError`` s naming a file, else the message."""
+    from ..outputs import OutputError
+
+    if isinstance(error, OSError) and error.filename is not None:
+        reason = error.strerror or one_line(error)
+        if isinstance(error, OutputError):
+            return f"cannot write {error.filename}: {reason}"
+        return f"{error.filename}: {reason}"
+    return one_line(error) or type(error).__name__
+
+
+def run_command(func, args, command: str) -> int:
+    """Run ``func(args)`` with the command line's one error path (see the module
+    docstring); returns the exit status."""
+    if os.environ.get(TRACEBACK_VARIABLE, "") not in ("", "0"):
+        return func(args)
+    prefix = f"{PROG} {command}"
+    try:
+        return func(args)
+    except KeyboardInterrupt:
+        sys.stdout.flush()
+        print(f"{prefix}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (CliError, OSError, ValueError, RuntimeError, MemoryError) as e:
+        print(f"{prefix}: error: {describe_error(e)}", file=sys.stderr)
+        return EXIT_ERROR
+    except Exception as e:  # a bug: still one line, and how to see more
+        print(f"{prefix}: internal error: {type(e).__name__}: {describe_error(e)} "
+              f"(set {TRACEBACK_VARIABLE}=1 for the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+def version_text() -> str:
+    """``pbrdf --version``: this package's version and the Mitsuba it finds
+    (read from the installed distribution, without importing Mitsuba)."""
+    from importlib import metadata
+
+    from .. import __version__
+
+    try:
+        mitsuba = f"Mitsuba {metadata.version('mitsuba')}"
+    except metadata.PackageNotFoundError:
+        mitsuba = "Mitsuba not installed"
+    return f"{PROG} {__version__} ({mitsuba}, Python {sys.version.split()[0]})"
 
 
 def parse_defines(items) -> dict:
@@ -66,11 +135,120 @@ def float_list(text: str, what: str) -> list:
     return values
 
 
-def show_progress(args) -> bool:
-    """Progress bars go to stderr, only when it is a terminal (unless --progress)."""
-    if args.progress is not None:
-        return args.progress
-    return sys.stderr.isatty()
+def show_progress(args):
+    """The ``progress`` argument of the rendering functions: ``"bar"`` with
+    ``--progress``, ``"off"`` with ``--no-progress``, else ``"auto"`` (a bar
+    when stderr is a terminal, a line every few seconds of long work otherwise;
+    :mod:`mitsuba_pbrdf.imaging.progress`)."""
+    if args.progress is None:
+        return "auto"
+    return "bar" if args.progress else "off"
+
+
+def finite_float(name: str, value: Optional[float], low: Optional[float] = None,
+                 high: Optional[float] = None, low_open: bool = False):
+    """A :class:`CliError` unless *value* is None or a finite number in range."""
+    if value is None:
+        return
+    bad = not math.isfinite(value) or (low is not None and (value <= low if low_open
+                                                            else value < low)) \
+        or (high is not None and value > high)
+    if bad:
+        rng = ""
+        if low is not None and high is not None:
+            rng = f" in {'(' if low_open else '['}{low:g}, {high:g}]"
+        elif low is not None:
+            rng = f" {'>' if low_open else '>='} {low:g}"
+        raise CliError(f"{name} must be a finite number{rng}, got {value:g}")
+
+
+def scale_value(name: str, text: str):
+    """A picture scale option: ``auto`` or a finite number > 0 (as a float)."""
+    if text is None or text.strip().lower() == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        raise CliError(f"{name} must be a number > 0 or 'auto', got {text!r}") from None
+    finite_float(name, value, low=0.0, low_open=True)
+    return value
+
+
+def check_outputs(*outputs, create_folders: bool = True):
+    """Before any long work: each output can be written
+    (:func:`mitsuba_pbrdf.outputs.check_writable`). *outputs* are paths or
+    ``(option, path)`` pairs (the option then opens the message); None is
+    skipped. With ``create_folders=False`` the output's folder must exist.
+    Raises :class:`CliError`."""
+    from ..outputs import check_writable
+
+    for item in outputs:
+        option, path = item if isinstance(item, tuple) else (None, item)
+        if path is None:
+            continue
+        prefix = f"{option}: " if option else ""
+        folder = os.path.dirname(os.path.abspath(path))
+        if not create_folders and not os.path.isdir(folder):
+            raise CliError(f"{prefix}folder {folder} does not exist")
+        try:
+            check_writable(path)
+        except OSError as e:
+            raise CliError(prefix + describe_error(e)) from None
+
+
+def picture_options(parser, panels_default: str):
+    """The options of the Stokes pictures that ``render`` and ``view`` draw."""
+    parser.add_argument("--panels", default=panels_default,
+                        help="comma-separated panels: intensity, dolp, aolp, docp, hsv, s1, s2, "
+                             f"s3, or 'all' (the 2 x 4 sheet) (default: {panels_default})")
+    parser.add_argument("--band", default=None,
+                        help="draw one band (e.g. R, or a wavelength band's name) instead of the "
+                             "luminance combination of the bands")
+    parser.add_argument("--dolp-max", default="auto", metavar="X|auto",
+                        help="top of the DoLP scale (and of the saturation of the hsv panel); "
+                             "auto: the image's 99.5th percentile rounded up (default: auto)")
+    parser.add_argument("--dolp-cmap", default="viridis", choices=["viridis", "gray"],
+                        help="colour map of the DoLP panel (default: viridis)")
+    parser.add_argument("--min-dolp", type=float, default=0.01,
+                        help="AoLP is grey where DoLP is below this (default: 0.01)")
+    parser.add_argument("--stokes-scale", default="shared", choices=["shared", "separate"],
+                        help="one symmetric scale for S1/S0, S2/S0, S3/S0, or one each "
+                             "(default: shared)")
+    parser.add_argument("--exposure", type=float, default=None, metavar="EV",
+                        help="intensity exposure in stops (default: automatic)")
+
+
+def picture_kwargs(args, image=None) -> dict:
+    """Checked keyword arguments of :func:`~mitsuba_pbrdf.imaging.panels.save_overview_png`
+    from the picture options (and *image*'s bands, for ``--band``)."""
+    panels = parse_panels(args.panels)
+    finite_float("--min-dolp", args.min_dolp, 0.0, 1.0)
+    finite_float("--exposure", args.exposure)
+    options = dict(panels=panels, band=args.band, dolp_cmap=args.dolp_cmap,
+                   dolp_max=scale_value("--dolp-max", args.dolp_max), min_dolp=args.min_dolp,
+                   stokes_scale=args.stokes_scale)
+    if args.exposure is not None:
+        options["exposure"] = 2.0 ** args.exposure
+    if image is not None and args.band is not None and args.band not in image.bands:
+        raise CliError(f"no band {args.band!r}; bands are {', '.join(image.bands)}")
+    return options
+
+
+def report_quality(image, band, source: str, command: str):
+    """Warn (one line on stderr) about unusable pixels of *image*; a
+    :class:`CliError` when none is usable. Returns the assessment."""
+    from ..imaging.quality import assess
+
+    quality = assess(image, band)
+    if quality.usable == 0:
+        raise CliError(f"{source}: no usable pixel: {quality.summary()}")
+    if quality.count:
+        print(f"{PROG} {command}: warning: {source}: {quality.summary()}; marked in the "
+              "picture (see its legend)", file=sys.stderr)
+    elif quality.black:
+        print(f"{PROG} {command}: warning: {source}: the image is black (S0 = 0 everywhere)",
+              file=sys.stderr)
+    return quality
 
 
 def chosen_variant(args) -> str:
@@ -91,6 +269,7 @@ def progress_options(parser):
     """``--progress`` / ``--no-progress``."""
     g = parser.add_mutually_exclusive_group()
     g.add_argument("--progress", dest="progress", action="store_true", default=None,
-                   help="show the progress bar even when stderr is not a terminal")
+                   help="show the progress bar even when stderr is not a terminal (default: a "
+                        "bar on a terminal, else a line every 10 s of long renders)")
     g.add_argument("--no-progress", dest="progress", action="store_false",
-                   help="never show the progress bar")
+                   help="never show progress")

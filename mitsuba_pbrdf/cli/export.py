@@ -9,7 +9,7 @@ import os
 import time
 
 from ..options import DD_DISTRIBUTIONS, DEFAULTS, SHADOWING
-from .common import CliError, float_list, one_line
+from .common import CliError, check_outputs, float_list, one_line
 
 
 def run(args) -> int:
@@ -28,6 +28,7 @@ def run(args) -> int:
     folder = os.path.dirname(os.path.abspath(args.out))
     if not os.path.isdir(folder):
         raise CliError(f"--out: folder {folder} does not exist")
+    check_outputs(("--out", args.out))
     wavelengths = float_list(args.wavelengths, "--wavelengths")
     if len(wavelengths) != 5:
         raise CliError(f"--wavelengths: measured_polarized reads exactly 5 wavelengths, "

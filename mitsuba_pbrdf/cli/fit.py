@@ -6,14 +6,14 @@ kind is told by its first bytes. ``pbrdf-fit`` is the same command."""
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import sys
 from typing import Optional, Sequence
 
 from ..options import DD_DISTRIBUTIONS, DEFAULTS, SHADOWING
-from .common import CliError, one_line, positive_int
+from ..outputs import atomic_path, write_json
+from .common import CliError, check_outputs, one_line, positive_int
 
 
 def is_pbsdf(path) -> bool:
@@ -26,30 +26,6 @@ def is_pbsdf(path) -> bool:
             return f.read(len(MAGIC)) == MAGIC or path.lower().endswith(".pbsdf")
     except OSError:
         return path.lower().endswith(".pbsdf")
-
-
-def _check_output(path, option):
-    if path is None:
-        return
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise CliError(f"{option}: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK) or os.path.isdir(path):
-        raise CliError(f"{option}: cannot write {path}")
-
-
-def _atomic(path, write):
-    """``write(tmp)`` then rename over *path* (no partial file on failure)."""
-    folder, name = os.path.split(os.path.abspath(path))
-    tmp = os.path.join(folder, f".tmp-{os.getpid()}-{name}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except OSError as e:
-        raise CliError(f"cannot write {path}: {e.strerror or e}") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def _check_options(args):
@@ -68,8 +44,7 @@ def _check_options(args):
         fix = parse_assignments(args.fix, "--fix")
     except ValueError as e:
         raise CliError(one_line(e)) from e
-    _check_output(args.plot, "--plot")
-    _check_output(args.json, "--json")
+    check_outputs(("--plot", args.plot), ("--json", args.json), create_folders=False)
     return init, fix
 
 
@@ -119,19 +94,15 @@ def run(args) -> int:
             print(undetermined_warning(r), file=sys.stderr)
     if args.plot:
         title = os.path.basename(args.data)
-        if table is not None:
-            from ..fitting.table_plots import plot_table_fit
-            _atomic(args.plot, lambda tmp: plot_table_fit(table, results, tmp, title=title))
-        else:
-            _atomic(args.plot, lambda tmp: plot_fit(data, results, tmp, title=title))
+        with atomic_path(args.plot) as tmp:
+            if table is not None:
+                from ..fitting.table_plots import plot_table_fit
+                plot_table_fit(table, results, tmp, title=title)
+            else:
+                plot_fit(data, results, tmp, title=title)
         print(f"\nplot: {args.plot}")
     if args.json:
-        text = json.dumps({m: r.as_dict() for m, r in results.items()}, indent=1)
-
-        def write(tmp):
-            with open(tmp, "w") as f:
-                f.write(text)
-        _atomic(args.json, write)
+        write_json(args.json, {m: r.as_dict() for m, r in results.items()})
         print(f"results: {args.json}")
     return 0
 

@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-from .common import (CliError, chosen_variant, one_line, positive_int, progress_options,
+import os
+
+from .common import (CliError, check_outputs, chosen_variant, positive_int, progress_options,
                      show_progress, variant_help)
 
 
 def run(args) -> int:
     """``pbrdf gallery``."""
-    from ..figures.gallery import GALLERY_ITEMS, run_gallery
-    from ..imaging.render import SceneLoadError
-    from ..variant import UnknownVariantError
+    from ..figures.gallery import GALLERY_ITEMS, RENDERED_ITEMS, run_gallery
 
     only = [i.strip() for i in args.only.split(",") if i.strip()] if args.only else None
     unknown = [i for i in only or [] if i not in GALLERY_ITEMS]
@@ -18,14 +18,21 @@ def run(args) -> int:
         raise CliError(f"unknown gallery item(s) {', '.join(unknown)}; "
                        f"choose from {', '.join(GALLERY_ITEMS)}")
     positive_int("--spp", args.spp)
-    if not args.scale > 0:
-        raise CliError(f"--scale must be > 0, got {args.scale}")
-    try:
-        run_gallery(out=args.out, scenes_dir=args.scenes, exr_dir=args.exr_dir or None,
-                    spp=args.spp, scale=args.scale, variant=chosen_variant(args), only=only,
-                    progress=show_progress(args))
-    except (UnknownVariantError, SceneLoadError) as e:
-        raise CliError(one_line(e)) from e
+    if not 0 < args.scale < 100:
+        raise CliError(f"--scale must be in (0, 100), got {args.scale}")
+    renders = any(item in RENDERED_ITEMS for item in only or GALLERY_ITEMS)
+    # the folders can hold files: checked with a file name in each, before rendering
+    check_outputs(("--out", os.path.join(args.out, "pbrdf_plot.png")),
+                  ("--exr-dir", os.path.join(args.exr_dir, "default.exr")
+                   if args.exr_dir and renders else None))
+    variant = chosen_variant(args) if renders else None
+    if variant is not None:
+        from ..imaging.render import require_polarized
+
+        require_polarized(variant)
+    run_gallery(out=args.out, scenes_dir=args.scenes, exr_dir=args.exr_dir or None,
+                spp=args.spp, scale=args.scale, variant=variant, only=only,
+                progress=show_progress(args))
     return 0
 
 
@@ -39,7 +46,7 @@ def add_parser(subparsers):
     g.add_argument("--exr-dir", default="out/gallery", metavar="DIR",
                    help="folder of the Stokes EXRs ('' for none; default: out/gallery)")
     g.add_argument("--scenes", default=None, metavar="DIR",
-                   help="folder of the gallery scenes (default: scenes/gallery)")
+                   help="folder of the gallery scenes (default: the packaged scenes/gallery)")
     g.add_argument("--only", default=None, metavar="ITEM,...",
                    help="materials, roughness, polarizer, sheet, plot (default: all)")
     g.add_argument("--spp", type=int, default=None, help="samples per pixel (default: each scene's)")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..options import DD_DISTRIBUTIONS, DEFAULTS, SHADOWING
-from .common import CliError, float_list, one_line
+from .common import CliError, check_outputs, float_list, one_line
 
 
 def run(args) -> int:
@@ -20,6 +20,7 @@ def run(args) -> int:
                          ks=args.ks, kdd=args.kdd, sigma_dd=args.sigma_dd, kid=args.kid,
                          shadowing=args.shadowing, dd_distribution=args.dd_distribution)
     wavelengths = float_list(args.wavelengths, "--wavelengths")
+    check_outputs(("--out", args.out))
     try:
         params.validate()
         path = save_pbrdf_plot(args.out, params, args.theta_i, wavelengths)

@@ -1,12 +1,20 @@
-"""``pbrdf render``: a scene to a Stokes EXR and a PNG."""
+"""``pbrdf render``: a scene to a Stokes EXR and a PNG.
+
+Everything that can be checked is checked before rendering: the scene file
+(or a packaged scene of that name), the ``-D`` values against what the scene
+does with them, the variant (polarized), the picture options, and that both
+outputs can be written. The outputs are written atomically and replace
+existing files (as Mitsuba does; the command says so)."""
 
 from __future__ import annotations
 
 import os
+import sys
 from typing import Optional
 
-from .common import (CliError, chosen_variant, one_line, parse_defines, parse_panels, positive_int,
-                     progress_options, require_file, show_progress, variant_help)
+from .common import (PROG, CliError, check_outputs, chosen_variant, parse_defines,
+                     picture_kwargs, picture_options, positive_int, progress_options,
+                     report_quality, show_progress, variant_help)
 
 
 def _out_stem(out: Optional[str], scene_path: str) -> str:
@@ -19,67 +27,92 @@ def _out_stem(out: Optional[str], scene_path: str) -> str:
     return base if ext.lower() in (".exr", ".png") else out
 
 
+def _scene(path: str) -> str:
+    """The scene file, or the packaged scene of that name (with a notice)."""
+    from ..imaging.scene_files import find_scene
+
+    if os.path.isfile(path):
+        return path
+    found = str(find_scene(path))  # FileNotFoundError naming the packaged scenes
+    print(f"{PROG} render: {path} is not here; rendering the packaged scene {found}",
+          file=sys.stderr)
+    return found
+
+
+def _wrote(path: str, existed: bool, detail: str = "") -> str:
+    return f"{'replaced' if existed else 'wrote'} {path}{detail}"
+
+
 def run(args) -> int:
     """``pbrdf render``."""
     from ..imaging.exr import write_stokes_exr
     from ..imaging.panels import save_overview_png
-    from ..imaging.render import SceneLoadError, render_scene_timed
+    from ..imaging.render import SceneLoadError, render_scene_timed, require_polarized
+    from ..imaging.scene_params import check_parameter_values
     from ..imaging.stokes import StokesChannelError
-    from ..variant import UnknownVariantError
 
-    require_file(args.scene, "scene file")
+    scene = _scene(args.scene)
     params = parse_defines(args.define)
-    panels = parse_panels(args.panels)
     positive_int("--spp", args.spp)
     positive_int("--passes", args.passes)
-    stem = _out_stem(args.out, args.scene)
+    picture = picture_kwargs(args)
+    if picture["band"] not in (None, "R", "G", "B"):  # what Mitsuba's stokes integrator writes
+        raise CliError(f"no band {picture['band']!r} in a render; bands are R, G, B")
     variant = chosen_variant(args)
+    require_polarized(variant)
+    check_parameter_values(scene, params)
+    stem = _out_stem(args.out, scene)
+    exr_path, png_path = stem + ".exr", stem + ".png"
+    check_outputs(("--out", exr_path), ("--out", png_path))
+    existed = [os.path.exists(exr_path), os.path.exists(png_path)]
 
     try:
         image, timings = render_scene_timed(
-            args.scene, spp=args.spp, variant=variant, seed=args.seed, params=params,
+            scene, spp=args.spp, variant=variant, seed=args.seed, params=params,
             passes=args.passes, progress=show_progress(args),
         )
-    except UnknownVariantError as e:
-        raise CliError(str(e)) from e
     except SceneLoadError as e:
-        raise CliError(f"cannot load {args.scene}: {e}") from e
+        raise CliError(f"cannot load {scene}: {e}") from e
     except StokesChannelError as e:
         raise CliError(
-            f"{one_line(e)} (render with a *_polarized variant and the scene's integrator "
+            f"{e} (render with a *_polarized variant and the scene's integrator "
             "wrapped in <integrator type=\"stokes\">)"
         ) from e
+    quality = report_quality(image, picture["band"], f"the render of {scene}", "render")
 
-    name = os.path.splitext(os.path.basename(args.scene))[0]
+    name = os.path.splitext(os.path.basename(scene))[0]
     passes = int(image.metadata.get("passes", 1))
     image.metadata["title"] = (f"{name}: {variant}, {image.metadata['spp']} spp"
                                + (f" in {passes} passes" if passes > 1 else ""))
-    exr = write_stokes_exr(stem + ".exr", image)
-    png = save_overview_png(stem + ".png", image, panels=panels)
-    print(f"wrote {exr} ({image.width}x{image.height}, Stokes bands {','.join(image.bands)})")
-    print(f"wrote {png}")
+    exr = write_stokes_exr(exr_path, image)
+    png = save_overview_png(png_path, image, quality=quality, **picture)
+    print(_wrote(exr, existed[0],
+                 f" ({image.width}x{image.height}, Stokes bands {','.join(image.bands)})"))
+    print(_wrote(png, existed[1]))
     print(f"timings: {timings.summary()}")
     return 0
 
 
 def add_parser(subparsers):
     r = subparsers.add_parser("render", help="render a scene to <out>.exr (Stokes) and <out>.png",
-                              description="Render a Mitsuba scene to a Stokes EXR and an overview PNG.")
-    r.add_argument("scene", metavar="SCENE.xml", help="Mitsuba scene file")
+                              description="Render a Mitsuba scene to a Stokes EXR and an overview "
+                                          "PNG. SCENE.xml may also name a packaged scene "
+                                          "(default, analytic_plane, gallery/sphere, "
+                                          "gallery/polarizer), so the examples run from any "
+                                          "directory.")
+    r.add_argument("scene", metavar="SCENE.xml", help="Mitsuba scene file, or a packaged scene")
     r.add_argument("--spp", type=int, default=None, help="samples per pixel (default: the scene's)")
     r.add_argument("--variant", default=None, help=variant_help())
     r.add_argument("--seed", type=int, default=0, help="sampler seed (default: 0)")
     r.add_argument("--passes", type=int, default=None,
                    help="split the samples into N passes with different seeds, averaged "
-                        "(default: automatic, one pass unless the render has more than "
-                        "16.8 M samples, i.e. pixels × spp)")
+                        "(default: automatic, passes of about a second each, one pass for "
+                        "short renders; see docs/cli.md)")
     r.add_argument("--out", metavar="DIR_OR_STEM", default=None,
-                   help="output stem (writes STEM.exr and STEM.png) or existing directory / path "
-                        "ending in '/' (default: out/<scene stem>)")
+                   help="output stem (writes STEM.exr and STEM.png, replacing existing files) or "
+                        "existing directory / path ending in '/' (default: out/<scene stem>)")
     r.add_argument("-D", dest="define", action="append", metavar="key=value",
                    help="override a scene <default> parameter (repeatable)")
-    r.add_argument("--panels", default="intensity,dolp",
-                   help="comma-separated PNG panels: intensity, dolp, aolp, docp, hsv, s1, s2, "
-                        "s3, or 'all' (default: intensity,dolp)")
+    picture_options(r, "intensity,dolp")
     progress_options(r)
     r.set_defaults(func=run)

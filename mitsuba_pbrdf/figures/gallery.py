@@ -46,6 +46,7 @@ __all__ = [
     "ROUGHNESS",
     "POLARIZER_ANGLES",
     "GALLERY_ITEMS",
+    "RENDERED_ITEMS",
     "find_scenes",
     "montage_figure",
     "polarization_camera_stokes",
@@ -72,6 +73,8 @@ ROUGHNESS = (
 POLARIZER_ANGLES = (0, 45, 90, 135)
 #: Everything ``run_gallery`` makes, in order.
 GALLERY_ITEMS = ("materials", "roughness", "polarizer", "sheet", "plot")
+#: The items that render scenes (the others need neither scenes nor a variant).
+RENDERED_ITEMS = ("materials", "roughness", "polarizer", "sheet")
 
 #: Colour quantization of committed PNGs (see imaging.panels.save_png).
 _PNG_COLOURS = 256
@@ -79,21 +82,26 @@ _PNG_COLOURS = 256
 
 def find_scenes(scenes_dir=None) -> Path:
     """The folder holding the gallery scenes: *scenes_dir* if given, else
-    ``scenes/gallery`` under the current directory or the repository this
-    package was installed from. Raises ``FileNotFoundError`` saying where it
-    looked."""
+    ``scenes/gallery`` under the current directory, else the packaged one
+    (:func:`mitsuba_pbrdf.imaging.scene_files.scenes_dir`). Raises
+    ``FileNotFoundError`` saying where it looked."""
+    from ..imaging.scene_files import scenes_dir as packaged
+
     if scenes_dir is not None:
         candidates = [Path(scenes_dir)]
     else:
-        candidates = [Path.cwd() / "scenes" / "gallery",
-                      Path(__file__).resolve().parents[2] / "scenes" / "gallery"]
+        candidates = [Path.cwd() / "scenes" / "gallery"]
+        try:
+            candidates.append(packaged() / "gallery")
+        except FileNotFoundError:
+            pass
     for c in candidates:
         if (c / "sphere.xml").is_file():
             return c
     raise FileNotFoundError(
         "gallery scenes (sphere.xml, polarizer.xml) not found in "
         + " or ".join(str(c) for c in candidates)
-        + "; run from the repository root or pass --scenes DIR"
+        + "; pass --scenes DIR"
     )
 
 
@@ -283,7 +291,7 @@ def polarizer_figure(filtered: Dict[int, StokesImage], clear: StokesImage,
 
 @dataclass
 class _Settings:
-    scenes: Path
+    scenes: Optional[Path]
     out: Path
     exr_dir: Optional[Path]
     spp: Optional[int]
@@ -394,7 +402,8 @@ def run_gallery(out="gallery", scenes_dir=None, exr_dir="out/gallery", spp=None,
     if unknown:
         raise ValueError(f"unknown gallery item(s) {', '.join(unknown)}; "
                          f"choose from {', '.join(GALLERY_ITEMS)}")
-    settings = _Settings(scenes=find_scenes(scenes_dir), out=Path(out),
+    renders = any(item in RENDERED_ITEMS for item in items)
+    settings = _Settings(scenes=find_scenes(scenes_dir) if renders else None, out=Path(out),
                          exr_dir=Path(exr_dir) if exr_dir else None, spp=spp, scale=scale,
                          variant=variant, progress=progress, seed=seed)
     result = {}

@@ -17,12 +17,15 @@ layout and a warning. Stokes conventions: :mod:`mitsuba_pbrdf.imaging.stokes`.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import tempfile
 import warnings
 
 import numpy as np
 
+from ..outputs import atomic_path
 from .stokes import StokesImage, _from_channels, as_stokes_image
 
 __all__ = ["write_stokes_exr", "read_stokes_exr"]
@@ -48,7 +51,8 @@ def write_stokes_exr(path, image, compression: str = "zip", bands=None) -> str:
     """Write a Stokes image as a float32 OpenEXR file with named channels
     (``R, G, B`` when a preview is present, then ``S0.<band> ... S3.<band>``),
     the band order, and ``image.metadata`` as string header attributes.
-    Returns the path.
+    Written atomically (:mod:`mitsuba_pbrdf.outputs`): a failure leaves no
+    partial file and any previous file untouched. Returns the path.
 
     *image* is a :class:`StokesImage` or a NumPy array (see
     :func:`as_stokes_image`, which takes *bands*). *compression* is ``"zip"``
@@ -81,12 +85,50 @@ def write_stokes_exr(path, image, compression: str = "zip", bands=None) -> str:
               _BANDS_ATTRIBUTE: ",".join(image.bands)}
     for key, value in image.metadata.items():
         header[_HEADER_PREFIX + key] = str(value)
-    parent = os.path.dirname(path)
-    if parent:
-        os.makedirs(parent, exist_ok=True)
-    with OpenEXR.File(header, channels) as f:
-        f.write(path)
+    with atomic_path(path) as tmp, OpenEXR.File(header, channels) as f:
+        with _library_output() as noise:
+            try:
+                f.write(tmp)
+            except RuntimeError as e:
+                raise OSError(None, _first_line(noise.text()) or " ".join(str(e).split()),
+                              tmp) from None
     return path
+
+
+@contextlib.contextmanager
+def _library_output():
+    """Capture what C libraries (OpenEXR) print on the standard output and
+    error streams (file descriptors 1 and 2) while the block runs; the text is
+    in ``.text()`` afterwards, and never reaches the terminal."""
+
+    class Captured:
+        data = b""
+
+        def text(self):
+            return self.data.decode("utf-8", "replace")
+
+    captured = Captured()
+    for stream in (os.sys.stdout, os.sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile() as sink:
+        try:
+            os.dup2(sink.fileno(), 1)
+            os.dup2(sink.fileno(), 2)
+            yield captured
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            sink.seek(0)
+            captured.data = sink.read()
+
+
+def _first_line(text: str) -> str:
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    return lines[0] if lines else ""
 
 
 def read_stokes_exr(path) -> StokesImage:
@@ -94,20 +136,30 @@ def read_stokes_exr(path) -> StokesImage:
 
     Reads the files :func:`write_stokes_exr` writes and those Mitsuba writes
     (``film.write``, ``mi.util.write_bitmap(path, film.bitmap())``, half or
-    full float). Raises ``FileNotFoundError`` for a missing file and
-    :class:`StokesChannelError` for an EXR without Stokes channels.
+    full float). Raises ``FileNotFoundError`` for a missing file,
+    ``ValueError`` for a damaged one (what OpenEXR prints about it is kept out
+    of the terminal and quoted in the message) and :class:`StokesChannelError`
+    for an EXR without Stokes channels.
     """
     import OpenEXR
 
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise FileNotFoundError(f"{path}: no such file")
-    try:
-        with OpenEXR.File(path, separate_channels=True) as f:
-            header = dict(f.header())
-            channels = {name: ch.pixels for name, ch in f.channels().items()}
-    except Exception as e:  # OpenEXR raises plain RuntimeErrors
-        raise ValueError(f"{path}: not a readable OpenEXR file ({e})") from e
+    error = None
+    with _library_output() as noise:  # OpenEXR prints warnings of its own
+        try:
+            with OpenEXR.File(path, separate_channels=True) as f:
+                header = dict(f.header())
+                channels = {name: ch.pixels for name, ch in f.channels().items()}
+        except Exception as e:  # OpenEXR raises plain RuntimeErrors
+            error = e
+    # a damaged file either fails or reads with a complaint (and missing pixels)
+    complaint = _first_line(noise.text())
+    if error is not None or complaint:
+        detail = (complaint or " ".join(str(error).split())).removeprefix(f"{path}: ")
+        raise ValueError(f"{path}: not a readable OpenEXR file, truncated or corrupt "
+                         f"({detail})") from error
 
     names = list(channels)
     if names and all(_UNNAMED.match(n) for n in names):

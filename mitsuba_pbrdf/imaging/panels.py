@@ -24,18 +24,31 @@ polarimeter would measure), or one band's Stokes vector with ``band="R"`` (or
 Angles follow the Stokes frame of Mitsuba's ``stokes`` integrator: x-axis =
 cross(ray direction, camera up), i.e. image right, y-axis image up; AoLP = 0 is
 horizontal and positive angles turn counter-clockwise in the picture.
+
+Colours and scales (:mod:`mitsuba_pbrdf.imaging.colours`): AoLP on the hue
+wheel polarization cameras use (grey where DoLP is too low), DoLP and DoCP
+from 0 to a stated maximum (``"auto"`` by default: scaled to the data), S1,
+S2, S3 / S0 on one symmetric scale in the sheet; each colour bar states its
+scale. Unusable pixels (non-finite, S0 < 0, polarization > 1:
+:mod:`mitsuba_pbrdf.imaging.quality`) are painted in a marker colour named in
+the panel's legend, never drawn as if they were data.
 """
 
 from __future__ import annotations
 
 import inspect
-import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional, Sequence, Union
 
 import numpy as np
 
-from .stokes import StokesImage, aolp, docp, dolp, luminance_stokes
+from .colours import (MARKERS, MASKED_GREY, aolp_colormap, aolp_rgb, colour_image,
+                      paint, resolve_limit)
+from .quality import StokesQuality, assess
+from .png import save_png
+from .stokes import StokesImage, aolp, docp, dolp
+from .composites import polarization_hsv, stokes_limit, stokes_ratios
+from .tonemap import _LUMA, auto_exposure, linear_rgb, pixel_stokes, tonemap
 
 __all__ = [
     "auto_exposure",
@@ -57,6 +70,8 @@ __all__ = [
     "plot_polarization_hsv",
     "plot_stokes_component",
     "polarization_hsv",
+    "stokes_ratios",
+    "stokes_limit",
     "PANELS",
     "PANEL_PRESETS",
     "parse_panels",
@@ -65,74 +80,10 @@ __all__ = [
     "save_png",
 ]
 
-#: Rec. 709 luminance weights of linear R, G, B.
-_LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
-
-
-def _srgb_encode(linear: np.ndarray) -> np.ndarray:
-    linear = np.clip(linear, 0.0, 1.0)
-    return np.where(
-        linear <= 0.0031308, 12.92 * linear, 1.055 * np.power(linear, 1.0 / 2.4) - 0.055
-    )
-
-
-def linear_rgb(image: StokesImage, band: Optional[str] = None) -> np.ndarray:
-    """Linear RGB (H, W, 3) of the image: its preview, the RGB bands of S0,
-    the mean of its bands, or S0 of *band* in grey."""
-    if band is not None:
-        return np.repeat(image.band(band)[:, :, :1], 3, axis=-1)
-    if image.rgb is not None:
-        return image.rgb
-    s0 = image.s0
-    if all(b in image.bands for b in "RGB"):
-        return np.stack([s0[:, :, image.bands.index(b)] for b in "RGB"], axis=-1)
-    return np.repeat(s0.mean(axis=-1, keepdims=True), 3, axis=-1)
-
-
-def auto_exposure(rgb: np.ndarray, percentile: float = 99.0) -> float:
-    """The scale that maps the *percentile*-th percentile of the luminance of
-    the non-black pixels of linear *rgb* (H, W, 3) to 1 (1.0 for a black image)."""
-    rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float32), nan=0.0, posinf=0.0, neginf=0.0)
-    lum = rgb @ _LUMA
-    lit = lum[lum > 0]
-    ref = float(np.percentile(lit, percentile)) if lit.size else 0.0
-    return 1.0 / ref if ref > 0 else 1.0
-
-
-def tonemap(rgb: np.ndarray, exposure: Optional[float] = None, percentile: float = 99.0):
-    """Linear RGB (H, W, 3) to sRGB-encoded floats in [0, 1].
-
-    With ``exposure=None`` the scale is chosen by :func:`auto_exposure` (the
-    *percentile*-th percentile of the luminance of the non-black pixels maps to
-    1; brighter pixels, e.g. the highlight core, clip). Pass the same
-    *exposure* to compare pictures. Returns ``(srgb, exposure)``.
-    """
-    rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float32), nan=0.0, posinf=0.0, neginf=0.0)
-    if exposure is None:
-        exposure = auto_exposure(rgb, percentile)
-    return _srgb_encode(rgb * exposure), float(exposure)
-
-
-def pixel_stokes(image: StokesImage, band: Optional[str] = None) -> np.ndarray:
-    """One Stokes vector per pixel, shape (H, W, 4): the luminance combination
-    of the bands (:func:`~mitsuba_pbrdf.imaging.stokes.luminance_stokes`), or the
-    band named *band*."""
-    return luminance_stokes(image) if band is None else image.band(band)
-
-
 def _clean(ax, title):
     ax.set_title(title, fontsize=9)
     ax.set_xticks([])
     ax.set_yticks([])
-
-
-def _colorbar(ax, mappable, label, ticks=None, ticklabels=None):
-    cb = ax.figure.colorbar(mappable, ax=ax, fraction=0.046, pad=0.03, ticks=ticks)
-    cb.set_label(label, fontsize=8)
-    if ticklabels is not None:
-        cb.ax.set_yticklabels(ticklabels)
-    cb.ax.tick_params(labelsize=7)
-    return cb
 
 
 def _band_suffix(band):
@@ -142,173 +93,256 @@ def _band_suffix(band):
 @dataclass
 class Drawing:
     """What a ``draw_*`` function put on its axes: the ``mappable`` its colour
-    bar shows (None for the intensity), the bar's ``label`` and ``ticks``,
-    and a ``title`` for the panel (``short`` for a row label)."""
+    bar shows (None for the intensity), the bar's ``label``, ``ticks`` and
+    ``extend`` (``"neither"``, ``"max"``, ``"both"``: values beyond the scale
+    were clipped), a ``title`` for the panel (``short`` for a row label), the
+    ``values`` drawn (NaN where nothing is), and the ``legend`` entries
+    ``(colour, label)`` of marked pixels."""
 
     mappable: object
     label: str
     ticks: Optional[list]
     title: str
     short: str
+    values: Optional[np.ndarray] = None
+    extend: str = "neither"
+    legend: list = field(default_factory=list)
+
+
+def _quality(image: StokesImage, band, quality):
+    return assess(image, band) if quality is None else quality
+
+
+def _show(ax, rgb, panel: str, quality: StokesQuality) -> list:
+    """Paint the unusable pixels in the panel's marker colour, draw *rgb*,
+    and return the legend entries."""
+    colour, name = MARKERS[panel]
+    paint(rgb, quality.unusable, colour)
+    ax.imshow(np.clip(rgb, 0.0, 1.0), interpolation="nearest")
+    n = quality.count
+    return [(colour, f"{name}: {n} unusable pixel{'s' if n != 1 else ''}")] if n else []
+
+
+def _mappable(cmap, vmin, vmax):
+    import matplotlib
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    cmap = matplotlib.colormaps[cmap] if isinstance(cmap, str) else cmap
+    return ScalarMappable(Normalize(vmin, vmax), cmap)
+
+
+def _extend(values, vmin, vmax, low=True):
+    finite = values[np.isfinite(values)]
+    over = bool(finite.size and finite.max() > vmax * (1 + 1e-6))
+    under = low and bool(finite.size and finite.min() < vmin * (1 + 1e-6) - 1e-12)
+    return {(False, False): "neither", (False, True): "max", (True, False): "min",
+            (True, True): "both"}[(under, over)]
+
+
+def _usable_values(values, quality, s0=None):
+    """*values* where the pixel is usable (and lit, if *s0* is given), else NaN."""
+    ok = ~quality.unusable
+    if s0 is not None:
+        ok &= s0 > 0
+    return np.where(ok, values, np.nan)
 
 
 def draw_intensity(ax, image: StokesImage, exposure: Optional[float] = None,
-                   percentile: float = 99.0, band: Optional[str] = None) -> Drawing:
+                   percentile: float = 99.0, band: Optional[str] = None,
+                   quality: Optional[StokesQuality] = None) -> Drawing:
     """Tone-mapped intensity (the film's RGB preview, or S0 of *band* in grey),
     sRGB. *exposure* is a linear scale (``None``: automatic, see :func:`tonemap`)."""
-    srgb, exposure = tonemap(linear_rgb(image, band), exposure, percentile)
-    ax.imshow(srgb, interpolation="nearest")
+    quality = _quality(image, band, quality)
+    rgb = linear_rgb(image, band)
+    if exposure is None:
+        exposure = auto_exposure(np.where(quality.unusable[..., None], 0.0, rgb), percentile)
+    srgb, exposure = tonemap(rgb, exposure, percentile)
+    legend = _show(ax, srgb, "intensity", quality)
     ev = f"{np.log2(exposure):+.1f} EV"
     return Drawing(None, "", None, f"Intensity S0{_band_suffix(band)} (sRGB, {ev})",
-                   f"intensity ({ev})")
+                   f"intensity ({ev})", values=linear_rgb(image, band) @ _LUMA, legend=legend)
 
 
-def draw_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis", dolp_max: float = 1.0,
-              band: Optional[str] = None) -> Drawing:
+def _degree_panel(ax, image, band, quality, values, cmap, top, panel, label, title, short):
+    quality = _quality(image, band, quality)
+    s0 = pixel_stokes(image, band)[..., 0]
+    shown = _usable_values(values, quality, s0)
+    vmax, automatic = resolve_limit(top, shown)
+    rgb = colour_image(np.nan_to_num(shown, nan=0.0), cmap, 0.0, vmax)
+    legend = _show(ax, rgb, panel, quality)
+    scale = f"0–{vmax:g}" + (", auto" if automatic else "")
+    return Drawing(_mappable(cmap, 0.0, vmax), f"{label} ({scale})", None,
+                   title + _band_suffix(band), short, values=shown,
+                   extend=_extend(shown, 0.0, vmax, low=False), legend=legend)
+
+
+def draw_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis",
+              dolp_max: Union[float, str] = 1.0, band: Optional[str] = None,
+              quality: Optional[StokesQuality] = None) -> Drawing:
     """Degree of linear polarization sqrt(S1² + S2²)/S0, from 0 to *dolp_max*
-    (``viridis``, or ``gray`` for greyscale)."""
-    im = ax.imshow(np.clip(dolp(pixel_stokes(image, band), axis=-1), 0.0, dolp_max),
-                   cmap=dolp_cmap, vmin=0.0, vmax=dolp_max, interpolation="nearest")
-    return Drawing(im, "DoLP", None, "Degree of linear polarization" + _band_suffix(band), "DoLP")
+    (a number, default 1, or ``"auto"``: the data's 99.5th percentile rounded
+    up, what the command line uses; see :mod:`~mitsuba_pbrdf.imaging.colours`),
+    ``viridis`` or ``gray``."""
+    with np.errstate(invalid="ignore"):
+        values = dolp(pixel_stokes(image, band), axis=-1)
+    return _degree_panel(ax, image, band, quality, values, dolp_cmap, dolp_max, "dolp", "DoLP",
+                         "Degree of linear polarization", "DoLP")
 
 
-def draw_docp(ax, image: StokesImage, cmap: str = "viridis", docp_max: float = 1.0,
-              band: Optional[str] = None) -> Drawing:
-    """Degree of circular polarization |S3|/S0, from 0 to *docp_max*."""
-    im = ax.imshow(np.clip(docp(pixel_stokes(image, band), axis=-1), 0.0, docp_max),
-                   cmap=cmap, vmin=0.0, vmax=docp_max, interpolation="nearest")
-    return Drawing(im, "DoCP", None, "Degree of circular polarization" + _band_suffix(band),
-                   "DoCP")
+def draw_docp(ax, image: StokesImage, cmap: str = "viridis",
+              docp_max: Union[float, str] = "auto", band: Optional[str] = None,
+              quality: Optional[StokesQuality] = None) -> Drawing:
+    """Degree of circular polarization |S3|/S0, from 0 to *docp_max* (a
+    number, or ``"auto"``: scaled to the data, so the small DoCP of metals shows)."""
+    with np.errstate(invalid="ignore"):
+        values = docp(pixel_stokes(image, band), axis=-1)
+    return _degree_panel(ax, image, band, quality, values, cmap, docp_max, "docp", "DoCP",
+                         "Degree of circular polarization", "DoCP")
 
 
-def draw_aolp(ax, image: StokesImage, aolp_cmap: str = "twilight", min_dolp: float = 0.01,
-              band: Optional[str] = None) -> Drawing:
-    """Angle of linear polarization 0.5·atan2(S2, S1) in degrees, with a cyclic
-    colour map (-90° and +90° get the same colour), black where
-    DoLP < *min_dolp* since the angle is noise there."""
-    import matplotlib
-
+def draw_aolp(ax, image: StokesImage, min_dolp: float = 0.01, band: Optional[str] = None,
+              quality: Optional[StokesQuality] = None) -> Drawing:
+    """Angle of linear polarization 0.5·atan2(S2, S1) in degrees on the AoLP
+    hue wheel (:func:`~mitsuba_pbrdf.imaging.colours.aolp_rgb`: −90° and +90°
+    share a colour, no angle is dark), neutral grey where DoLP < *min_dolp*
+    since the angle is noise there."""
+    quality = _quality(image, band, quality)
     s = pixel_stokes(image, band)
-    angle = np.ma.masked_where(dolp(s, axis=-1) < min_dolp, np.degrees(aolp(s, axis=-1)))
-    cm = matplotlib.colormaps[aolp_cmap].with_extremes(bad="black")
-    im = ax.imshow(angle, cmap=cm, vmin=-90.0, vmax=90.0, interpolation="nearest")
-    return Drawing(im, "AoLP (degrees)", [-90, -45, 0, 45, 90],
+    with np.errstate(invalid="ignore"):
+        angle = np.degrees(aolp(s, axis=-1))
+        weak = dolp(s, axis=-1) < min_dolp
+    shown = np.where(weak | quality.unusable, np.nan, angle)
+    rgb = aolp_rgb(np.nan_to_num(angle))
+    paint(rgb, weak, MASKED_GREY)
+    legend = [(MASKED_GREY, f"grey: DoLP < {min_dolp:g}")] + _show(ax, rgb, "aolp", quality)
+    return Drawing(_mappable(aolp_colormap(), -90.0, 90.0), "AoLP (degrees)",
+                   [-90, -45, 0, 45, 90],
                    f"Angle of linear polarization (DoLP ≥ {min_dolp:g})" + _band_suffix(band),
-                   f"AoLP (DoLP ≥ {min_dolp:g})")
+                   f"AoLP (DoLP ≥ {min_dolp:g})", values=shown, legend=legend)
 
 
-def polarization_hsv(
-    image: StokesImage,
-    dolp_max: float = 1.0,
-    exposure: Optional[float] = None,
-    percentile: float = 99.0,
-    band: Optional[str] = None,
-) -> np.ndarray:
-    """The usual polarization composite as RGB in [0, 1], shape (H, W, 3):
-    hue = AoLP (a full turn of hue for 180°), saturation = DoLP / *dolp_max*,
-    value = tone-mapped intensity (luminance)."""
-    from matplotlib.colors import hsv_to_rgb
-
-    s = pixel_stokes(image, band)
-    hue = (np.degrees(aolp(s, axis=-1)) % 180.0) / 180.0
-    saturation = np.clip(dolp(s, axis=-1) / dolp_max, 0.0, 1.0)
-    srgb, _ = tonemap(linear_rgb(image, band), exposure, percentile)
-    value = np.clip(srgb @ _LUMA, 0.0, 1.0)
-    return hsv_to_rgb(np.stack([hue, saturation, value], axis=-1).astype(np.float32))
-
-
-def draw_polarization_hsv(ax, image: StokesImage, dolp_max: float = 1.0,
-                          exposure: Optional[float] = None,
-                          band: Optional[str] = None) -> Drawing:
+def draw_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = 1.0,
+                          exposure: Optional[float] = None, band: Optional[str] = None,
+                          quality: Optional[StokesQuality] = None) -> Drawing:
     """:func:`polarization_hsv`: colour = AoLP, saturation = DoLP, brightness =
     intensity; the colour bar is the hue scale of AoLP."""
-    import matplotlib
-    from matplotlib.cm import ScalarMappable
-    from matplotlib.colors import ListedColormap, Normalize
-
-    ax.imshow(polarization_hsv(image, dolp_max, exposure, band=band), interpolation="nearest")
-    # hue = (AoLP mod 180°) / 180°: red at 0°, cyan at ±90°, continuous across ±90°
-    hues = (np.linspace(-90.0, 90.0, 256) % 180.0) / 180.0
-    sm = ScalarMappable(Normalize(-90.0, 90.0), ListedColormap(matplotlib.colormaps["hsv"](hues)))
-    return Drawing(sm, "AoLP (degrees)", [-90, -45, 0, 45, 90],
-                   f"AoLP (hue) · DoLP (saturation, 0–{dolp_max:g}) · S0" + _band_suffix(band),
-                   "AoLP·DoLP·S0")
+    quality = _quality(image, band, quality)
+    s = pixel_stokes(image, band)
+    with np.errstate(invalid="ignore"):
+        d = np.where(~quality.unusable & (s[..., 0] > 0), dolp(s, axis=-1), np.nan)
+    top, automatic = resolve_limit(dolp_max, d)
+    rgb = polarization_hsv(image, top, exposure, band=band)
+    legend = _show(ax, rgb, "hsv", quality)
+    scale = f"0–{top:g}" + (", auto" if automatic else "")
+    return Drawing(_mappable(aolp_colormap(), -90.0, 90.0), "AoLP (degrees)",
+                   [-90, -45, 0, 45, 90],
+                   f"AoLP (hue) · DoLP (saturation, {scale}) · S0" + _band_suffix(band),
+                   "AoLP·DoLP·S0", legend=legend)
 
 
 def draw_stokes_component(ax, image: StokesImage, i: int, cmap: str = "RdBu_r",
-                          percentile: float = 99.0, band: Optional[str] = None) -> Drawing:
+                          percentile: float = 99.0, band: Optional[str] = None,
+                          limit: Union[float, str, None] = None,
+                          quality: Optional[StokesQuality] = None) -> Drawing:
     """S_i / S0 for i in 1..3, diverging colour map centred on 0 (red positive,
-    blue negative), symmetric limits set by the *percentile*-th percentile of
-    |S_i / S0| (at most 1, at least 0.001)."""
+    blue negative), symmetric limits ±*limit*; None or ``"auto"``: this
+    component's own scale (:func:`stokes_limit`; the sheet passes one limit
+    shared by S1, S2, S3)."""
     if i not in (1, 2, 3):
         raise ValueError(f"Stokes component must be 1, 2 or 3, got {i}")
-    s = pixel_stokes(image, band)
-    s0 = s[..., 0]
-    ratio = np.zeros_like(s0)
-    np.divide(s[..., i], s0, out=ratio, where=s0 > 1e-8)
-    lim = float(np.percentile(np.abs(ratio), percentile)) if ratio.size else 1.0
-    lim = min(max(lim, 1e-3), 1.0)
-    im = ax.imshow(ratio, cmap=cmap, vmin=-lim, vmax=lim, interpolation="nearest")
+    quality = _quality(image, band, quality)
+    ratio = stokes_ratios(image, band, quality)[..., i - 1]
+    if limit is None or isinstance(limit, str):
+        lim, scale = stokes_limit(image, (i,), percentile, band, quality), "own scale"
+    else:
+        lim, scale = float(limit), "shared scale"
+    rgb = colour_image(np.nan_to_num(ratio, nan=0.0), cmap, -lim, lim)
+    legend = _show(ax, rgb, "stokes", quality)
     meaning = {1: "horizontal (+) / vertical (−)", 2: "+45° (+) / −45° (−)",
                3: "circular handedness"}[i]
-    return Drawing(im, f"S{i}/S0", None, f"S{i}/S0: {meaning}" + _band_suffix(band), f"S{i}/S0")
+    return Drawing(_mappable(cmap, -lim, lim), f"S{i}/S0 (±{lim:g}, {scale})", None,
+                   f"S{i}/S0: {meaning}" + _band_suffix(band), f"S{i}/S0", values=ratio,
+                   extend=_extend(ratio, -lim, lim), legend=legend)
+
+
+def _legend(ax, entries):
+    if not entries:
+        return
+    from matplotlib.patches import Patch
+
+    ax.legend(handles=[Patch(facecolor=c, edgecolor="0.4", label=t) for c, t in entries],
+              loc="upper center", bbox_to_anchor=(0.5, 0.0), fontsize=6, frameon=False,
+              ncol=len(entries), handlelength=1.0, borderaxespad=0.2, columnspacing=1.0)
 
 
 def _finish(ax, drawing: Drawing, title: Optional[str] = None):
-    """Title the panel and give it its colour bar."""
+    """Title the panel, give it its colour bar and its legend."""
     _clean(ax, drawing.title if title is None else title)
     if drawing.mappable is not None:
-        _colorbar(ax, drawing.mappable, drawing.label, ticks=drawing.ticks)
+        cb = ax.figure.colorbar(drawing.mappable, ax=ax, fraction=0.046, pad=0.03,
+                                ticks=drawing.ticks, extend=drawing.extend)
+        cb.set_label(drawing.label, fontsize=8)
+        cb.ax.tick_params(labelsize=7)
+    _legend(ax, drawing.legend)
     return ax
 
 
 def plot_intensity(ax, image: StokesImage, exposure: Optional[float] = None,
                    percentile: float = 99.0, band: Optional[str] = None,
-                   title: Optional[str] = None):
+                   title: Optional[str] = None, quality: Optional[StokesQuality] = None):
     """:func:`draw_intensity` with its title (the exposure in EV)."""
-    return _finish(ax, draw_intensity(ax, image, exposure, percentile, band), title)
+    return _finish(ax, draw_intensity(ax, image, exposure, percentile, band, quality), title)
 
 
-def plot_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis", dolp_max: float = 1.0,
-              band: Optional[str] = None):
+def plot_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis",
+              dolp_max: Union[float, str] = 1.0, band: Optional[str] = None,
+              quality: Optional[StokesQuality] = None):
     """:func:`draw_dolp` with its title and colour bar."""
-    return _finish(ax, draw_dolp(ax, image, dolp_cmap, dolp_max, band))
+    return _finish(ax, draw_dolp(ax, image, dolp_cmap, dolp_max, band, quality))
 
 
-def plot_docp(ax, image: StokesImage, cmap: str = "viridis", docp_max: float = 1.0,
-              band: Optional[str] = None):
+def plot_docp(ax, image: StokesImage, cmap: str = "viridis",
+              docp_max: Union[float, str] = "auto", band: Optional[str] = None,
+              quality: Optional[StokesQuality] = None):
     """:func:`draw_docp` with its title and colour bar."""
-    return _finish(ax, draw_docp(ax, image, cmap, docp_max, band))
+    return _finish(ax, draw_docp(ax, image, cmap, docp_max, band, quality))
 
 
-def plot_aolp(ax, image: StokesImage, aolp_cmap: str = "twilight", min_dolp: float = 0.01,
-              band: Optional[str] = None):
+def plot_aolp(ax, image: StokesImage, min_dolp: float = 0.01, band: Optional[str] = None,
+              quality: Optional[StokesQuality] = None):
     """:func:`draw_aolp` with its title and colour bar."""
-    return _finish(ax, draw_aolp(ax, image, aolp_cmap, min_dolp, band))
+    return _finish(ax, draw_aolp(ax, image, min_dolp, band, quality))
 
 
-def plot_polarization_hsv(ax, image: StokesImage, dolp_max: float = 1.0,
-                          exposure: Optional[float] = None, band: Optional[str] = None):
+def plot_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = 1.0,
+                          exposure: Optional[float] = None, band: Optional[str] = None,
+                          quality: Optional[StokesQuality] = None):
     """:func:`draw_polarization_hsv` with its title and colour bar."""
-    return _finish(ax, draw_polarization_hsv(ax, image, dolp_max, exposure, band))
+    return _finish(ax, draw_polarization_hsv(ax, image, dolp_max, exposure, band, quality))
 
 
 def plot_stokes_component(ax, image: StokesImage, i: int, cmap: str = "RdBu_r",
-                          percentile: float = 99.0, band: Optional[str] = None):
+                          percentile: float = 99.0, band: Optional[str] = None,
+                          limit: Union[float, str, None] = None,
+                          quality: Optional[StokesQuality] = None):
     """:func:`draw_stokes_component` with its title and colour bar."""
-    return _finish(ax, draw_stokes_component(ax, image, i, cmap, percentile, band))
+    return _finish(ax, draw_stokes_component(ax, image, i, cmap, percentile, band, limit,
+                                             quality))
 
 
-def _plot_s1(ax, image, band=None):
-    return plot_stokes_component(ax, image, 1, band=band)
+def _plot_s(i):
+    def plot(ax, image, band=None, stokes_limit=None, quality=None):
+        return plot_stokes_component(ax, image, i, band=band, limit=stokes_limit,
+                                     quality=quality)
+    return plot
 
 
-def _plot_s2(ax, image, band=None):
-    return plot_stokes_component(ax, image, 2, band=band)
-
-
-def _plot_s3(ax, image, band=None):
-    return plot_stokes_component(ax, image, 3, band=band)
+def _draw_s(i):
+    def draw(ax, image, band=None, stokes_limit=None, quality=None):
+        return draw_stokes_component(ax, image, i, band=band, limit=stokes_limit,
+                                     quality=quality)
+    return draw
 
 
 #: Drawing functions by panel name (what a montage row draws).
@@ -318,9 +352,9 @@ DRAWERS = {
     "aolp": draw_aolp,
     "docp": draw_docp,
     "hsv": draw_polarization_hsv,
-    "s1": lambda ax, image, **o: draw_stokes_component(ax, image, 1, **o),
-    "s2": lambda ax, image, **o: draw_stokes_component(ax, image, 2, **o),
-    "s3": lambda ax, image, **o: draw_stokes_component(ax, image, 3, **o),
+    "s1": _draw_s(1),
+    "s2": _draw_s(2),
+    "s3": _draw_s(3),
 }
 
 
@@ -331,9 +365,9 @@ PANELS = {
     "aolp": plot_aolp,
     "docp": plot_docp,
     "hsv": plot_polarization_hsv,
-    "s1": _plot_s1,
-    "s2": _plot_s2,
-    "s3": _plot_s3,
+    "s1": _plot_s(1),
+    "s2": _plot_s(2),
+    "s3": _plot_s(3),
 }
 
 #: Named panel sets: ``all`` is the full Stokes sheet (2 rows of 4).
@@ -378,14 +412,27 @@ def overview_figure(
     panel per name, *ncols* to a row (default: all in one row up to 4, else 4).
 
     *options* go to the panel functions that take them: ``band``,
-    ``exposure``, ``dolp_cmap``, ``dolp_max``, ``min_dolp``, ``aolp_cmap``, ...
+    ``exposure``, ``dolp_cmap``, ``dolp_max``, ``docp_max``, ``min_dolp``,
+    ``quality`` (:func:`~mitsuba_pbrdf.imaging.quality.assess`, computed once
+    if not given). S1, S2, S3 / S0 share one scale (:func:`stokes_limit`)
+    unless ``stokes_scale="separate"``, or ``stokes_limit=X`` fixes it.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     panels = parse_panels(panels)
-    if options.get("band") is not None:
-        image.band(options["band"])  # KeyError naming the bands, before drawing anything
+    band = options.get("band")
+    if band is not None:
+        image.band(band)  # KeyError naming the bands, before drawing anything
+    if options.get("quality") is None:
+        options["quality"] = assess(image, band)
+    scale = options.pop("stokes_scale", "shared")
+    if scale not in ("shared", "separate"):
+        raise ValueError(f"stokes_scale must be 'shared' or 'separate', got {scale!r}")
+    components = [int(p[1]) for p in panels if p in ("s1", "s2", "s3")]
+    if options.get("stokes_limit") is None and scale == "shared" and components:
+        options["stokes_limit"] = stokes_limit(image, components, band=band,
+                                               quality=options["quality"])
     if ncols is None:
         ncols = min(len(panels), 4)
     nrows = -(-len(panels) // ncols)
@@ -405,33 +452,6 @@ def overview_figure(
     if title:
         fig.suptitle(title, fontsize=10)
     return fig
-
-
-def save_png(fig, path, dpi: int = 150, colors: Optional[int] = None) -> str:
-    """Save a matplotlib figure as PNG (creating the folder). With *colors*
-    (e.g. 256) the PNG is palette-quantized with dithering: for pictures of
-    noisy renders, committed to the repository, 2-3x smaller. Returns the path."""
-    path = os.fspath(path)
-    parent = os.path.dirname(path)
-    if parent:
-        os.makedirs(parent, exist_ok=True)
-    if colors is None:
-        fig.savefig(path, dpi=dpi, format="png")
-        return path
-    import io
-
-    from PIL import Image
-
-    buffer = io.BytesIO()
-    fig.savefig(buffer, dpi=dpi, format="png")
-    buffer.seek(0)
-    with Image.open(buffer) as picture:
-        rgb = picture.convert("RGB")
-        palette = rgb.quantize(colors=colors, method=Image.Quantize.MAXCOVERAGE)
-        # dithered against that palette, so smooth colour ramps do not band
-        rgb.quantize(palette=palette, dither=Image.Dither.FLOYDSTEINBERG).save(
-            path, format="PNG", optimize=True)
-    return path
 
 
 def save_overview_png(

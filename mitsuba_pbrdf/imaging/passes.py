@@ -3,12 +3,19 @@
 A pass is one ``mi.render`` (or integrator) call with its own seed; the pass
 images are averaged with weights proportional to their samples per pixel, so
 each pass is an independent estimate of the same pixel values and so is the
-average. Passes bound the memory of a render (Dr.Jit traces a pass's samples
-as one wavefront), drive progress bars, and split reverse-mode
-differentiation (:mod:`mitsuba_pbrdf.inverse`). One policy serves every
-caller:
+average. Passes bound the time between two progress updates and the time
+Ctrl-C waits (Dr.Jit returns to Python only between kernels, so a render
+stops at the end of a pass), bound the memory of a render (Dr.Jit traces a
+pass's samples as one wavefront), and split reverse-mode differentiation
+(:mod:`mitsuba_pbrdf.inverse`). One policy serves every caller:
 
-* :func:`plan_passes`: equal passes (sizes differ by at most one sample);
+* :func:`plan_passes`: automatic passes hold at most a budget of samples
+  (pixels x spp) sized to about a second of rendering
+  (:func:`samples_per_pass`: one budget for the LLVM backend, one for CUDA),
+  in passes of a power-of-two spp (which share one compiled kernel with
+  single-pass renders of a power-of-two spp) and a last pass with the rest;
+  a render within the budget is one pass. Given a count, passes are equal
+  (sizes differ by at most one sample);
 * :func:`pass_seeds`: the first pass uses the caller's seed, the others steps
   of the 32-bit golden ratio, so one pass is exactly ``mi.render(seed=seed)``;
 * :func:`derivative_seed`: the seed ``mi.render`` gives the derivative
@@ -16,44 +23,63 @@ caller:
   gradient of a non-linear loss is unbiased.
 
 A render split into several passes is a different, equally valid, noise
-realization of the same seed. Pure Python (no Mitsuba needed).
+realization of the same seed: Mitsuba seeds each sample from the seed and the
+sample's index within its pass. The automatic plan depends on the image size,
+the spp and the backend's budget, never on the machine's number of cores, so
+the same seed gives the same image on every machine of the same backend (and
+a given pass count, ``passes=N`` or ``--passes N``, everywhere). Splitting
+costs one trace of the integrator per pass, about 0.1 s of CPU time, about 2 %
+of a pass on 2 cores (measured in docs/cli.md); on machines with many cores a
+pass renders faster, so that share grows (``passes=1`` avoids it).
+Pure Python (no Mitsuba needed).
 """
 
 from __future__ import annotations
 
 from typing import Optional
 
-__all__ = ["SAMPLES_PER_PASS", "MAX_AUTO_PASSES", "plan_passes", "pass_seeds", "derivative_seed"]
+__all__ = ["SAMPLES_PER_PASS", "SAMPLES_PER_GPU_PASS", "MAX_AUTO_PASSES", "samples_per_pass",
+           "plan_passes", "pass_seeds", "derivative_seed"]
 
-#: Automatic passes hold at least this many samples (pixels x spp) each:
-#: 2^23, about 2 s of rendering per pass for scenes/default.xml on 2 cores.
-SAMPLES_PER_PASS = 1 << 23
-#: At most this many automatic passes.
-MAX_AUTO_PASSES = 64
+#: Budget of an automatic pass of Dr.Jit's LLVM backend: 2^21 samples, about
+#: 1.7 s of rendering of scenes/default.xml per pass on 2 cores (3.3 s of CPU
+#: time), so that the ~0.1 s of CPU time each pass costs stays near 3 %
+#: (docs/cli.md has the measurement). The same on every machine, so that a
+#: seed gives the same image whatever the number of cores.
+SAMPLES_PER_PASS = 1 << 21
+#: Budget of an automatic pass on a CUDA GPU (which also bounds its memory).
+SAMPLES_PER_GPU_PASS = 1 << 24
+#: Kept for compatibility: automatic passes are no longer capped in number
+#: (a render of more than this many passes is split all the same).
+MAX_AUTO_PASSES = 1 << 16
 
 
-def plan_passes(spp: int, passes: Optional[int] = None, pixels: int = 0) -> list:
+def samples_per_pass(backend: str) -> int:
+    """The budget of an automatic pass: :data:`SAMPLES_PER_GPU_PASS` for the
+    ``cuda`` backend, else :data:`SAMPLES_PER_PASS`."""
+    return SAMPLES_PER_GPU_PASS if backend == "cuda" else SAMPLES_PER_PASS
+
+
+def plan_passes(spp: int, passes: Optional[int] = None, pixels: int = 0,
+                budget: int = SAMPLES_PER_PASS) -> list:
     """Samples per pixel of each pass, summing to *spp*.
 
-    *passes* None chooses automatically: one pass unless the render has more
-    than 2 x :data:`SAMPLES_PER_PASS` samples (``pixels * spp``), else about
-    ``pixels * spp / SAMPLES_PER_PASS`` passes (at most :data:`MAX_AUTO_PASSES`),
-    preferring a count that divides *spp* so that all passes have the same
-    size (one compiled kernel). Given, *passes* is capped at *spp*. Sizes
-    differ by at most one sample.
+    *passes* None chooses automatically: one pass if ``pixels * spp`` is
+    within *budget* samples, else passes of the largest power-of-two spp
+    whose samples fit the budget (at least 1 spp) and a last pass with what
+    remains. Given, *passes* is capped at *spp* and the sizes differ by at most
+    one sample.
     """
     spp = int(spp)
     if spp < 1:
         raise ValueError(f"spp must be at least 1, got {spp}")
     if passes is None:
-        total = int(pixels) * spp
-        if total <= 2 * SAMPLES_PER_PASS:
-            passes = 1
-        else:
-            target = min(max(2, round(total / SAMPLES_PER_PASS)), MAX_AUTO_PASSES, spp)
-            divisors = [p for p in range(max(2, target // 2), min(spp, 2 * target) + 1)
-                        if spp % p == 0]
-            passes = min(divisors, key=lambda p: abs(p - target)) if divisors else target
+        pixels = max(1, int(pixels))
+        if pixels * spp <= budget:
+            return [spp]
+        size = 1 << max(0, (int(budget) // pixels).bit_length() - 1)
+        full, rest = divmod(spp, size)
+        return [size] * full + ([rest] if rest else [])
     passes = max(1, min(int(passes), spp))
     base, extra = divmod(spp, passes)
     return [base + 1] * extra + [base] * (passes - extra)

@@ -6,12 +6,18 @@
     image = render_scene("scenes/default.xml", spp=16, params={"width": 160})
     print(image.metadata["time_render_s"])
 
-Long renders run in *passes* (:mod:`mitsuba_pbrdf.imaging.passes`): the
-samples per pixel are split into passes of equal size with different seeds,
-and the pass images are averaged with weights proportional to their sample
-counts. Each pass costs about 0.15 s of tracing on top of its rendering time,
-so passes are only used when each holds at least ``SAMPLES_PER_PASS`` samples
-(pixels × spp).
+Long renders run in *passes* (:mod:`mitsuba_pbrdf.imaging.passes`) of
+about a second each: the samples per pixel are split into passes with
+different seeds, and the pass images are averaged with weights proportional
+to their sample counts. Between passes a progress bar advances
+(:mod:`mitsuba_pbrdf.imaging.progress`) and Ctrl-C can stop the render
+(``KeyboardInterrupt``; Dr.Jit returns to Python only between kernels).
+
+Before anything renders, the variant must be polarized
+(:func:`require_polarized`), the ``params`` must suit what the scene does with
+them, and the loaded film and sampler must be usable
+(:mod:`mitsuba_pbrdf.imaging.scene_params`); each failure is a one-line
+``ValueError``.
 
 The default variant is ``cuda_ad_spectral_polarized`` when a CUDA GPU is
 usable, else ``llvm_ad_spectral_polarized``
@@ -36,12 +42,16 @@ import numpy as np
 
 from ..registry import use_variant
 from ..variant import default_variant
-from .passes import pass_seeds, plan_passes
+from .passes import pass_seeds, plan_passes, samples_per_pass
+from .progress import progress_reporter
+from .scene_params import check_loaded_scene, check_parameter_values
 from .stokes import StokesImage, from_mitsuba
 
 __all__ = [
     "RenderTimings",
     "SceneLoadError",
+    "UnpolarizedVariantError",
+    "require_polarized",
     "load_scene",
     "render_scene",
     "render_scene_timed",
@@ -52,6 +62,42 @@ log = logging.getLogger(__name__)
 
 class SceneLoadError(RuntimeError):
     """Mitsuba could not load the scene (its parser's message, on one line)."""
+
+
+class UnpolarizedVariantError(ValueError):
+    """A Stokes image was asked of a variant that does not track polarization."""
+
+
+def require_polarized(variant: str):
+    """Raise :class:`UnpolarizedVariantError`, naming the polarized variants of
+    this Mitsuba build, if *variant* is one of its variants that is not
+    polarized (``*_polarized``). Checks the name only: loads no scene."""
+    if variant.endswith("_polarized"):
+        return
+    try:
+        import mitsuba as mi
+
+        available = list(mi.variants())
+    except ImportError:
+        available = []
+    if variant not in available:
+        return  # use_variant says it is unknown, listing the variants
+    choices = [v for v in available if v.endswith("_polarized")]
+    raise UnpolarizedVariantError(
+        f"variant {variant!r} does not track polarization; Stokes images need a polarized "
+        f"variant: {', '.join(choices) or 'none in this Mitsuba build'}")
+
+
+def _interrupted(error: BaseException) -> bool:
+    """Whether *error* is Ctrl-C that Mitsuba or Dr.Jit wrapped (it was raised
+    inside the plugin's Python code while they were calling it)."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt) or "KeyboardInterrupt" in str(error):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
 
 
 @dataclass
@@ -97,6 +143,8 @@ def load_scene(scene_path, params: Optional[Mapping[str, object]] = None):
     try:
         return mi.load_file(scene_path, **kwargs)
     except RuntimeError as e:
+        if _interrupted(e):
+            raise KeyboardInterrupt from e
         raise SceneLoadError(_condense(str(e))) from e
 
 
@@ -105,27 +153,6 @@ def _condense(message: str) -> str:
     plugin's constructor raised is reduced to its last line (the exception)."""
     message = re.sub(r"Traceback \(most recent call last\):\n(?:[ \t].*\n)*", "", message)
     return " ".join(message.split())
-
-
-class _NoBar:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def update(self, n):
-        pass
-
-
-def _progress_bar(total_spp: int, n_passes: int, progress: bool):
-    """A tqdm bar over samples per pixel (one update per pass), or a stand-in."""
-    if not progress or n_passes < 2:
-        return _NoBar()
-    from tqdm import tqdm
-
-    return tqdm(total=total_spp, unit="spp", desc=f"rendering ({n_passes} passes)",
-                leave=False, dynamic_ncols=True)
 
 
 def _kernel_stats(history):
@@ -153,7 +180,7 @@ def render_scene_timed(
     seed: int = 0,
     params: Optional[Mapping[str, object]] = None,
     passes: Optional[int] = None,
-    progress: bool = False,
+    progress=False,
 ):
     """Render the scene file; return its Stokes image and the timings.
 
@@ -173,9 +200,12 @@ def render_scene_timed(
         Overrides for the scene's ``$key`` defaults (``mi.load_file(path, **params)``).
     passes
         Number of sample passes (see the module docstring); None: automatic
-        (:func:`plan_passes`), 1: a single ``mi.render`` call.
+        (:func:`plan_passes` with the budget of :func:`samples_per_pass` for
+        the variant's backend), 1: a single ``mi.render`` call.
     progress
-        Show a progress bar (``tqdm``, on stderr) over the passes' samples.
+        Progress over the passes' samples on stderr: False (default), True or
+        ``"bar"`` (a ``tqdm`` bar), ``"lines"`` (lines for logs) or ``"auto"``
+        (:func:`~mitsuba_pbrdf.imaging.progress.progress_reporter`).
 
     The returned image's ``metadata`` holds the scene, variant, spp, passes,
     seed, parameters and timings (keys ``time_<stage>_s``). Returns
@@ -185,32 +215,46 @@ def render_scene_timed(
 
     import mitsuba as mi
 
+    if spp is not None and int(spp) < 1:
+        raise ValueError(f"spp must be at least 1, got {spp}")
     if variant is None:
         variant = default_variant()
+    require_polarized(variant)
+    check_parameter_values(scene_path, params)
     use_variant(variant)
 
     t0 = time.perf_counter()
     scene = load_scene(scene_path, params)
     t1 = time.perf_counter()
+    check_loaded_scene(scene, scene_path, params, spp)
 
     sensor = scene.sensors()[0]
-    total_spp = int(spp or sensor.sampler().sample_count())
+    total_spp = int(spp if spp is not None else sensor.sampler().sample_count())
     size = sensor.film().crop_size()
-    plan = plan_passes(total_spp, passes, pixels=int(size[0]) * int(size[1]))
+    backend = "cuda" if variant.startswith("cuda") else "llvm"
+    plan = plan_passes(total_spp, passes, pixels=int(size[0]) * int(size[1]),
+                       budget=samples_per_pass(backend))
     seeds = pass_seeds(seed, len(plan))
 
     history_was_on = dr.flag(dr.JitFlag.KernelHistory)
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     dr.kernel_history()  # clear what earlier work left there
+    name = os.path.basename(os.fspath(scene_path))
     try:
         t2 = time.perf_counter()
         history = []
         accumulated = None
-        with _progress_bar(total_spp, len(plan), progress) as bar:
+        with progress_reporter(total_spp, f"rendering {name} ({len(plan)} passes)", progress,
+                               steps=len(plan)) as bar:
             for pass_spp, pass_seed in zip(plan, seeds):
-                tensor = mi.render(scene, spp=pass_spp, seed=pass_seed)
-                # reading the result back runs the kernels
-                array = np.array(tensor, dtype=np.float64) * (pass_spp / total_spp)
+                try:
+                    tensor = mi.render(scene, spp=pass_spp, seed=pass_seed)
+                    # reading the result back runs the kernels
+                    array = np.array(tensor, dtype=np.float64) * (pass_spp / total_spp)
+                except RuntimeError as e:
+                    if _interrupted(e):
+                        raise KeyboardInterrupt from e
+                    raise
                 accumulated = array if accumulated is None else accumulated + array
                 history += dr.kernel_history()
                 bar.update(pass_spp)

@@ -34,11 +34,12 @@ from __future__ import annotations
 import math
 import os
 import struct
-import tempfile
 from dataclasses import dataclass
 from typing import Dict
 
 import numpy as np
+
+from ..outputs import atomic_path
 
 __all__ = ["PbsdfError", "Field", "PbsdfTable", "read_header", "read_pbsdf", "write_pbsdf",
            "check_renderable", "FIELDS", "MAGIC"]
@@ -320,13 +321,8 @@ def write_pbsdf(path, M, phi_d, theta_d, theta_h, wavelengths, align=8, slab_byt
     arrays = {"M": ("<f4", shape), **{n: ("<f4", g.shape) for n, g in grids.items()},
               "wvls": ("<u2", wvls.shape)}
     header, where = _header_bytes(arrays)
-    folder = os.path.dirname(os.path.abspath(path))
     try:
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".pbsdf")
-    except OSError as e:
-        raise PbsdfError(f"{path}: cannot write there ({e.strerror})") from None
-    try:
-        with os.fdopen(fd, "wb") as f:
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:
             f.write(header)
             data = {"M": None, **grids, "wvls": wvls}
             for name, (dtype, shp) in arrays.items():
@@ -343,14 +339,6 @@ def write_pbsdf(path, M, phi_d, theta_d, theta_h, wavelengths, align=8, slab_byt
                         slab.tofile(f)
                 else:
                     data[name].tofile(f)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)        # mkstemp's 0600 -> what open() would give
-        os.replace(tmp, path)
-    except BaseException as e:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        if isinstance(e, OSError):
-            raise PbsdfError(f"{path}: cannot write ({e.strerror or e})") from None
-        raise
+    except OSError as e:
+        raise PbsdfError(f"{path}: cannot write ({e.strerror or e})") from None
     return path

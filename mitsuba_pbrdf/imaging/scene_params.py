@@ -1,0 +1,168 @@
+"""Checking the values given to a scene's ``$key`` parameters (``-D key=value``,
+``render_scene(params=...)``) by what the scene does with them.
+
+Mitsuba's parser checks a value's syntax and range where the plugin declares
+one, but lets through values that fail later, during rendering, with an
+unrelated error: a film 0 pixels wide, a sampler with 0 samples, a NaN
+light. This module reads the scene file to find what each ``$key`` feeds (the
+property's type and name and the plugin it belongs to) and checks the value
+for that use, before anything renders:
+
+* ``<integer>``: an integer; in a film or a sampler (sizes and sample counts)
+  at least 1, except offsets (``crop_offset_x``...), at least 0;
+* ``<float>``, ``<rgb>``, ``<point>``, ``<vector>`` and numeric ``<spectrum>``
+  values: finite numbers;
+* ``<boolean>``: true or false.
+
+:func:`check_loaded_scene` then checks the loaded scene itself (the film's
+size, the sampler's sample count), whatever set them. Errors are
+:class:`SceneParameterError` (a ``ValueError``) on one line, naming ``-D key``
+and what it sets.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from typing import Dict, List, Mapping, Optional
+
+__all__ = ["SceneParameterError", "ParameterUse", "parameter_uses", "check_parameter_values",
+           "check_loaded_scene"]
+
+_REFERENCE = re.compile(r"\$(\w+)")
+_NUMBER_LISTS = ("rgb", "point", "vector", "spectrum")
+#: Plugin kinds whose integer properties are sizes or counts.
+_COUNTING_PLUGINS = ("film", "sampler")
+
+
+class SceneParameterError(ValueError):
+    """A scene parameter's value cannot work for what the scene uses it for."""
+
+
+@dataclass(frozen=True)
+class ParameterUse:
+    """One place a ``$key`` is used: the property's tag (``integer``, ``float``,
+    ...) and name, and the plugin it belongs to (``film``, type ``hdrfilm``)."""
+
+    tag: str
+    name: str
+    plugin: str
+    plugin_type: str
+    whole: bool  # the value is exactly "$key" (not part of a longer text)
+
+    def describe(self, scene_name: str) -> str:
+        owner = f"the {self.plugin}" + (f" ({self.plugin_type})" if self.plugin_type else "")
+        return f'it sets <{self.tag} name="{self.name}"> of {owner} in {scene_name}'
+
+
+def parameter_uses(scene_path) -> Dict[str, List[ParameterUse]]:
+    """``{key: [ParameterUse, ...]}`` for every ``$key`` in the scene file's
+    attribute values (included files are not followed). An unreadable file
+    gives ``{}``: loading it reports the problem."""
+    try:
+        root = ET.parse(os.fspath(scene_path)).getroot()
+    except (ET.ParseError, OSError):
+        return {}
+    uses: Dict[str, List[ParameterUse]] = {}
+
+    def walk(element, plugin, plugin_type):
+        if element.get("type") is not None:
+            plugin, plugin_type = element.tag, element.get("type")
+        for attribute, value in element.attrib.items():
+            if attribute == "name" and element.tag == "default":
+                continue
+            for key in _REFERENCE.findall(value):
+                uses.setdefault(key, []).append(ParameterUse(
+                    tag=element.tag, name=element.get("name", attribute), plugin=plugin,
+                    plugin_type=plugin_type, whole=value.strip() == f"${key}"))
+        for child in element:
+            walk(child, plugin, plugin_type)
+
+    walk(root, root.tag, "")
+    return uses
+
+
+def _numbers(text: str) -> Optional[list]:
+    parts = [p for p in re.split(r"[,\s]+", text.strip()) if p]
+    try:
+        return [float(p.split(":")[-1]) for p in parts]
+    except ValueError:
+        return None
+
+
+def _check(key: str, value: str, use: ParameterUse, scene_name: str):
+    where = use.describe(scene_name)
+    text = str(value).strip()
+    if use.tag == "integer":
+        try:
+            number = int(text)
+        except ValueError:
+            raise SceneParameterError(f"-D {key} must be an integer, got {text!r} ({where})") \
+                from None
+        if use.plugin in _COUNTING_PLUGINS:
+            least = 0 if "offset" in use.name else 1
+            if number < least:
+                what = "a positive integer" if least else "an integer >= 0"
+                raise SceneParameterError(f"-D {key} must be {what}, got {number} ({where})")
+    elif use.tag == "float" or use.tag in _NUMBER_LISTS:
+        numbers = _numbers(text)
+        if numbers is None:
+            if use.tag == "spectrum":
+                return  # a file name or another form Mitsuba's parser judges
+            kind = "a number" if use.tag == "float" else "numbers"
+            raise SceneParameterError(f"-D {key} must be {kind}, got {text!r} ({where})")
+        if not all(math.isfinite(x) for x in numbers):
+            kind = "a finite number" if use.tag == "float" else "finite numbers"
+            raise SceneParameterError(f"-D {key} must be {kind}, got {text!r} ({where})")
+    elif use.tag == "boolean" and text.lower() not in ("true", "false"):
+        raise SceneParameterError(f"-D {key} must be true or false, got {text!r} ({where})")
+
+
+def check_parameter_values(scene_path, params: Optional[Mapping[str, object]]):
+    """Check each ``key: value`` of *params* against every use of ``$key`` in the
+    scene file (see the module docstring); raises :class:`SceneParameterError`.
+    Keys the scene does not use are left to Mitsuba, which rejects them."""
+    if not params:
+        return
+    uses = parameter_uses(scene_path)
+    scene_name = os.path.basename(os.fspath(scene_path))
+    for key, value in params.items():
+        for use in uses.get(str(key), []):
+            if use.whole:
+                _check(str(key), value, use, scene_name)
+
+
+def _feeding(uses, plugin: str, names, params) -> str:
+    """The ``-D key=value`` that sets one of *names* of *plugin*, if any."""
+    for key, value in (params or {}).items():
+        for use in uses.get(str(key), []):
+            if use.plugin == plugin and use.name in names:
+                return f"-D {key}={value}"
+    return ""
+
+
+def check_loaded_scene(scene, scene_path, params: Optional[Mapping[str, object]] = None,
+                       spp: Optional[int] = None):
+    """Check the loaded scene's first sensor: a film of at least 1 x 1 pixels
+    and, unless *spp* overrides it, a sampler with at least 1 sample per pixel.
+    Raises :class:`SceneParameterError` naming the ``-D`` value responsible,
+    if one is."""
+    scene_name = os.path.basename(os.fspath(scene_path))
+    if not scene.sensors():
+        raise SceneParameterError(f"{scene_name} has no sensor (camera) to render from")
+    sensor = scene.sensors()[0]
+    size = [int(v) for v in sensor.film().crop_size()]
+    uses = parameter_uses(scene_path) if params else {}
+    if min(size) < 1:
+        source = _feeding(uses, "film", ("width", "height", "crop_width", "crop_height"), params)
+        raise SceneParameterError(
+            f"{source + ': ' if source else ''}the film of {scene_name} is "
+            f"{size[0]} x {size[1]} pixels; it needs at least 1 x 1")
+    if spp is None and int(sensor.sampler().sample_count()) < 1:
+        source = _feeding(uses, "sampler", ("sample_count",), params)
+        raise SceneParameterError(
+            f"{source + ': ' if source else ''}the sampler of {scene_name} takes 0 samples per "
+            "pixel; give a positive count (or --spp N)")

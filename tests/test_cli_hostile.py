@@ -1,0 +1,406 @@
+"""The command line under hostile input: every case of the table below ends
+with the expected exit status and a one-line message on stderr (no Python
+traceback, no library noise: stderr is captured at the file-descriptor level),
+and leaves no partial output file. Ctrl-C is tested for real, on a rendering
+subprocess.
+
+Each row: (case, argv, exit status, text the one line must contain, output
+that must not exist afterwards). ``{tmp}`` is the test's folder, ``{scene}``
+the tiny scene, ``{exr}`` a good Stokes EXR, ``{csv}`` the example
+measurements; ``/sys`` and ``/proc`` cannot take new files even for root.
+"""
+
+import os
+import re
+import select
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from mitsuba_pbrdf import cli
+from mitsuba_pbrdf import variant as variant_module
+from mitsuba_pbrdf.cli import main
+from mitsuba_pbrdf.imaging.exr import read_stokes_exr, write_stokes_exr
+from mitsuba_pbrdf.imaging.stokes import StokesImage
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
+DEFAULT = os.path.join(ROOT, "scenes", "default.xml")
+CSV = os.path.join(ROOT, "tests", "data", "fit_example.csv")
+README = os.path.join(ROOT, "README.md")
+SMALL = ["-D", "width=32", "-D", "height=24", "--spp", "2"]
+
+pytestmark = pytest.mark.usefixtures("restore_variant")
+
+
+@pytest.fixture(autouse=True)
+def cpu_default_variant(monkeypatch):
+    monkeypatch.setattr(variant_module, "cuda_available", lambda: False)
+
+
+def stokes_exr(path, tweak=None, h=12, w=16):
+    """A physical Stokes EXR (DoLP 0.3, AoLP 20 degrees), changed by *tweak*."""
+    stokes = np.zeros((h, w, 4, 3), np.float32)
+    stokes[:, :, 0] = 1.0
+    stokes[:, :, 1] = 0.3 * np.cos(np.radians(40))
+    stokes[:, :, 2] = 0.3 * np.sin(np.radians(40))
+    if tweak is not None:
+        tweak(stokes)
+    write_stokes_exr(path, StokesImage(stokes, ["R", "G", "B"]))
+    return str(path)
+
+
+def set_nan(s):
+    s[...] = np.nan
+
+
+def some_bad(s):
+    s[0, :4] = np.nan           # 4 non-finite pixels
+    s[1, :3, 0] = -1.0          # 3 with S0 < 0
+    s[2, :2, 1] = 5.0           # 2 with DoP > 1
+
+
+#: (case, argv, exit status, text of the one line, file that must not exist)
+TABLE = [
+    ("render: unwritable output (read-only file system)",
+     ["render", "{scene}", "--out", "/sys/x"], 2, "cannot write /sys/x.exr", None),
+    ("render: output folder is a file",
+     ["render", "{scene}", "--out", README + "/x"], 2, "README.md is not a folder", None),
+    ("render: output folder cannot exist",
+     ["render", "{scene}", "--out", "/proc/x"], 2, "cannot write /proc/x.exr", None),
+    ("render: -D film width 0",
+     ["render", DEFAULT, "-D", "width=0"], 2, "-D width must be a positive integer, got 0",
+     "{tmp}/out"),
+    ("render: -D sample count 0",
+     ["render", DEFAULT, "-D", "spp=0"], 2, "-D spp must be a positive integer, got 0", None),
+    ("render: -D integer that is not one",
+     ["render", DEFAULT, "-D", "height=1.5"], 2, "-D height must be an integer", None),
+    ("render: -D NaN light",
+     ["render", DEFAULT, "-D", "key_light=nan,1,1"], 2, "-D key_light must be finite numbers",
+     None),
+    ("render: -D float that is not a number",
+     ["render", DEFAULT, "-D", "sigma=abc"], 2, "-D sigma must be a number", None),
+    ("render: --spp 0", ["render", "{scene}", "--spp", "0"], 2, "--spp must be at least 1", None),
+    ("render: unpolarized variant",
+     ["render", "{scene}", "--variant", "llvm_ad_rgb"], 2,
+     "variant 'llvm_ad_rgb' does not track polarization", None),
+    ("render: unknown variant",
+     ["render", "{scene}", "--variant", "llvm_ad_nonsense"], 2,
+     "unknown Mitsuba variant 'llvm_ad_nonsense'", None),
+    ("render: missing scene",
+     ["render", "{tmp}/nope.xml"], 2, "scene file not found", None),
+    ("render: --dolp-max nan", ["render", "{scene}", "--dolp-max", "nan"], 2,
+     "--dolp-max must be a finite number > 0", None),
+    ("render: unknown band, before rendering", ["render", "{scene}", "--band", "Q",
+                                                "--out", "{tmp}/b"], 2, "no band 'Q'", "{tmp}/b.exr"),
+    ("render: a folder as the scene", ["render", "{tmp}"], 2, "is a folder", None),
+    ("view: unwritable output", ["view", "{exr}", "--out", "/sys/x.png"], 2,
+     "cannot write /sys/x.png", None),
+    ("view: output in a missing /proc folder", ["view", "{exr}", "--out", "/proc/x.png"], 2,
+     "cannot write /proc/x.png", None),
+    ("view: --exposure nan", ["view", "{exr}", "--exposure", "nan", "--out", "{tmp}/e.png"], 2,
+     "--exposure must be a finite number", "{tmp}/e.png"),
+    ("view: --dolp-max 0", ["view", "{exr}", "--dolp-max", "0"], 2,
+     "--dolp-max must be a finite number > 0", None),
+    ("view: --dolp-max word", ["view", "{exr}", "--dolp-max", "big"], 2,
+     "--dolp-max must be a number > 0 or 'auto'", None),
+    ("view: --min-dolp above 1", ["view", "{exr}", "--min-dolp", "2"], 2,
+     "--min-dolp must be a finite number in [0, 1]", None),
+    ("view: all-NaN Stokes image", ["view", "{nan_exr}", "--out", "{tmp}/n.png"], 2,
+     "no usable pixel", "{tmp}/n.png"),
+    ("view: truncated EXR", ["view", "{truncated}", "--out", "{tmp}/t.png"], 2,
+     "truncated or corrupt", "{tmp}/t.png"),
+    ("view: not an EXR", ["view", "{text}", "--out", "{tmp}/x.png"], 2,
+     "not a readable OpenEXR file", "{tmp}/x.png"),
+    ("view: unknown band", ["view", "{exr}", "--band", "Q", "--out", "{tmp}/q.png"], 2,
+     "no band 'Q'", "{tmp}/q.png"),
+    ("plot: unwritable output", ["plot", "--out", "/sys/p.png"], 2, "cannot write /sys/p.png",
+     None),
+    ("gallery: output folder is a file", ["gallery", "--only", "plot", "--out", README + "/g"],
+     2, "README.md is not a folder", None),
+    ("fit: unwritable --plot, before fitting", ["fit", CSV, "--plot", "/proc/x.png"], 2,
+     "cannot write /proc/x.png", None),
+    ("fit: unwritable --json, before fitting", ["fit", CSV, "--json", "/sys/x.json"], 2,
+     "cannot write /sys/x.json", None),
+]
+
+
+@pytest.fixture
+def files(tmp_path):
+    scene = tmp_path / "tiny.xml"
+    from test_cli import TINY_SCENE
+
+    scene.write_text(TINY_SCENE)
+    good = stokes_exr(tmp_path / "good.exr")
+    with open(good, "rb") as f:
+        data = f.read()
+    (tmp_path / "truncated.exr").write_bytes(data[: len(data) // 2])
+    (tmp_path / "text.exr").write_text("not an image\n")
+    return dict(tmp=str(tmp_path), scene=str(scene), exr=good,
+                nan_exr=stokes_exr(tmp_path / "nan.exr", set_nan),
+                truncated=str(tmp_path / "truncated.exr"), text=str(tmp_path / "text.exr"))
+
+
+def one_line_error(capfd, command):
+    """stderr (file descriptors, so C libraries' output too) as one line."""
+    out, err = capfd.readouterr()
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"pbrdf {command}: error: "), lines[0]
+    assert "Traceback" not in err
+    return out, lines[0]
+
+
+@pytest.mark.parametrize("case, argv, status, text, absent", TABLE, ids=[r[0] for r in TABLE])
+def test_hostile_input(case, argv, status, text, absent, files, capfd, monkeypatch):
+    monkeypatch.chdir(files["tmp"])
+    argv = [a.format(**files) for a in argv]
+    if argv[0] == "render" and "-D" not in argv and "--spp" not in argv:
+        argv += ["--spp", "1"]
+    assert main(argv) == status
+    out, line = one_line_error(capfd, argv[0])
+    assert text in line
+    if argv[0] == "fit":
+        assert "chi2" not in out  # refused before the fit ran
+    if absent:
+        assert not os.path.exists(absent.format(**files))
+    leftovers = [n for n in os.listdir(files["tmp"]) if ".tmp" in n]
+    assert not leftovers
+
+
+def test_unpolarized_variant_is_refused_before_loading_the_scene(files, capfd, monkeypatch):
+    import mitsuba_pbrdf.imaging.render as render_module
+
+    def no_load(*args, **kwargs):
+        raise AssertionError("the scene was loaded")
+
+    monkeypatch.setattr(render_module, "load_scene", no_load)
+    assert main(["render", files["scene"], "--variant", "llvm_ad_rgb"]) == 2
+    _, line = one_line_error(capfd, "render")
+    assert "llvm_ad_spectral_polarized" in line and "llvm_ad_mono_polarized" in line
+
+
+def test_unusable_pixels_are_counted_and_marked(files, capfd, tmp_path):
+    """Some non-finite, negative and over-polarized pixels: exit 0, one warning
+    line with the counts, and the picture paints them in each panel's marker."""
+    from mitsuba_pbrdf.imaging.colours import MARKERS
+    from mitsuba_pbrdf.imaging.panels import overview_figure
+    from mitsuba_pbrdf.imaging.quality import assess
+
+    path = stokes_exr(tmp_path / "bad.exr", some_bad)
+    assert main(["view", path, "--out", str(tmp_path / "bad.png")]) == 0
+    out, err = capfd.readouterr()
+    assert err.count("\n") == 1 and "Traceback" not in err and "RuntimeWarning" not in err
+    assert ("9 of 192 pixels unusable in the luminance Stokes vector (4 non-finite, "
+            "3 with S0 < 0, 2 with degree of polarization > 1)") in err
+    assert (tmp_path / "bad.png").is_file()
+
+    image = read_stokes_exr(path)
+    quality = assess(image)
+    fig = overview_figure(image, "all")
+    panels = [ax for ax in fig.axes if ax.get_title()]
+    marker_of = {"Intensity": "intensity", "Degree of linear": "dolp", "Angle": "aolp",
+                 "Degree of circular": "docp", "AoLP (hue)": "hsv", "S1": "stokes",
+                 "S2": "stokes", "S3": "stokes"}
+    assert len(panels) == 8
+    for ax in panels:
+        panel = next(v for k, v in marker_of.items() if ax.get_title().startswith(k))
+        drawn = np.asarray(ax.images[0].get_array())[..., :3]
+        colour, name = MARKERS[panel]
+        np.testing.assert_allclose(drawn[quality.unusable], np.broadcast_to(colour, (9, 3)))
+        legend = ax.get_legend()
+        assert legend is not None and any(f"{name}: 9 unusable pixels" in t.get_text()
+                                          for t in legend.get_texts())
+
+
+def test_band_tolerance_allows_slightly_unphysical_rgb_bands(tmp_path):
+    """One RGB band may be out of range by up to 5 % of the pixel's luminance S0;
+    the luminance vector is judged strictly."""
+    from mitsuba_pbrdf.imaging.quality import assess
+
+    def blue_over(s):
+        s[:, :, 0, 2] = 0.2             # dim blue band
+        s[:, :, 1, 2] = 0.21            # its |S1| > S0 by 0.01, 1 % of the luminance
+        s[:, :, 2, 2] = 0.0
+    image = read_stokes_exr(stokes_exr(tmp_path / "b.exr", blue_over))
+    assert assess(image, "B").count == 0
+    assert assess(image).count == 0     # the luminance vector stays physical
+
+    def blue_far(s):
+        s[:, :, 0, 2] = 0.2
+        s[:, :, 1, 2] = 0.4             # 0.2 over: 20 % of the luminance
+        s[:, :, 2, 2] = 0.0
+    assert assess(read_stokes_exr(stokes_exr(tmp_path / "c.exr", blue_far)), "B").count == 192
+
+    def luminance_over(s):
+        s[0, 0, 1] = 1.01               # DoP 1.01 in every band
+        s[0, 0, 2] = 0.0
+    assert assess(read_stokes_exr(stokes_exr(tmp_path / "d.exr", luminance_over))).count == 1
+
+
+def test_version_and_help_list_every_command(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0
+    assert re.match(r"pbrdf \d+\.\d+\.\d+ \(Mitsuba 3\.9", capsys.readouterr().out)
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = capsys.readouterr().out
+    for command in cli.COMMANDS:
+        name = command.__name__.rsplit(".", 1)[-1]
+        assert re.search(rf"^\s+{name}\s", out, flags=re.M), name
+
+
+def test_existing_outputs_are_replaced_and_said_so(files, capfd, tmp_path):
+    out = str(tmp_path / "r")
+    assert main(["render", files["scene"], "--spp", "1", "--out", out]) == 0
+    assert f"wrote {out}.exr" in capfd.readouterr().out
+    assert main(["render", files["scene"], "--spp", "1", "--out", out]) == 0
+    stdout = capfd.readouterr().out
+    assert f"replaced {out}.exr" in stdout and f"replaced {out}.png" in stdout
+
+
+def test_a_failed_write_leaves_the_previous_file(tmp_path, monkeypatch):
+    """The writer fails half way (here: OpenEXR's write raises after writing
+    part of the file): the previous EXR is untouched, no temporary file is left,
+    and the error names the output."""
+    import OpenEXR
+
+    path = stokes_exr(tmp_path / "keep.exr")
+    before = open(path, "rb").read()
+    real_write = OpenEXR.File.write
+
+    class Broken(OpenEXR.File):
+        def write(self, filename):
+            real_write(self, filename)
+            with open(filename, "r+b") as f:
+                f.truncate(100)
+            raise RuntimeError("disk full")
+
+    monkeypatch.setattr(OpenEXR, "File", Broken)
+    with pytest.raises(OSError) as e:
+        stokes_exr(path)
+    assert e.value.filename == path and "disk full" in str(e.value)
+    assert open(path, "rb").read() == before
+    assert os.listdir(tmp_path) == ["keep.exr"]
+
+
+def test_interrupted_write_removes_the_temporary_file(tmp_path):
+    from mitsuba_pbrdf.outputs import atomic_path, write_text
+
+    target = write_text(tmp_path / "a.json", "old\n")
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_path(target) as tmp:
+            with open(tmp, "w") as f:
+                f.write("half")
+            raise KeyboardInterrupt
+    assert open(target).read() == "old\n" and os.listdir(tmp_path) == ["a.json"]
+    assert oct(os.stat(target).st_mode & 0o777) == oct(0o666 & ~current_umask())
+
+
+def current_umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+# ---------------------------------------------------------------- Ctrl-C, for real
+
+
+def test_ctrl_c_stops_a_render_between_passes(tmp_path):
+    """SIGINT while rendering (1024 spp at 160 x 120 in 16 passes): the
+    command stops at the end of the pass under way, prints `interrupted`, exits
+    with 130, and leaves the previous outputs as they were, with no temporary
+    file. Without the passes it would stop only when the whole render ends."""
+    out = tmp_path / "default"
+    for ext in (".exr", ".png"):
+        (tmp_path / f"default{ext}").write_bytes(b"previous good file")
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    argv = [sys.executable, "-m", "mitsuba_pbrdf", "render", DEFAULT, "-D", "width=160",
+            "-D", "height=120", "--spp", "1024", "--passes", "16",
+            "--variant", "llvm_ad_spectral_polarized", "--progress", "--out", str(out)]
+    process = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    err = b""
+    started = first_pass = None
+    deadline = time.monotonic() + 300
+    try:
+        while time.monotonic() < deadline and first_pass is None:
+            ready, _, _ = select.select([process.stderr], [], [], 1.0)
+            if ready:
+                chunk = os.read(process.stderr.fileno(), 4096)
+                if not chunk:
+                    break
+                err += chunk
+            if started is None and b"(16 passes)" in err:
+                started = time.monotonic()
+            if started is not None and re.search(rb"\b[1-9]\d*/1024\b", err):
+                first_pass = time.monotonic()
+        assert first_pass is not None, err.decode(errors="replace")
+        pass_time = first_pass - started
+        process.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        stdout, rest = process.communicate(timeout=300)
+        stopped = time.monotonic() - sent
+    finally:
+        if process.poll() is None:
+            process.kill()
+    err = (err + rest).decode(errors="replace")
+    assert process.returncode == 130, err
+    last = err.replace("\r", "\n").strip().splitlines()[-1]
+    assert last == "pbrdf render: interrupted"
+    assert "Traceback" not in err and not stdout
+    # it stopped within about a pass, far sooner than the 15 passes left would take
+    assert stopped < 3 * pass_time + 5.0, (stopped, pass_time)
+    assert sorted(os.listdir(tmp_path)) == ["default.exr", "default.png"]
+    for ext in (".exr", ".png"):
+        assert (tmp_path / f"default{ext}").read_bytes() == b"previous good file"
+
+
+def test_ctrl_c_inside_the_plugin_is_reported_as_an_interruption(files, capfd, monkeypatch):
+    """Ctrl-C that lands in the plugin's Python code while Mitsuba loads the
+    scene or Dr.Jit traces a pass comes back wrapped in a RuntimeError; the
+    command still says `interrupted` and exits with 130."""
+    import mitsuba as mi
+
+    def wrapped(*args, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as e:
+            raise RuntimeError("drjit.custom(): error while performing a custom "
+                               "differentiable operation. (see above)") from e
+
+    for name in ("render", "load_file"):
+        with monkeypatch.context() as m:
+            m.setattr(mi, name, wrapped)
+            assert main(["render", files["scene"], "--spp", "1",
+                         "--out", files["tmp"] + "/w"]) == 130
+        out, err = capfd.readouterr()
+        assert err.strip() == "pbrdf render: interrupted" and not out
+    assert not os.path.exists(files["tmp"] + "/w.exr")
+
+
+def test_progress_lines_when_stderr_is_not_a_terminal(monkeypatch, capsys):
+    """Logs get plain lines (not a bar's carriage returns), at most one per
+    interval, and a last line saying how long it took; short work gets none."""
+    from mitsuba_pbrdf.imaging import progress
+
+    monkeypatch.setattr(progress.sys.stderr, "isatty", lambda: False, raising=False)
+    with progress.progress_reporter(4, "rendering x.xml (4 passes)", "auto", steps=4) as p:
+        for _ in range(4):
+            p.update(1)
+    assert capsys.readouterr().err == ""  # done before the first interval
+    monkeypatch.setattr(progress, "LINE_INTERVAL_S", 0.0)
+    with progress.progress_reporter(4, "rendering x.xml (4 passes)", "lines", steps=4) as p:
+        for _ in range(4):
+            p.update(1)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith("rendering x.xml (4 passes): 1/4 spp (25 %)")
+    assert len(lines) == 4 and lines[-1].startswith("rendering x.xml (4 passes): done in")
+    assert "\r" not in "".join(lines)
+    with progress.progress_reporter(4, "one pass", "bar", steps=1) as p:
+        p.update(4)
+    assert capsys.readouterr().err == ""  # one step: nothing to show
