@@ -47,6 +47,12 @@ def test_fuzz_covers_the_regions(tally):
     assert tally.samples >= 100_000
     print("\ncompared / tight lanes per region:",
           {r: (tally.compared[r], tally.tight[r]) for r in tally.compared})
+    for region, bounds in tally.bounds.items():   # effective bound, relative to M00
+        b = np.concatenate(bounds) if bounds else np.zeros(0)
+        if b.size:
+            print(f"{region}: effective bound median {np.median(b):.1e}, 90 % "
+                  f"{np.quantile(b, 0.9):.1e}; {tally.tight[region] / tally.compared[region]:.0%}"
+                  " of lanes below 1e-3")
     for region, count in tally.compared.items():
         assert count > 1000, region          # every region was compared with the reference
         assert tally.tight[region] >= 1000, (region, tally.tight[region])

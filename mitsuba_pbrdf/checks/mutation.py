@@ -3,6 +3,7 @@
     python validation/mutation.py --full [--jobs 2] [--tests-rev REV]   # the whole study
     python validation/mutation.py [--sample 12]                         # smoke run (a few mutants)
     python validation/mutation.py --defects [--tests-rev REV]           # the issue's named defects
+    python validation/mutation.py --summary LABEL [LABEL ...]           # score, survivors of runs
 
 A mutant changes one thing in one module of ``mitsuba_pbrdf/plugin/`` or
 ``mitsuba_pbrdf/reference/`` (the operators of mutmut, applied with Python's
@@ -27,8 +28,9 @@ working tree: the score of an older suite against the same mutants.
 ``--defects`` runs :data:`DEFECTS`, the one-line mutants that stand for the
 defects of the suite found in review, against the test that now guards each
 (and, with ``--tests-rev``, against the old suite's version of that test):
-each must fail the new test. Writes ``validation/mutation.md`` (``--full``) or
-``validation/mutation_defects.md`` (``--defects``).
+each must fail the new test. Each run is recorded as JSON under
+``validation/mutation_runs/``; ``--summary`` prints a record's score, its
+uncertainty and its survivors (the analysis is ``validation/mutation.md``).
 """
 
 import argparse
@@ -274,8 +276,10 @@ def run_mutant(m, folder, timeout):
     return m
 
 
-def run_study(mutants, jobs, tests_rev, progress=True):
-    """Run ``mutants`` on ``jobs`` private copies; returns (mutants, baseline seconds)."""
+def run_study(mutants, jobs, tests_rev, progress=True, timeout_factor=3.0):
+    """Run ``mutants`` on ``jobs`` private copies; returns (mutants, baseline
+    seconds). A mutant's run times out after ``timeout_factor`` times the
+    unmutated run (at least 60 s)."""
     folders = [make_copy(tests_rev) for _ in range(jobs)]
     baseline = {}
     for package in sorted({m.path.split("/")[1] for m in mutants}):
@@ -290,7 +294,8 @@ def run_study(mutants, jobs, tests_rev, progress=True):
     def work(m):
         folder = free.pop()
         try:
-            return run_mutant(m, folder, timeout=max(60.0, 3 * baseline[m.path.split("/")[1]]))
+            limit = max(60.0, timeout_factor * baseline[m.path.split("/")[1]])
+            return run_mutant(m, folder, timeout=limit)
         finally:
             free.append(folder)
 
