@@ -24,6 +24,7 @@ and the tables of equivalent mutants and of the review's defects are in
 import argparse
 import json
 import os
+import shutil
 import sys
 import time
 
@@ -173,6 +174,9 @@ def defects(tests_rev, names=()):
         print(f"{d['name']}: new tests {row['new_status']}; old tests {row.get('old_status')}",
               flush=True)
         rows.append(row)
+    for folder in (new, old):
+        if folder:
+            shutil.rmtree(folder, ignore_errors=True)
     path = os.path.join(RUNS, "defects.json")
     if names and os.path.exists(path):
         with open(path, encoding="utf-8") as f:
