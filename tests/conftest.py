@@ -65,6 +65,48 @@ def hemisphere_pairs(n, seed=0, near_specular=0.5, min_cos=1e-3):
     return wi[keep], wo[keep]
 
 
+#: Family-wise significance of the suite's chi-square goodness-of-fit tests of
+#: sampling against pdf, and their number: each runs at the Sidak-corrected
+#: level 1 - (1 - 0.01)^(1/16) = 6.3e-4 (Mitsuba's ChiSquareTest.run(test_count=)),
+#: so a correct sampler fails one of them with probability 1 %.
+CHI2_SIGNIFICANCE = 0.01
+CHI2_TESTS = 16  # tests/test_bsdf.py: 5 configurations x 3 angles; tests/test_sampling.py: 1
+
+
+def chi2_sampling_test(config, wi, sample_count, res=101, ires=8):
+    """Mitsuba's chi-square test of ``bsdf.sample`` against ``bsdf.pdf`` for the
+    ``pbrdf`` ``config`` at the local direction ``wi``, in the suite's polarized
+    spectral variant at the test wavelengths. Mitsuba's ``chi2.BSDFAdapter``
+    tests ``weight == 0`` on the whole (unpolarized) spectrum, which fails on
+    Mueller matrices: here a sample counts unless its weight's M00 is 0 at every
+    wavelength (M00 = 0 implies M = 0 for a physical Mueller matrix), as
+    Mitsuba's adapter drops zero-weight samples. Returns the ChiSquareTest after
+    ``run`` with the suite's family-wise correction; ``.passed`` holds the result."""
+    bsdf = mi.load_dict(config)
+    ctx = mi.BSDFContext()
+
+    def interaction(n):
+        si = dr.zeros(mi.SurfaceInteraction3f, n)
+        si.wi = mi.Vector3f(*[float(x) for x in wi])
+        si.wavelengths = mi.UnpolarizedSpectrum(*WAVELENGTHS)
+        return si
+
+    def sample_func(sample):
+        bs, weight = bsdf.sample(ctx, interaction(dr.width(sample)), sample[0],
+                                 mi.Point2f(sample[1], sample[2]))
+        keep = dr.any(mi.unpolarized_spectrum(weight) != 0)
+        return bs.wo, dr.select(keep, mi.Float(1.0), mi.Float(0.0))
+
+    def pdf_func(wo):
+        return bsdf.pdf(ctx, interaction(dr.width(wo)), wo)
+
+    test = mi.chi2.ChiSquareTest(domain=mi.chi2.SphericalDomain(), sample_func=sample_func,
+                                 pdf_func=pdf_func, sample_dim=3, sample_count=sample_count,
+                                 res=res, ires=ires)
+    test.passed = test.run(significance_level=CHI2_SIGNIFICANCE, test_count=CHI2_TESTS, quiet=True)
+    return test
+
+
 def as_numpy(value):
     """Mitsuba result -> numpy float64 with the lane (sample) axis first and,
     for Mueller matrices, shape (n, n_wavelengths, 4, 4)."""

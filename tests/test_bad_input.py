@@ -238,3 +238,16 @@ def test_negative_zero_k_is_the_same_as_zero():
     M = [frames.eval_global(mi.load_dict({"type": "pbrdf", "eta": 0.5, "k": k, "sigma": 0.1}),
                             to_viewer, to_light)[0, 0] for k in (0.0, -0.0)]
     assert np.all(np.abs(M[0] - M[1]) <= 1e-6 * M[0][0, 0]), (M[0][2:, 2:], M[1][2:, 2:])
+
+
+def test_a_zero_texel_of_an_rgb_roughness_bitmap_is_caught_in_spectral_variants():
+    """Spectral variants store an RGB bitmap as upsampling coefficients (and
+    clamp it to [0, 1]: NaN, Inf and negative texels cannot get through), so
+    the check evaluates the texture at every texel centre: a roughness texel
+    of 0 off the centre (row 3, column 5 of 8 x 8) is refused."""
+    use_variant("llvm_ad_spectral_polarized")
+    for value in (0.0, -0.5):
+        texels = np.full((8, 8, 3), 0.4, dtype=np.float32)
+        texels[3, 5] = value
+        tex = {"type": "bitmap", "bitmap": mi.Bitmap(texels), "filter_type": "nearest"}
+        check_message(load_error({"kdd": 0.3, "sigma_dd": tex}), ValueError, "'sigma_dd'")

@@ -5,12 +5,16 @@ specular direction) x 4 wavelengths, both transport modes, all 16 Mueller
 elements, the plugin's matrices rotated from Mitsuba's implicit Stokes bases
 into the reference's global s/p frames (mitsuba_pbrdf.frames).
 
-Tolerance per element: |dM_ij| <= 1e-4 M00 + 1e-7 max(M00). The plugin runs in
-float32 (~6e-8 relative rounding per operation); the Beckmann exponent
+Tolerance per element: |dM_ij| <= 1e-4 M00 + floor, per lane. The plugin runs
+in float32 (~6e-8 relative rounding per operation); the Beckmann exponent
 tan^2(theta_h)/alpha^2 (up to ~46 before D underflows) amplifies the rounding of
-the directions about 100x, and the two frame rotations add ~1e-7 rad; the
-absolute term covers the far tail where float32 D underflows to zero.
+the directions about 100x, and the two frame rotations add ~1e-7 rad.
 |M_ij| <= M00 for a physical Mueller matrix, so M00 sets each element's scale.
+The floor is the lane's own underflow size: Mitsuba's microfacet
+distributions return D = 0 where D cos(theta_h) < 1e-20, so a microfacet lobe
+of weight w can lose at most w 1e-20 / (4 cos_h cos_i cos_o) /sr (:func:`floor`).
+The printout gives the share of entries where the floor is the larger term
+and the median effective tolerance.
 
 With shadowing="smith" the plugin uses Mitsuba's rational approximation of the
 Beckmann Smith G1 (< 0.35 % error, the same as roughconductor): the reference's
@@ -75,6 +79,17 @@ def reference_matrix(config, wi_hat, wo_hat):
     return F
 
 
+def floor(config, wi_hat, wo_hat):
+    """Per-lane absolute tolerance (n, 1, 1, 1), 1/sr: the value the
+    microfacet lobes can lose to Mitsuba's cut-off D cos(theta_h) < 1e-20."""
+    c = dict(dict(ks=1.0, kdd=0.0), **config)
+    h = wi_hat + wo_hat
+    cos_h = h[:, 2] / np.linalg.norm(h, axis=1)
+    weight = c["ks"] + c["kdd"]
+    f = weight * 1e-20 / (4 * np.maximum(cos_h, 1e-30) * wi_hat[:, 2] * wo_hat[:, 2])
+    return f[:, None, None, None]
+
+
 @pytest.mark.parametrize("mode", ["radiance", "importance"])
 @pytest.mark.parametrize("name", sorted(CONFIGS))
 def test_plugin_matches_reference(name, mode):
@@ -90,7 +105,9 @@ def test_plugin_matches_reference(name, mode):
 
     m00 = R[..., :1, :1]
     err = np.abs(M - R)
-    bad = err > 1e-4 * m00 + 1e-7 * m00.max()
+    lane_floor = floor(config, wi_hat, wo_hat)
+    tolerance = 1e-4 * m00 + lane_floor
+    bad = err > tolerance
     if bad.any():
         i = tuple(np.argwhere(bad)[0])
         raise AssertionError(
@@ -99,6 +116,12 @@ def test_plugin_matches_reference(name, mode):
     # Report figures (pytest -s): worst error per element relative to M00.
     rel = (err / np.maximum(m00, 1e-300)).max(axis=(0, 1))
     print(f"\n{name} {mode}: max |dM|/M00 per element\n{np.array2string(rel, precision=2)}")
+    effective = (tolerance / np.maximum(m00, 1e-300))[..., 0, 0]
+    floored = np.broadcast_to(lane_floor > 1e-4 * m00, m00.shape)[..., 0, 0]
+    print(f"floor dominates on {floored.mean():.1%} of (pair, wavelength) entries, all with "
+          f"M00 <= {R[..., 0, 0][floored].max(initial=0):.1e} /sr (largest M00 "
+          f"{R[..., 0, 0].max():.1e}); effective tolerance relative to M00 elsewhere: median "
+          f"{np.median(effective[~floored]):.2e}, max {effective[~floored].max():.2e}")
     # Every element of the polarized lobe is exercised (so no sign can hide),
     # except m03 and m30 which vanish for Fresnel reflection; a dielectric
     # (k = 0) has no retardance, so there the circular elements vanish too.
@@ -122,7 +145,8 @@ def test_other_variants_match_reference(variant):
         M = mf.eval_global(bsdf, wi_hat, wo_hat, WAVELENGTHS, mode)
         if not mi.is_polarized:
             M, expected = M, np.broadcast_to(R[..., 0, 0], M.shape)
-            np.testing.assert_array_less(np.abs(M - expected), 1e-4 * expected + 1e-7 * expected.max())
+            lane_floor = floor(config, wi_hat, wo_hat)[:, :, 0, 0]
+            assert np.all(np.abs(M - expected) <= 1e-4 * expected + lane_floor)
         else:
             m00 = R[..., :1, :1]
-            assert np.all(np.abs(M - R) <= 1e-4 * m00 + 1e-7 * m00.max())
+            assert np.all(np.abs(M - R) <= 1e-4 * m00 + floor(config, wi_hat, wo_hat))

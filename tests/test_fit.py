@@ -24,17 +24,23 @@ def synthetic(quantities=("m00", "dolp"), seed=1, **kw):
 
 def test_recovers_parameters_from_m00_and_dolp():
     """M00 + DoLP with 2 % noise (270 measurements, 633 nm): every parameter
-    within 3 standard uncertainties of the truth, and within 5 % (n, k) or
-    2 % (the rest) of it; the fit's chi-square matches the noise."""
+    within 3 standard uncertainties of the truth; n, k within 5 % and sigma,
+    ks, kdd, sigma_dd within 2 % of it. kid is weakly constrained (its lobe,
+    kid / pi = 0.006 /sr, is a small addition to the directional diffuse one):
+    its standard uncertainty must stay below 8 % of its value (measured 7.1 %),
+    so it is held to 3 x that, about 21 %, and no tighter. The fit's
+    chi-square matches the noise."""
     data = synthetic()
     r = fitting.fit_model(data, "three", material="Al")
     assert r.success
     for p in ("n", "k"):
         v, e = r.values[p][0], r.errors[p][0]
         assert abs(v - TRUTH[p]) <= 3 * e and abs(v / TRUTH[p] - 1) < 0.05, (p, v, e)
-    for p in ("sigma", "ks", "kdd", "sigma_dd", "kid"):
+    for p in ("sigma", "ks", "kdd", "sigma_dd"):
         v, e = r.values[p], r.errors[p]
-        assert abs(v - TRUTH[p]) <= 3 * e and abs(v / TRUTH[p] - 1) < 0.02 + 3 * e / TRUTH[p], (p, v, e)
+        assert abs(v - TRUTH[p]) <= 3 * e and abs(v / TRUTH[p] - 1) < 0.02, (p, v, e)
+    v, e = r.values["kid"], r.errors["kid"]
+    assert abs(v - TRUTH["kid"]) <= 3 * e and e < 0.08 * TRUTH["kid"], (v, e)
     assert 0.7 < r.reduced_chi2 < 1.3
 
 

@@ -155,8 +155,15 @@ def test_polarization_makes_n_k_ks_identifiable():
     times smaller with S0, S1, S2 than with S0 (1 % pixel noise)."""
     use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import fisher_information, jacobian, stokes_indices
-    _, error, _, _ = _fit((0,))
-    print("\nS0-only fit, relative errors:", {k: f"{100 * v:+.1f} %" for k, v in error.items()})
+    result, error, initial_loss, final_loss = _fit((0,))
+    print("\nS0-only fit, relative errors:", {k: f"{100 * v:+.1f} %" for k, v in error.items()},
+          f"loss (128 spp) {initial_loss:.4f} -> {final_loss:.4f}")
+    # The optimizer moved and matched S0 (the loss fell), yet n or k is still
+    # far off: S0 cannot tell them apart. (An optimizer that did not move
+    # would leave the start's 25 % errors and fail the first assertion.)
+    assert final_loss < 0.5 * initial_loss, (initial_loss, final_loss)
+    moved = {k: result.final[k] / START[k] - 1 for k in FIT_KEYS}
+    assert max(abs(v) for v in moved.values()) > 0.05, moved
     assert max(abs(error["eta"]), abs(error["k"])) > 0.1
 
     sc = scene(size=32, spp=32, integrator="direct")

@@ -79,7 +79,10 @@ def test_extreme_inputs_give_finite_physical_values(eta, k):
 def test_normal_incidence_reflectance_is_fresnel():
     """Exact normal incidence and exit on a nearly flat surface: M00 / D(0)
     equals the Fresnel reflectance ((n-1)^2 + k^2)/((n+1)^2 + k^2) and the
-    matrix is R diag(1, 1, -1, -1) up to the frame rotation of S1/S2."""
+    matrix is R diag(1, 1, -1, -1) up to the frame rotation of S1/S2: M33 =
+    -R D0 / 4 with its sign (reflection reverses the handedness of circular
+    polarization; r_p = -r_s at normal incidence), which no rotation of S1/S2
+    changes."""
     use_variant("llvm_ad_spectral_polarized")
     eta, k, sigma = 1.2, 7.0, 0.05
     alpha = np.sqrt(2) * sigma
@@ -89,6 +92,6 @@ def test_normal_incidence_reflectance_is_fresnel():
     D0 = 1.0 / (np.pi * alpha**2)   # Beckmann D at h = n; G = 1; f = D F / 4, times cos = 1
     R = ((eta - 1) ** 2 + k**2) / ((eta + 1) ** 2 + k**2)
     np.testing.assert_allclose(value[0, 0], D0 * R / 4, rtol=1e-5)
-    np.testing.assert_allclose(np.abs(value[3, 3]), D0 * R / 4, rtol=1e-5)
+    np.testing.assert_allclose(value[3, 3], -D0 * R / 4, rtol=1e-5)
     np.testing.assert_allclose(value[1:3, 1:3] @ value[1:3, 1:3].T / (D0 * R / 4) ** 2,
                                np.eye(2), atol=1e-5)

@@ -232,9 +232,15 @@ def test_in_plane_mirror_direction_is_fresnel():
     data = in_plane(params, theta_i, wavelengths=[550.0], n_angles=720)
     k = np.argmin(np.abs(data.angles - theta_i))
     theta_r = data.angles[k]
-    M = params.evaluate(math.radians(theta_i), 0.0, math.radians(theta_r), math.pi, [550.0])[0]
-    np.testing.assert_allclose(data.M[k, 0], M, rtol=1e-12)
     n, kk = reference.conductor_ior("Au", 550.0)
+    # In the plane of incidence the s/p frames need no rotation: M = D G F(beta)
+    # / (4 cos_i cos_r) exactly, from the reference's pieces, not its assembly.
+    ti, tr = math.radians(theta_i), math.radians(theta_r)
+    alpha, cos_h, cos_b = math.sqrt(2) * 0.05, math.cos((tr - ti) / 2), math.cos((ti + tr) / 2)
+    G = reference.shadowing_G(ti, tr, cos_h, cos_b, alpha, "vgroove")
+    M = reference.beckmann_D(cos_h, alpha) * G / (4 * math.cos(ti) * math.cos(tr)) \
+        * reference.fresnel_mueller(cos_b, n, kk)
+    np.testing.assert_allclose(data.M[k, 0], M, rtol=1e-9, atol=1e-12 * M[0, 0])
     F = reference.fresnel_mueller(math.cos(math.radians((theta_i + theta_r) / 2)), n, kk)
     np.testing.assert_allclose(M / M[0, 0], F / F[0, 0], atol=2e-3)
     dop = dop_unpolarized(data.M)[k, 0]

@@ -29,7 +29,7 @@ from .conditioning import lane_parameters, reference_brdf, sensitivity
 from .fuzz_inputs import FORCED, REGIONS, TEXELS, draw_config, draw_directions
 from .realizability import REALIZABILITY_TOL, U32, coherency_eigenvalues
 
-__all__ = ["ACCURACY_UNITS", "M00_FLOOR", "REALIZABILITY_TOL", "Tally", "check_config",
+__all__ = ["ACCURACY_UNITS", "M00_FLOOR", "REALIZABILITY_TOL", "TIGHT_BOUND", "Tally", "check_config",
            "check_outputs", "consistency_tolerance", "run"]
 
 #: Accuracy bound, in units of u (1 + kappa): the plugin's evaluation chain
@@ -38,6 +38,9 @@ __all__ = ["ACCURACY_UNITS", "M00_FLOOR", "REALIZABILITY_TOL", "Tally", "check_c
 #: the order of 100 float32 operations, each adding at most u of relative
 #: error on top of what the inputs' conditioning (1 + kappa) already implies.
 ACCURACY_UNITS = 128
+#: A lane's accuracy bound ACCURACY_UNITS u (1 + kappa), relative to M00, is
+#: *tight* below this: there the comparison can catch a 0.1 % error.
+TIGHT_BOUND = 1e-3
 #: Below this M00 (1/sr) float32 values are near the denormal range (1.2e-38)
 #: and carry no relative precision: not used for relative checks.
 M00_FLOOR = 1e-30
@@ -73,6 +76,10 @@ class Tally:
         self.errors = {r: [] for r in REGIONS if r != "below"}
         self.worst_units_case = {}
         self.compared = {r: 0 for r in REGIONS if r != "below"}
+        #: Per region: lanes whose bound is tight (< TIGHT_BOUND), and a sample
+        #: of the effective bounds ACCURACY_UNITS u (1 + kappa) for the report.
+        self.tight = {r: 0 for r in REGIONS if r != "below"}
+        self.bounds = {r: [] for r in REGIONS if r != "below"}
         self.min_eigen = 1.0
         self.configs = 0
         self.worst_case = {}
@@ -189,6 +196,9 @@ def _tally_accuracy(tally, out, R, kappa, wi, wo, region, p, config, wavelengths
         sel = (region == index)[:, None] & resolved
         if sel.any():
             tally.compared[name] += int(sel.sum())
+            bound = ACCURACY_UNITS * U32 * (1.0 + kappa[sel])
+            tally.tight[name] += int(np.count_nonzero(bound < TIGHT_BOUND))
+            tally.bounds[name].append(bound.astype(np.float32))
             if err[sel].max() > tally.worst[name]:
                 i = np.unravel_index(np.argmax(np.where(sel, err, -1)), err.shape)
                 tally.worst_case[name] = dict(
