@@ -233,26 +233,36 @@ def test_short_ior_table_holds_its_last_value_to_830_nm():
     np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7 * np.abs(b).max())
 
 
-def test_rgb_colours_above_one_load_as_unbounded_spectra():
-    """eta, k, ks, kdd and kid take RGB colours above 1 (a bounded reflectance
-    texture refuses them): each becomes the unbounded sRGB spectrum Mitsuba
-    builds for it. (In Mitsuba 3.9.1 that spectrum does not keep the colour's
-    scale: grey 1.5 evaluates to 1.0; this test pins pbrdf to Mitsuba's texture,
-    not to the colour's value.)"""
+def test_rgb_colours_above_one_are_refused_in_spectral_variants():
+    """Mitsuba 3.9.1 upsamples every <rgb> colour as a reflectance, also for an
+    unbounded texture: grey 1.5 evaluates to 1.0. eta, k, ks, kdd and kid given
+    as RGB colours above 1 are therefore refused in spectral variants (one line
+    naming the parameter) instead of silently clipped; colours within [0, 1]
+    load and equal Mitsuba's own upsampled texture, and RGB variants take any
+    colour as it is."""
     use_variant("llvm_ad_spectral_polarized")
-    colours = dict(eta=[1.5, 1.2, 2.0], k=[3.0, 2.5, 1.5], ks=[1.2, 0.8, 0.5],
-                   kdd=[1.5, 1.0, 0.5], kid=[0.3, 1.3, 0.6])
-    common = {"type": "pbrdf", "sigma": 0.3, "sigma_dd": 0.6}
-    coloured = mi.load_dict(dict(common, **{name: {"type": "rgb", "value": c}
-                                            for name, c in colours.items()}))
-    explicit = mi.load_dict(dict(common, **{
-        name: {"type": "srgb", "color": c, "unbounded": True} for name, c in colours.items()}))
+    grey = mi.load_dict({"type": "srgb", "color": [1.5, 1.5, 1.5], "unbounded": True})
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 650.0)
+    assert np.allclose(np.asarray(grey.eval(si)), 1.0)  # the clipping this guards against
+    common = {"type": "pbrdf", "eta": 1.5, "k": 2.0, "sigma": 0.3, "sigma_dd": 0.6}
+    for name, colour in dict(eta=[1.5, 1.2, 2.0], k=[3.0, 2.5, 1.5], ks=[1.2, 0.8, 0.5],
+                             kdd=[1.5, 1.0, 0.5], kid=[0.3, 1.3, 0.6]).items():
+        with pytest.raises(Exception, match=f"parameter '{name}' is an RGB colour above 1"):
+            mi.load_dict(dict(common, **{name: {"type": "rgb", "value": colour}}))
+    inside = dict(eta=[0.9, 0.7, 1.0], k=[0.5, 0.6, 0.4], kdd=[0.5, 0.3, 0.2])
+    coloured = mi.load_dict(dict(common, **{n: {"type": "rgb", "value": c}
+                                            for n, c in inside.items()}))
+    explicit = mi.load_dict(dict(common, **{n: {"type": "srgb", "color": c, "unbounded": True}
+                                            for n, c in inside.items()}))
     wi, wo = hemisphere_pairs(200, seed=21)
-    si, w = make_si(wi), to_vector(wo)
-    a = as_numpy(coloured.eval(mi.BSDFContext(), si, w))
-    b = as_numpy(explicit.eval(mi.BSDFContext(), si, w))
+    s, w = make_si(wi), to_vector(wo)
+    a = as_numpy(coloured.eval(mi.BSDFContext(), s, w))
+    b = as_numpy(explicit.eval(mi.BSDFContext(), s, w))
     assert np.all(np.isfinite(a)) and np.abs(b).max() > 0
     np.testing.assert_array_equal(a, b)
+    use_variant("llvm_ad_rgb")
+    mi.load_dict(dict(common, eta={"type": "rgb", "value": [1.5, 1.2, 2.0]}))
 
 
 def test_k_may_be_updated_to_zero():

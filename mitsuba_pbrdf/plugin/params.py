@@ -49,8 +49,12 @@ def texture(props, name, default, *, spectral, positive=False, minimum=None):
         if kind in (mi.Properties.Type.Float, mi.Properties.Type.Integer):
             _check_number(name, props[name], positive, minimum)
         elif kind == mi.Properties.Type.Color:  # <rgb>: check the colour as written
-            for component in props[name]:
-                _check_number(name, float(component), positive, minimum)
+            colour = [float(c) for c in props[name]]
+            for component in colour:
+                _check_number(name, component, positive, minimum)
+            if spectral and mi.is_spectral and max(colour) > 1.0:
+                raise ValueError(_RGB_ABOVE_ONE.format(
+                    name=name, colour=", ".join(f"{c:g}" for c in colour)))
     try:
         tex = props.get_unbounded_texture(name, default) if spectral else props.get_texture(name, default)
     except RuntimeError as error:  # e.g. an inline spectrum Mitsuba refuses
@@ -58,6 +62,16 @@ def texture(props, name, default, *, spectral, positive=False, minimum=None):
         raise ValueError(f"pbrdf: parameter '{name}' is invalid: {reason}") from None
     check_texture_values(name, tex, positive, minimum)
     return tex
+
+
+#: Mitsuba 3.9.1's spectral variants upsample every ``<rgb>`` colour as a
+#: reflectance (values in [0, 1]), also where an unbounded texture is asked for:
+#: grey 1.5 evaluates to 1.0 and (1.2, 0.3, 0.3) to another colour. Refused
+#: rather than silently changed.
+_RGB_ABOVE_ONE = ("pbrdf: parameter '{name}' is an RGB colour above 1 ({colour}), which "
+                  "Mitsuba's spectral variants clip to a reflectance <= 1; give a number, "
+                  "a <spectrum> of wavelength:value pairs over 360-830 nm "
+                  "(e.g. value=\"360:1.5, 550:1.2, 830:2.0\") or a material")
 
 
 def check_texture_values(name, tex, positive=False, minimum=None):
