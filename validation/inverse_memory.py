@@ -167,12 +167,19 @@ def main(argv=None):
     args.add_argument("--cache", help="JSON file of finished configurations (reused)")
     args.add_argument("--methods", help="run only these (comma-separated: primal, prb, reverse, "
                       "forward); rows of others found in --cache are still reported")
+    args.add_argument("--sizes", help="image sizes to run (comma-separated; default 128,256,512)")
+    args.add_argument("--spps", help="samples per pixel to run (comma-separated; default "
+                      "16,64,256)")
     args = args.parse_args(argv)
     if args.child:
         child(json.loads(args.child))
         return 0
 
     sizes, spps = ((64, 128), (16, 64)) if args.quick else ((128, 256, 512), (16, 64, 256))
+    if args.sizes:
+        sizes = tuple(int(v) for v in args.sizes.split(","))
+    if args.spps:
+        spps = tuple(int(v) for v in args.spps.split(","))
     configs = plan(sizes, spps)
     # The goal's row first, then replay and primal everywhere, then the rest:
     # the report is rewritten after every configuration.
