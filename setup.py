@@ -8,7 +8,8 @@ from setuptools import find_packages, setup
 
 setup(
     packages=find_packages(include=["mitsuba_pbrdf", "mitsuba_pbrdf.*"])
-    + ["mitsuba_pbrdf.scenes"],
+    + ["mitsuba_pbrdf.scenes", "mitsuba_pbrdf.scenes.gallery"],
     package_dir={"mitsuba_pbrdf.scenes": "scenes"},
-    package_data={"mitsuba_pbrdf.scenes": ["*.xml", "gallery/*.xml", "gallery/*.exr"]},
+    package_data={"mitsuba_pbrdf.scenes": ["*.xml"],
+                  "mitsuba_pbrdf.scenes.gallery": ["*.xml", "*.exr"]},
 )
