@@ -57,6 +57,8 @@ def main(argv=None):
         v = r.values[name][0] if name in ("n", "k") else r.values[name]
         e = r.errors[name][0] if name in ("n", "k") else r.errors[name]
         flag = " (at bound)" if any(b.startswith(name + "(") or b == name for b in r.at_bound) else ""
+        if not np.isfinite(e):  # the data do not determine it: no +/- to give
+            return f"{v:.4g} (undetermined){flag}"
         return f"{v:.4g} +/- {e:.2g}{flag}"
 
     for name in ("n", "k") + SHARED:
@@ -65,7 +67,7 @@ def main(argv=None):
     L += ["", "Reduced chi-square: " + ", ".join(f"{n} {r.reduced_chi2:.3f}" for n, r in fits.items())
           + ". From M00 alone, n and k are not identifiable (the unpolarized reflectance of a "
           "metal hardly varies with incidence angle below 70 degrees and ks absorbs its level): "
-          "their uncertainties exceed their values and the fit may end at a bound. The degree "
+          "the fit reports them undetermined (no +/- is given) and may end at a bound. The degree "
           "of linear polarization, or the Mueller elements, pin them to a few percent. The "
           "roughness and the lobe weights are recovered from M00 alone.", ""]
 
