@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import use_variant
+from mitsuba_pbrdf.checks.gradients import functional_gradient, random_functional
 from mitsuba_pbrdf.inverse.scenes import sphere_scene
 
 T = mi.ScalarTransform4f
@@ -85,47 +86,18 @@ def both(**kwargs):
 def random_weights(seed=0):
     """A fixed random linear functional of all 15 channels (S1, S2 weighted
     as much as S0): its gradient checks every Stokes component."""
-    rng = np.random.default_rng(seed)
-    return mi.TensorXf(rng.normal(size=(SIZE, SIZE, 15)).astype(np.float32))
+    return random_functional(SIZE, SIZE, seed=seed)
 
 
 def reverse_gradient(scene, keys, weights, integrator=None, seed=3, seed_grad=11):
-    params = mi.traverse(scene)
-    for k in keys:
-        dr.enable_grad(params[k])
-    params.update()
-    image = mi.render(scene, params, integrator=integrator, spp=SPP, seed=seed,
-                      seed_grad=seed_grad)
-    dr.backward(dr.sum(image * weights, axis=None))
-    out = np.concatenate([np.array(dr.grad(params[k]), dtype=np.float64).ravel() for k in keys])
-    for k in keys:
-        dr.disable_grad(params[k])
-    params.update()
-    return out
+    return functional_gradient(scene, keys, weights, integrator=integrator, spp=SPP, seed=seed,
+                               seed_grad=seed_grad)
 
 
 def forward_gradient(scene, keys, weights, integrator=None, seed=3, seed_grad=11):
     """The same functional's derivative, one forward-mode render per entry."""
-    params = mi.traverse(scene)
-    out = []
-    for k in keys:
-        dr.enable_grad(params[k])
-    params.update()
-    for key in keys:
-        for j in range(dr.width(params[key])):
-            for k in keys:
-                dr.set_grad(params[k], 0.0)
-            tangent = np.zeros(dr.width(params[key]), dtype=np.float32)
-            tangent[j] = 1.0
-            dr.set_grad(params[key], type(params[key])(tangent))
-            image = mi.render(scene, params, integrator=integrator, spp=SPP, seed=seed,
-                              seed_grad=seed_grad)
-            dr.forward_to(image)
-            out.append(float(dr.sum(dr.grad(image) * weights, axis=None).array[0]))
-    for k in keys:
-        dr.disable_grad(params[k])
-    params.update()
-    return np.array(out)
+    return functional_gradient(scene, keys, weights, integrator=integrator, spp=SPP, seed=seed,
+                               seed_grad=seed_grad, mode="forward")
 
 
 def assert_close(got, want, rtol=1e-4):

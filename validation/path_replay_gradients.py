@@ -50,41 +50,16 @@ def scene(sampling, depth):
 
 
 def weights():
-    import mitsuba as mi
-    import numpy as np
+    from mitsuba_pbrdf.checks.gradients import random_functional
 
-    rng = np.random.default_rng(0)
-    return mi.TensorXf(rng.normal(size=(SIZE, SIZE, 15)).astype(np.float32))
+    return random_functional(SIZE, SIZE, seed=0)
 
 
 def gradient(sc, integrator, w, seed, mode="reverse"):
-    import drjit as dr
-    import mitsuba as mi
-    import numpy as np
+    from mitsuba_pbrdf.checks.gradients import functional_gradient
 
-    params = mi.traverse(sc)
-    for k in KEYS:
-        dr.enable_grad(params[k])
-    params.update()
-    out = []
-    if mode == "reverse":
-        image = mi.render(sc, params, integrator=integrator, spp=SPP, seed=seed,
-                          seed_grad=seed + 50_000)
-        dr.backward(dr.sum(image * w, axis=None))
-        out = [float(dr.grad(params[k])[0]) for k in KEYS]
-    else:
-        for key in KEYS:
-            for k in KEYS:
-                dr.set_grad(params[k], 0.0)
-            dr.set_grad(params[key], 1.0)
-            image = mi.render(sc, params, integrator=integrator, spp=SPP, seed=seed,
-                              seed_grad=seed + 50_000)
-            dr.forward_to(image)
-            out.append(float(dr.sum(dr.grad(image) * w, axis=None).array[0]))
-    for k in KEYS:
-        dr.disable_grad(params[k])
-    params.update()
-    return np.array(out)
+    return functional_gradient(sc, KEYS, w, integrator=integrator, spp=SPP, seed=seed,
+                               seed_grad=seed + 50_000, mode=mode)
 
 
 def frame_bug():
