@@ -100,21 +100,17 @@ def _one_line(error: BaseException) -> str:
 def _write_aov(path: str, scene_path: str, params: Dict[str, str], spp: int, seed: int):
     """Render the AOVs of the scene with the job's values and write them."""
     import numpy as np
-    import OpenEXR
 
     import mitsuba as mi
 
+    from ..imaging.exr import write_exr
     from ..imaging.render import load_scene
-    from ..outputs import atomic_path
 
     scene = load_scene(scene_path, params)
     integrator = mi.load_dict({"type": "aov", "aovs": AOV_SPEC})
     data = np.array(mi.render(scene, integrator=integrator, spp=spp, seed=seed),
                     dtype=np.float32)
-    channels = {name: np.ascontiguousarray(data[:, :, i]) for i, name in enumerate(AOV_CHANNELS)}
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with atomic_path(path) as tmp, OpenEXR.File(header, channels) as f:
-        f.write(tmp)
+    write_exr(path, {name: data[:, :, i] for i, name in enumerate(AOV_CHANNELS)})
 
 
 def _write_polcam(task: JobTask, image) -> str:
