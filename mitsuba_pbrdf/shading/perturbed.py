@@ -81,7 +81,8 @@ def sample(nested, ctx, si, sample1, sample2, active, frame_si, frame_world, sha
     bs, weight = nested.sample(ctx, perturbed_si, sample1, sample2, active)
     active = mi.Bool(active) & dr.any(mi.unpolarized_spectrum(weight) != 0.0)
 
-    perturbed_wo = bs.wo
+    # A copy: ``bs.wo`` is a view of the record's field, which the next lines overwrite.
+    perturbed_wo = mi.Vector3f(bs.wo)
     wo = frame_si.to_world(perturbed_wo)
     active &= _same_side(perturbed_wo, wo)
     if zero_pdf_on_wrong_side:
