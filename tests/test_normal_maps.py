@@ -340,3 +340,71 @@ def test_unpolarized_variants_give_what_mitsuba_gives(variant, wrapper):
         assert np.all(np.isfinite(a)), name
         assert np.count_nonzero(b) > n // 4, name  # the comparison sees values
         assert np.array_equal(a, b), f"{name}: max |diff| {np.abs(a - b).max():.3g}"
+
+
+# ------------------------------------------------------------ hostile input
+
+
+def _normalmap_with(colours, nested=None):
+    return {"type": "polarized_normalmap", "bsdf": nested or NESTED["roughconductor"],
+            "normalmap": {"type": "bitmap", "raw": True,
+                          "bitmap": mi.Bitmap(np.asarray(colours, dtype=np.float32))}}
+
+
+@pytest.mark.parametrize("scene, message", [
+    (_normalmap_with(np.full((2, 2, 3), 0.5)), "'normalmap' has a texel of zero length"),
+    (_normalmap_with([[[0.5, 0.5, 1.0], [0.5, 0.5, np.nan]]] * 2),
+     "'normalmap' contains NaN or infinite texels"),
+    (_normalmap_with(np.full((2, 2, 1), 0.7)), "'normalmap' must have 3 channels"),
+    ({"type": "polarized_normalmap", "bsdf": NESTED["roughconductor"]},
+     "parameter 'normalmap' must be a texture"),
+    ({"type": "polarized_normalmap", "normalmap": {"type": "bitmap", "raw": True,
+      "bitmap": mi.Bitmap(np.full((2, 2, 3), 0.7, np.float32))}},
+     "exactly one nested BSDF must be given, found 0"),
+    ({"type": "polarized_bumpmap", "bsdf": NESTED["roughconductor"]},
+     "exactly one nested height texture must be given, found 0"),
+    ({"type": "polarized_bumpmap", "bsdf": NESTED["roughconductor"], "scale": float("inf"),
+      "h": {"type": "bitmap", "bitmap": mi.Bitmap(np.zeros((2, 2, 1), np.float32))}},
+     "parameter 'scale' must be a finite number"),
+    ({"type": "polarized_bumpmap", "bsdf": NESTED["roughconductor"],
+      "h": {"type": "bitmap", "raw": True,
+            "bitmap": mi.Bitmap(np.array([[[0.0], [np.inf]], [[0.0], [0.0]]], np.float32))}},
+     "height texture contains NaN or infinite values"),
+])
+def test_bad_input_is_a_one_line_error_at_load(scene, message):
+    with pytest.raises(Exception) as error:
+        mi.load_dict(scene)
+    text = str(error.value)
+    assert message in text
+    last = text.strip().splitlines()[-1]
+    assert message in last and ("polarized_normalmap:" in last or "polarized_bumpmap:" in last)
+
+
+def test_zero_texel_set_through_traverse_is_refused():
+    """``parameters_changed`` checks the texels again (an optimizer can drive
+    one to zero length)."""
+    scene = mi.load_dict(tp().scene(tp().plane(_normalmap_with(np.full((2, 2, 3), 0.7)))))
+    params = mi.traverse(scene)
+    params["plate.bsdf.normalmap.data"] = mi.TensorXf(np.full((2, 2, 3), 0.5, np.float32))
+    with pytest.raises(Exception, match="texel of zero length"):
+        params.update()
+
+
+def test_interpolated_zero_normal_falls_back_to_the_unperturbed_one():
+    """Two opposite texels: bilinear interpolation passes through a zero
+    normal between them. The documented fallback (the unperturbed normal)
+    gives the flat map's values; ``normalmap`` normalizes the zero vector
+    there (a NaN frame, which its horizon tests turn into black)."""
+    colours = np.array([[[1.0, 0.5, 0.5], [0.0, 0.5, 0.5]]] * 2, dtype=np.float32)
+    ours = mi.load_dict(_normalmap_with(colours))
+    theirs = mi.load_dict({**_normalmap_with(colours), "type": "normalmap"})
+    flat = mi.load_dict(_normalmap_with(np.tile([0.5, 0.5, 1.0], (2, 2, 1))))
+    si, wo = _interactions(64, seed=1)
+    # u = 0.5 lies halfway between the two texel centres (0.25, 0.75); a
+    # texel-sized margin of float32 rounding is refused by the 1e-3 threshold
+    si.uv = mi.Point2f(0.5, 0.5)
+    ctx = mi.BSDFContext()
+    value = _mueller(ours.eval(ctx, si, wo))
+    assert np.all(np.isfinite(value))
+    np.testing.assert_allclose(value, _mueller(flat.eval(ctx, si, wo)), rtol=1e-6, atol=1e-7)
+    assert not np.any(_mueller(theirs.eval(ctx, si, wo)))  # black: what is fixed

@@ -56,10 +56,11 @@ a 30° tilt and 0.66 at 60° for light arriving 70° off the unperturbed normal.
 ``use_shadowing_function`` = false removes it, and then a constant normal map
 matches the tilted plane in S0 too.
 
-Fallback (documented, never NaN): where the bilinearly interpolated normal
-between texels has (almost) zero length, the unperturbed normal is used; where
-the normal is exactly along the tangent (±1, 0, 0), the tangent is taken from
-the bitangent. ``normalmap`` returns NaN at both.
+Fallback (never NaN): where the bilinearly interpolated normal between texels
+has (almost) zero length (shorter than 1e-3), the unperturbed normal is used;
+where the normal is exactly along the tangent (±1, 0, 0), the tangent is
+taken from the bitangent. ``normalmap`` builds a NaN frame at both, which its
+horizon tests turn into black.
 
 XML::
 
