@@ -41,6 +41,7 @@ from typing import Mapping, Optional
 import numpy as np
 
 from ..registry import use_variant
+from ..shading import warn_unpolarized_wrappers
 from ..variant import default_variant
 from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
                          parse_wavelength)
@@ -248,6 +249,7 @@ def render_scene_timed(
         scene = load_band_scene(scene_path, params, response)
     t1 = time.perf_counter()
     check_loaded_scene(scene, scene_path, params, spp)
+    warn_unpolarized_wrappers(scene)
 
     sensor = scene.sensors()[0]
     total_spp = int(spp if spp is not None else sensor.sampler().sample_count())

@@ -49,18 +49,21 @@ def _children(obj):
     return children
 
 
-def warn_unpolarized_wrappers(scene) -> list:
-    """Log one warning line per Mitsuba wrapper ``scene`` uses in a polarized
-    variant, naming the replacement; returns the lines (empty when there is
-    nothing to say)."""
+def warn_unpolarized_wrappers(scene):
+    """In a polarized variant, log ONE warning line if ``scene`` uses
+    Mitsuba's ``normalmap`` or ``bumpmap``, naming the replacements; returns
+    the line (None when there is nothing to say)."""
     import mitsuba as mi
 
     if not mi.is_polarized:
-        return []
-    lines = []
-    for plugin in mitsuba_wrappers(scene):
-        replacement = dict(REPLACEMENTS.values())[plugin]
-        lines.append(f"the scene uses Mitsuba's '{plugin}', whose polarization (AoLP) is "
-                     f"wrong in polarized variants; use '{replacement}' instead")
-        log.warning(lines[-1])
-    return lines
+        return None
+    found = mitsuba_wrappers(scene)
+    if not found:
+        return None
+    replacements = dict(REPLACEMENTS.values())
+    line = (f"{' and '.join(repr(p) for p in found)} (Mitsuba's) "
+            f"{'give' if len(found) > 1 else 'gives'} a wrong angle of linear polarization "
+            f"in polarized variants; use {' and '.join(repr(replacements[p]) for p in found)} "
+            "(docs/normal-maps.md)")
+    log.warning(line)
+    return line
