@@ -40,6 +40,7 @@ ARGUMENTS = {
     "inverse_memory": ([], ["--quick"]),
     "inverse_rendering": ([], ["--size", "32", "--iterations", "40"]),
     "measured_oracle": ([], ["--quick"]),
+    "normal_maps": ([], ["--quick"]),
     # The mutation study's full run is long (a sample of 200 mutants: about
     # 30-60 min on 2 cores, validation/mutation.md); --quick runs 2 mutants.
     "mutation": (["--sample", "200", "--seed", "0", "--label", "after-sample200"],
