@@ -459,3 +459,40 @@ def test_stokes_prb_texel_gradients_match_finite_differences(wrapper):
     assert np.linalg.norm(fd) > 1e-2  # the functional sees the texels
     # measured: 1.6e-4 (normal map), 4.4e-4 (bump map) of the norm
     np.testing.assert_allclose(ad, fd, atol=5e-3 * np.linalg.norm(fd))
+
+
+# ----------------------------------------------------------------- warning
+
+
+@pytest.mark.parametrize("wrapper, expected", [
+    ("normalmap", "use 'polarized_normalmap'"), ("polarized_normalmap", None)])
+def test_polarized_render_warns_once_about_mitsubas_wrapper(tmp_path, caplog, wrapper, expected):
+    """``render_scene`` logs one line naming the replacement when the scene
+    uses Mitsuba's ``normalmap`` (nested in ``twosided`` here), none with
+    ours."""
+    from mitsuba_pbrdf.imaging import render_scene
+
+    mi.Bitmap(np.full((2, 2, 3), [0.55, 0.5, 0.9], np.float32)).write(str(tmp_path / "n.exr"))
+    (tmp_path / "scene.xml").write_text(f"""<scene version="3.0.0">
+    <integrator type="stokes"><integrator type="path"/></integrator>
+    <sensor type="orthographic">
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film>
+    </sensor>
+    <emitter type="directional"><vector name="direction" value="0.3, 0.2, -1"/></emitter>
+    <shape type="rectangle">
+        <bsdf type="twosided"><bsdf type="{wrapper}">
+            <texture name="normalmap" type="bitmap">
+                <string name="filename" value="n.exr"/><boolean name="raw" value="true"/>
+            </texture>
+            <bsdf type="roughconductor"/>
+        </bsdf></bsdf>
+    </shape>
+</scene>""")
+    with caplog.at_level(logging.WARNING, logger="mitsuba_pbrdf.shading"):
+        render_scene(tmp_path / "scene.xml", spp=1, variant="llvm_ad_spectral_polarized")
+    lines = [r.getMessage() for r in caplog.records if r.name.startswith("mitsuba_pbrdf.shading")]
+    if expected is None:
+        assert lines == []
+    else:
+        assert len(lines) == 1 and expected in lines[0] and "\n" not in lines[0]

@@ -79,7 +79,7 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
-from .normalmap import flag, nested_objects, single_nested_bsdf
+from .props import flag, nested_objects, single_nested_bsdf
 
 _NAME = "polarized_bumpmap"
 
@@ -131,7 +131,7 @@ class PolarizedBumpMap(mi.BSDF):
     def __init__(self, props):
         super().__init__(props)
         self.nested_bsdf = single_nested_bsdf(props, _NAME)
-        textures = nested_objects(props, _NAME, mi.Texture)
+        textures = nested_objects(props, mi.Texture)
         if len(textures) != 1:
             raise ValueError(f"{_NAME}: exactly one nested height texture must be given, "
                              f"found {len(textures)}")

@@ -85,35 +85,13 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
+from .props import flag, single_nested_bsdf
 
 #: Decoded normals shorter than this have no usable direction (an 8-bit
 #: texel's step is 2/255 = 0.008 per component).
 MIN_NORMAL_LENGTH = 1e-3
 
 _NAME = "polarized_normalmap"
-
-
-def nested_objects(props, name, kinds):
-    """The objects of ``props`` that are instances of ``kinds``, by key."""
-    return {key: props[key] for key in props.keys()
-            if props.type(key) == mi.Properties.Type.Object and isinstance(props[key], kinds)}
-
-
-def single_nested_bsdf(props, name):
-    """The one nested BSDF of a wrapper ``name``; a one-line error otherwise."""
-    bsdfs = nested_objects(props, name, mi.BSDF)
-    if len(bsdfs) != 1:
-        raise ValueError(f"{name}: exactly one nested BSDF must be given, found {len(bsdfs)}")
-    return next(iter(bsdfs.values()))
-
-
-def flag(props, name, key, default):
-    """A boolean parameter."""
-    if key not in props:
-        return default
-    if props.type(key) != mi.Properties.Type.Bool:
-        raise TypeError(f"{name}: parameter '{key}' must be a boolean")
-    return bool(props[key])
 
 
 def texel_normals(texture):
