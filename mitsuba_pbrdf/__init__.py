@@ -27,7 +27,7 @@ Sub-packages, one concern each:
 * :mod:`~mitsuba_pbrdf.batch`: many renders (sweeps, datasets);
 * :mod:`~mitsuba_pbrdf.checks`: physical and numerical checks of a pBRDF;
 * :mod:`~mitsuba_pbrdf.cli`: the ``pbrdf`` command line;
-* :mod:`~mitsuba_pbrdf.options`: the model's option lists and defaults;
+* :mod:`~mitsuba_pbrdf.schema`: the model's parameters, each declared once (name, kind, default, bounds, flags);
 * :mod:`~mitsuba_pbrdf.variant`, :mod:`~mitsuba_pbrdf.registry`: Mitsuba variants, and
   registering the plugins in them.
 """

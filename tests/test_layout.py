@@ -1,7 +1,6 @@
 """The package's layout and import behaviour: the plugin and the reference
 evaluator never import each other, the reference needs NumPy alone, importing
-the package needs no variant, the plugin is registered in every variant, the
-old module names still import (with a DeprecationWarning), tests/ and
+the package needs no variant, the plugin is registered in every variant, tests/ and
 validation/ never import each other (both use mitsuba_pbrdf.checks), and
 validation/run_all.py runs every study."""
 
@@ -10,7 +9,6 @@ import os
 import re
 import subprocess
 import sys
-import warnings
 
 import pytest
 
@@ -56,7 +54,7 @@ def test_plugin_never_imports_the_reference():
 
 
 def test_reference_imports_numpy_and_the_standard_library_only():
-    allowed_own = {"mitsuba_pbrdf.reference", "mitsuba_pbrdf.options"}
+    allowed_own = {"mitsuba_pbrdf.reference", "mitsuba_pbrdf.schema"}
     for name, modules in imported_modules("reference").items():
         for m in modules:
             top = m.split(".")[0]
@@ -96,7 +94,7 @@ def test_import_needs_no_variant_and_first_use_says_what_to_type():
                         "except mitsuba_pbrdf.VariantNotSetError as e:\n    print(e)")
     assert result.returncode == 0, result.stderr
     assert "mitsuba_pbrdf.use_variant('llvm_ad_spectral_polarized')" in result.stdout
-    result = run_python("import mitsuba_pbrdf.plugin as p\np.plugin_class()")
+    result = run_python("import mitsuba_pbrdf.plugin.bsdf")
     assert result.returncode != 0
     assert "VariantNotSetError" in result.stderr
     assert "mitsuba_pbrdf.use_variant('llvm_ad_spectral_polarized')" in result.stderr
@@ -128,46 +126,6 @@ def test_use_variant_names_the_available_variants():
         mitsuba_pbrdf.use_variant("llvm_ad_nonexistent")
     assert mi.variant() == before
     assert mitsuba_pbrdf.use_variant(before) is None
-
-
-@pytest.mark.parametrize("old, names", [
-    ("mitsuba_pbrdf.render", ["render_scene", "plan_passes", "default_variant", "set_variant"]),
-    ("mitsuba_pbrdf.stokes_io", ["read_stokes_exr", "write_stokes_exr", "StokesImage", "dolp"]),
-    ("mitsuba_pbrdf.fit", ["read_measurements", "fit_model", "report", "main"]),
-    ("mitsuba_pbrdf.visualize", ["save_overview_png", "plot_dolp"]),
-    ("mitsuba_pbrdf.plots", ["PBRDFParams", "save_pbrdf_plot", "in_plane"]),
-])
-def test_old_modules_import_with_a_deprecation_warning(old, names):
-    code = ("import warnings; warnings.simplefilter('always')\n"
-            f"with warnings.catch_warnings(record=True) as w:\n    import {old} as m\n"
-            "print([str(x.category.__name__) for x in w])\n"
-            f"print(all(hasattr(m, n) for n in {names!r}))")
-    result = run_python(code)
-    assert result.returncode == 0, result.stderr
-    categories, has_names = result.stdout.splitlines()
-    assert "DeprecationWarning" in categories and has_names == "True"
-
-
-def test_old_inverse_names_warn():
-    from mitsuba_pbrdf import inverse
-
-    for name in ("FitResult", "mueller_brdf", "split_spp", "pass_seeds"):
-        with pytest.warns(DeprecationWarning, match=name):
-            assert getattr(inverse, name) is not None
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        assert inverse.split_spp if False else inverse.OptimizationResult
-    with pytest.raises(AttributeError):
-        inverse.no_such_name  # noqa: B018
-
-
-def test_old_fit_module_still_runs_as_a_script(tmp_path):
-    data = os.path.join(ROOT, "tests", "data", "fit_example.csv")
-    result = subprocess.run([sys.executable, "-m", "mitsuba_pbrdf.fit", data, "--model", "two",
-                             "--starts", "1"], capture_output=True, text=True, cwd=ROOT,
-                            timeout=300)
-    assert result.returncode == 0, result.stderr
-    assert "two-component" in result.stdout
 
 
 def test_no_project_file_cites_files_outside_the_repository():

@@ -78,7 +78,7 @@ def both(**kwargs):
     settings. One scene for both: Mitsuba may order a scene's emitters
     differently between loads, which changes which emitter a random number
     picks."""
-    from mitsuba_pbrdf.integrators.stokes_prb import from_path
+    from mitsuba_pbrdf.integrators import from_path
     scene = mi.load_dict(scene_dict("path", **kwargs))
     return scene, from_path(scene)
 
@@ -212,7 +212,7 @@ def test_forward_equals_reverse_with_mixture_sampling():
 
 def test_loss_and_gradient_uses_replay_by_default():
     use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.integrators.stokes_prb import from_path
+    from mitsuba_pbrdf.integrators import from_path
     from mitsuba_pbrdf.inverse import gradient_method, loss_and_gradient
     path = mi.load_dict(scene_dict("path", max_depth=3, bsdf=pbrdf("mixture")))
     params = mi.traverse(path)

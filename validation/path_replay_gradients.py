@@ -41,7 +41,7 @@ def scene(sampling, depth):
     import mitsuba as mi
 
     from mitsuba_pbrdf import inverse
-    from mitsuba_pbrdf.integrators.stokes_prb import from_path
+    from mitsuba_pbrdf.integrators import from_path
 
     bsdf = {"type": "pbrdf", "eta": 2.0, "k": 4.0, "sigma": 0.12, "ks": 1.0, "kdd": 0.1,
             "sigma_dd": 0.5, "kid": 0.03, "sampling": sampling}

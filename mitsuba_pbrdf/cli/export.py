@@ -8,21 +8,16 @@ from __future__ import annotations
 import os
 import time
 
-from ..options import DD_DISTRIBUTIONS, DEFAULTS, SHADOWING
 from .common import CliError, check_outputs, float_list, one_line
+from .model_options import add_model_arguments, params_from_args
 
 
 def run(args) -> int:
     """``pbrdf export``."""
     from ..measured.export import export_pbsdf, parse_grid
     from ..measured.pbsdf import PbsdfError
-    from ..reference.params import PBRDFParams
 
-    if (args.eta is not None or args.k is not None) and args.material is not None:
-        raise CliError("give --material or --eta and --k, not both")
-    material = args.material
-    if args.eta is None and args.k is None and material is None:
-        material = DEFAULTS["material"]
+    params = params_from_args(args)
     if not args.out.endswith(".pbsdf"):
         raise CliError(f"--out must name a .pbsdf file, got {args.out!r}")
     folder = os.path.dirname(os.path.abspath(args.out))
@@ -35,9 +30,6 @@ def run(args) -> int:
                        f"got {len(wavelengths)}")
     if any(w != round(w) or not 1 <= w <= 65535 for w in wavelengths) or sorted(set(wavelengths)) != wavelengths:
         raise CliError(f"--wavelengths must be increasing whole nm, got {args.wavelengths!r}")
-    params = PBRDFParams(material=material, eta=args.eta, k=args.k, sigma=args.sigma,
-                         ks=args.ks, kdd=args.kdd, sigma_dd=args.sigma_dd, kid=args.kid,
-                         shadowing=args.shadowing, dd_distribution=args.dd_distribution)
     try:
         grid = parse_grid(args.grid)
         params.validate()
@@ -59,20 +51,7 @@ def add_parser(subparsers):
                     "table in the exact conventions of Mitsuba's measured_polarized plugin "
                     "(Rusinkiewicz angles, Stokes frames of the facet, BRDF without cosine). "
                     "See docs/measured-data.md.")
-    p.add_argument("--material", default=None,
-                   help="Mitsuba conductor name (Al, Cu, Au, Ag, Cr, ...; default: Al)")
-    p.add_argument("--eta", type=float, default=None, help="real part n of the complex index "
-                                                            "(with --k; constant over wavelength)")
-    p.add_argument("--k", type=float, default=None, help="imaginary part k of the complex index")
-    p.add_argument("--sigma", type=float, default=DEFAULTS["sigma"], help="RMS facet slope, > 0")
-    p.add_argument("--ks", type=float, default=DEFAULTS["ks"], help="specular weight")
-    p.add_argument("--kdd", type=float, default=DEFAULTS["kdd"], help="directional diffuse weight")
-    p.add_argument("--sigma-dd", type=float, default=DEFAULTS["sigma_dd"],
-                   help="directional diffuse RMS slope, > 0")
-    p.add_argument("--kid", type=float, default=DEFAULTS["kid"], help="ideal diffuse weight")
-    p.add_argument("--shadowing", default=DEFAULTS["shadowing"], choices=SHADOWING)
-    p.add_argument("--dd-distribution", default=DEFAULTS["dd_distribution"],
-                   choices=DD_DISTRIBUTIONS)
+    add_model_arguments(p)
     p.add_argument("--grid", default="default",
                    help="default (49x80x80, square-spaced theta_h, 96 MB), kaist (361x91x91, "
                         "1-degree steps, about 1 GB) or PxDxH[-uniform]")

@@ -11,9 +11,9 @@ import os
 import sys
 from typing import Optional, Sequence
 
-from ..options import DD_DISTRIBUTIONS, DEFAULTS, SHADOWING
 from ..outputs import atomic_path, write_json
 from .common import CliError, check_outputs, one_line, positive_int
+from .model_options import add_model_arguments
 
 
 def is_pbsdf(path) -> bool:
@@ -121,9 +121,7 @@ def add_parser(subparsers):
     p.add_argument("--material", help="start n, k from this tabulated conductor (e.g. Al, Cu)")
     p.add_argument("--init", default="", help="starting values, e.g. sigma=0.1,n=1.2")
     p.add_argument("--fix", default="", help="fixed values, e.g. n=1.2,k=7 or kid=0")
-    p.add_argument("--shadowing", choices=SHADOWING, default=DEFAULTS["shadowing"])
-    p.add_argument("--dd-distribution", choices=DD_DISTRIBUTIONS,
-                   default=DEFAULTS["dd_distribution"])
+    add_model_arguments(p, kinds=("choice",))
     p.add_argument("--starts", type=int, default=3, help="number of starting points (default 3)")
     p.add_argument("--rel-uncertainty", type=float, default=0.05,
                    help="assumed relative uncertainty of each value (default 0.05)")

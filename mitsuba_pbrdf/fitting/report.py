@@ -9,7 +9,7 @@ import numpy as np
 
 from ..measured.measurements import Measurements
 from .backends import weights
-from .layout import MODELS, SHARED
+from .layout import MODELS, SHARED, TWO_COMPONENT_FIXED
 from .observables import model_observables
 from .solver import FitResult
 
@@ -59,7 +59,7 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
                     t = f" {tv:.5g} |"
                 lines.append(f"| {p} ({w:g} nm) | {_fmt(r.values[p][j], r.errors[p][j])} |{t}")
         for p in SHARED:
-            if r.model == "two" and p in ("kdd", "sigma_dd"):
+            if r.model == "two" and p in TWO_COMPONENT_FIXED:
                 continue
             t = f" {truth[p]:.5g} |" if truth else ""
             lines.append(f"| {p} | {_fmt(r.values[p], r.errors[p])} |{t}")

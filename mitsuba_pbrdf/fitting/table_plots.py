@@ -17,6 +17,7 @@ import numpy as np
 from .. import reference as ref
 from ..measured.lookup import lookup
 from ..measured.pbsdf import PbsdfTable
+from .layout import SHARED
 
 __all__ = ["plot_table_fit"]
 
@@ -31,8 +32,9 @@ def _direction(theta, phi):
 def _model(r, wavelength_index, theta_i, phi_i, theta_r, phi_r):
     v = r.values
     return ref.pbrdf(*(np.radians(a) for a in (theta_i, phi_i, theta_r, phi_r)),
-                     v["n"][wavelength_index], v["k"][wavelength_index], v["sigma"], v["ks"],
-                     v["kdd"], v["sigma_dd"], v["kid"], r.shadowing, r.dd_distribution)
+                     v["n"][wavelength_index], v["k"][wavelength_index],
+                     shadowing=r.shadowing, dd_distribution=r.dd_distribution,
+                     **{name: v[name] for name in SHARED})
 
 
 def plot_table_fit(table: PbsdfTable, results, path, title=None):

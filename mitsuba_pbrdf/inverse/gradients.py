@@ -131,7 +131,7 @@ def gradient_method(scene, method="auto"):
     ``"auto"`` becomes ``"prb"`` where ``stokes_prb`` can replay the scene's
     integrator, else ``"reverse"``. Raises ``ValueError`` for an unknown
     method or ``"prb"`` on a scene it cannot replay (saying why)."""
-    from ..integrators.stokes_prb import supports_scene
+    from ..integrators import supports_scene
 
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, not {method!r}")
@@ -144,13 +144,13 @@ def gradient_method(scene, method="auto"):
 
 
 def _is_replay(integrator):
-    from ..integrators.stokes_prb import integrator_class
+    from ..integrators import integrator_class
 
     return isinstance(integrator, integrator_class())
 
 
 def _replay_integrator(scene):
-    from ..integrators.stokes_prb import from_path
+    from ..integrators import from_path
 
     return from_path(scene)
 
