@@ -22,18 +22,14 @@ Oracles and tolerances:
   smooth bilinear map is far below).
 """
 
-import importlib
 import logging
 import math
-import sys
 
 import drjit as dr
 import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf import use_variant
-from mitsuba_pbrdf.imaging.stokes import from_mitsuba
 
 TILTS = (10.0, 30.0, 60.0)
 AZIMUTHS = (20.0, 135.0, 250.0)
@@ -41,30 +37,6 @@ NESTED = {
     "pbrdf": {"type": "pbrdf", "material": "Au", "sigma": 0.2},
     "roughconductor": {"type": "roughconductor", "material": "Au", "alpha": 0.3},
 }
-
-
-def _module(name):
-    """The module ``name`` imported for the active variant (imported again
-    when its class was built on another variant's ``mi.BSDF``)."""
-    module = sys.modules.get(name) or importlib.import_module(name)
-    cls = module.PolarizedNormalMap if hasattr(module, "PolarizedNormalMap") else module.PolarizedBumpMap
-    if cls.__bases__[0] is not mi.BSDF:
-        module = importlib.reload(module)
-    return module
-
-
-def register_wrappers():
-    from mitsuba_pbrdf.shading import PLUGINS
-
-    for name, (module, cls) in PLUGINS.items():
-        mod = _module(module)
-        mi.register_bsdf(name, lambda props, mod=mod, cls=cls: getattr(mod, cls)(props))
-
-
-@pytest.fixture(autouse=True)
-def wrappers():
-    register_wrappers()
-    yield
 
 
 def tp():
@@ -309,7 +281,6 @@ def test_unpolarized_variants_give_what_mitsuba_gives(variant, wrapper):
     random map, random directions, random shading frames: the same float32
     operations in the same order, traced into the same LLVM kernels, so equal
     bit for bit (measured; a difference would mean a changed operation)."""
-    register_wrappers()
     rng = np.random.default_rng(3)
     texture = _random_normal_map(rng) if wrapper == "normalmap" else _random_heights(rng)
     key = "normalmap" if wrapper == "normalmap" else "height"

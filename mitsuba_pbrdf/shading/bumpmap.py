@@ -81,6 +81,9 @@ import numpy as np
 from . import perturbed
 from .props import flag, nested_objects, single_nested_bsdf
 
+#: The Mitsuba variant this module's class was built for (registry.variant_module).
+VARIANT = mi.variant()
+
 _NAME = "polarized_bumpmap"
 
 

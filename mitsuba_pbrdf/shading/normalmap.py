@@ -87,6 +87,9 @@ import numpy as np
 from . import perturbed
 from .props import flag, single_nested_bsdf
 
+#: The Mitsuba variant this module's class was built for (registry.variant_module).
+VARIANT = mi.variant()
+
 #: Decoded normals shorter than this have no usable direction (an 8-bit
 #: texel's step is 2/255 = 0.008 per component).
 MIN_NORMAL_LENGTH = 1e-3
