@@ -75,7 +75,7 @@ def render_normalmap_plate(settings) -> str:
     worst, median = aolp_difference(images["normalmap"], images["polarized_normalmap"])
     fig = montage_figure(
         [(label, images[w]) for w, label in WRAPPERS],
-        title="A hammered plate, normal-mapped (scenes/gallery/plate.xml -D wrapper=...; "
-              f"{_subtitle(images['normalmap'])})\nsame intensity and DoLP; AoLP differs by "
-              f"up to {worst:.0f}° (median {median:.1f}°) where DoLP ≥ 0.02")
+        dolp_max=0.3,
+        title=f"Hammered plate (plate.xml; {_subtitle(images['normalmap'])}): same intensity\n"
+              f"and DoLP, AoLP off by up to {worst:.0f}° (median {median:.0f}°) where DoLP ≥ 0.02")
     return save_png(fig, settings.out / "normalmap.png", dpi=100, colors=_PNG_COLOURS)
