@@ -22,6 +22,7 @@ Oracles and tolerances:
   smooth bilinear map is far below).
 """
 
+import functools
 import logging
 import math
 import os
@@ -46,6 +47,14 @@ def tp():
     return tilted_plane
 
 
+@functools.lru_cache(maxsize=None)
+def comparison(wrapper, nested, shadowing=True):
+    """A :class:`~mitsuba_pbrdf.shading.tilted_plane.Comparison`, shared by the
+    tests (loading and compiling its two scenes is most of their time)."""
+    extra = {} if shadowing else {"use_shadowing_function": False}
+    return tp().Comparison(wrapper, NESTED[nested], **extra)
+
+
 def polarization(image):
     """S0, DoLP, AoLP (degrees) per pixel and band."""
     s = image.stokes.astype(np.float64)  # (h, w, 4, bands)
@@ -67,8 +76,8 @@ def test_constant_map_equals_tilted_plane(nested, wrapper):
     """DoLP and AoLP of the polarized wrapper equal the tilted plane's, for
     every tilt and azimuth; S0 equals Mitsuba's wrapper's; Mitsuba's wrapper
     fails the same comparison (the test can see the error)."""
-    ours = tp().Comparison("polarized_" + wrapper, NESTED[nested])
-    theirs = tp().Comparison(wrapper, NESTED[nested])
+    ours = comparison("polarized_" + wrapper, nested)
+    theirs = comparison(wrapper, nested)
     worst_mitsuba = 0.0
     for tilt in TILTS:
         for azimuth in AZIMUTHS:
@@ -90,9 +99,8 @@ def test_constant_map_equals_tilted_plane(nested, wrapper):
 def test_s0_factor_is_the_shadowing_function(wrapper):
     """The S0 ratio to the tilted plane is Estevez's shadowing term (what
     ``normalmap`` multiplies by), and without it S0 is the tilted plane's."""
-    nested = NESTED["roughconductor"]
-    shadowed = tp().Comparison(wrapper, nested)
-    plain = tp().Comparison(wrapper, nested, use_shadowing_function=False)
+    shadowed = comparison(wrapper, "roughconductor")
+    plain = comparison(wrapper, "roughconductor", shadowing=False)
     for tilt, azimuth in ((30.0, 20.0), (60.0, 135.0)):
         tilted, mapped = (polarization(i)[0] for i in shadowed.render(tilt, azimuth))
         towards = tp().light_towards(tilt, azimuth)
@@ -151,6 +159,7 @@ def _interactions(n, seed):
 
 def _mueller(value):
     """A BSDF value as a NumPy array (16 Mueller elements or the spectrum)."""
+    dr.eval(value)  # one kernel, not one per element
     if mi.is_polarized:
         return np.stack([np.array(value[i, j]) for i in range(4) for j in range(4)])
     return np.array(value)
