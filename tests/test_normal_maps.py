@@ -509,3 +509,32 @@ def test_gallery_plate_differs_in_aolp_only():
                                atol=1e-5 * s0["normalmap"].max())
     worst, _ = aolp_difference(images["normalmap"], images["polarized_normalmap"])
     assert worst > 10.0
+
+
+def test_cli_render_refuses_a_zero_length_texel_in_one_line(tmp_path, capfd):
+    """``pbrdf render`` of a scene whose normal map has a zero-length texel:
+    exit status 2, one line naming the parameter, no output file."""
+    from mitsuba_pbrdf.cli import main
+
+    mi.Bitmap(np.full((2, 2, 3), 0.5, np.float32)).write(str(tmp_path / "n.exr"))
+    (tmp_path / "scene.xml").write_text("""<scene version="3.0.0">
+    <integrator type="stokes"><integrator type="path"/></integrator>
+    <sensor type="orthographic">
+        <film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film>
+    </sensor>
+    <shape type="rectangle">
+        <bsdf type="polarized_normalmap">
+            <texture name="normalmap" type="bitmap">
+                <string name="filename" value="n.exr"/><boolean name="raw" value="true"/>
+            </texture>
+            <bsdf type="pbrdf"/>
+        </bsdf>
+    </shape>
+</scene>""")
+    status = main(["render", str(tmp_path / "scene.xml"), "--spp", "1",
+                   "--out", str(tmp_path / "out")])
+    err = capfd.readouterr().err.strip().splitlines()
+    assert status == 2
+    assert len(err) == 1 and err[0].startswith("pbrdf render: error: "), err
+    assert "polarized_normalmap: parameter 'normalmap' has a texel of zero length" in err[0]
+    assert not os.path.exists(tmp_path / "out.exr")
