@@ -15,7 +15,8 @@
        ``dp_du``, z along the shading normal; (0.5, 0.5, 1) changes nothing).
        Need not be unit length; a texel whose decoded normal is shorter than
        1e-3 (no direction) or not finite is refused at load time and at
-       ``parameters_changed``.
+       ``parameters_changed`` (every texel of a raw bitmap; other textures on
+       a 64 x 64 grid of uv).
      - (required)
      - |exposed|, |differentiable|, |discontinuous|
    * - (nested plugin)
@@ -98,24 +99,23 @@ _NAME = "polarized_normalmap"
 
 
 def texel_normals(texture):
-    """The decoded normals 2 c - 1 (N x 3 float64) of ``texture`` evaluated at
-    its texel centres (a bitmap: every texel, read exactly; another texture: a
-    64 x 64 grid). Raises if the texture does not give three channels."""
+    """The decoded normals 2 c - 1 (N x 3 float64) of ``texture``: every texel
+    of a bitmap as stored (raw bitmaps, and any bitmap outside spectral
+    variants); otherwise the texture evaluated on a 64 x 64 grid of uv.
+    Raises if a bitmap does not have three channels."""
     params = mi.traverse(texture)
     data_keys = [k for k in params.keys() if k.split(".")[-1] == "data"]
     if data_keys:
-        shape = params[data_keys[0]].shape
-        if len(shape) == 3 and shape[2] != 3:
+        data = np.asarray(params[data_keys[0]], dtype=np.float64)
+        if data.ndim == 3 and data.shape[2] != 3:
             raise ValueError(f"{_NAME}: parameter 'normalmap' must have 3 channels (x, y, z), "
-                             f"got {shape[2]}")
-        height, width = int(shape[0]), int(shape[1])
-    else:
-        height = width = 64
+                             f"got {data.shape[2]}")
+        # spectral variants store a non-raw RGB bitmap as upsampling coefficients
+        if not mi.is_spectral or "raw = 1" in str(texture):
+            return 2.0 * data.reshape(-1, 3) - 1.0
     if mi.variant().startswith("scalar"):
-        if not data_keys:
-            return np.zeros((0, 3))
-        return 2.0 * np.asarray(params[data_keys[0]], dtype=np.float64).reshape(-1, 3) - 1.0
-    u, v = np.meshgrid((np.arange(width) + 0.5) / width, (np.arange(height) + 0.5) / height)
+        return np.zeros((0, 3))  # one lane per call: not checked
+    u, v = np.meshgrid((np.arange(64) + 0.5) / 64, (np.arange(64) + 0.5) / 64)
     si = dr.zeros(mi.SurfaceInteraction3f, u.size)
     si.uv = mi.Point2f(mi.Float(u.ravel()), mi.Float(v.ravel()))
     colour = texture.eval_3(si)
