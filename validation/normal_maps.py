@@ -8,13 +8,14 @@ Writes ``validation/normal_maps.md``. Scene
 (:class:`mitsuba_pbrdf.shading.tilted_plane.Comparison`): an orthographic camera
 looking straight down at a plane, one directional light near the mirror
 direction but 25° of azimuth off the plane of incidence, 8 x 8 pixels, 4 spp.
-Every pixel sees the same geometry and no random number changes its value
-(the light is sampled deterministically, BSDF-sampled rays leave the scene),
-so any difference between the tilted plane and the normal-mapped one is the
-wrapper's, down to float32 rounding. Per tilt, over all azimuths and the
-``pbrdf`` and ``roughconductor`` (gold) nested BSDFs: the largest AoLP error
-of each wrapper against the tilted plane (bands with DoLP > 1e-3), the largest
-DoLP difference, and the S0 ratio to the tilted plane.
+Every pixel sees the same geometry, and both renders draw the same random
+numbers (pixel positions, wavelengths; the light is sampled deterministically,
+BSDF-sampled rays leave the scene), so any difference between the tilted plane
+and the normal-mapped one is the wrapper's, down to float32 rounding. Per
+tilt, over all azimuths and the ``pbrdf`` and ``roughconductor`` (gold) nested
+BSDFs: the largest AoLP error of each wrapper against the tilted plane (bands
+with DoLP > 1e-3), the largest DoLP difference, and the S0 ratio to the tilted
+plane.
 """
 
 import argparse
