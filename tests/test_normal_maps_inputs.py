@@ -181,3 +181,27 @@ def test_cli_render_refuses_a_zero_length_texel_in_one_line(tmp_path, capfd):
     assert len(err) == 1 and err[0].startswith("pbrdf render: error: "), err
     assert "polarized_normalmap: parameter 'normalmap' has a texel of zero length" in err[0]
     assert not os.path.exists(tmp_path / "out.exr")
+
+
+def test_bump_map_on_a_turned_shape_keeps_its_frame():
+    """A flat height map on a rectangle turned 90° about y (its world dp_du
+    along the local normal): bumpmap's tangent (world dp_du projected off the
+    local normal) vanishes and Mitsuba's wrapper renders nearly black (measured
+    5 % of the light); ours falls back to the shading frame's x axis and equals
+    the bare BSDF (float32 rounding of the frames: 1e-5 of the largest value)."""
+    T = mi.ScalarTransform4f
+    heights = {"type": "bitmap", "raw": True,
+               "bitmap": mi.Bitmap(np.full((4, 4, 1), 0.5, np.float32))}
+    nested = NESTED["roughconductor"]
+    images = {}
+    for kind in ("bumpmap", "polarized_bumpmap", None):
+        bsdf = {"type": kind, "height": heights, "bsdf": nested} if kind else nested
+        d = tp().scene({"type": "rectangle", "to_world": T().rotate([0, 1, 0], 90) @ T().scale(10),
+                        "bsdf": bsdf}, light=(1.0, 0.3, 0.2))
+        d["sensor"]["to_world"] = (T().look_at(origin=[5, 0, 0], target=[0, 0, 0], up=[0, 1, 0])
+                                   @ T().scale(0.5))
+        images[kind] = np.array(mi.render(mi.load_dict(d), spp=4, seed=1))
+    bare = images[None]
+    assert bare[..., 3].mean() > 0.1
+    np.testing.assert_allclose(images["polarized_bumpmap"], bare, atol=1e-5 * np.abs(bare).max())
+    assert images["bumpmap"][..., 3].mean() < 0.5 * bare[..., 3].mean()  # Mitsuba 3.9.1

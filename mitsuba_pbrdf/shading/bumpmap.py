@@ -49,11 +49,16 @@ what ``bumpmap`` gives; in polarized variants the nested Mueller matrix is
 rotated from the perturbed frame's Stokes bases into the unperturbed frame's
 (:mod:`.stokes_frames`, docs/conventions.md), which ``bumpmap`` leaves out.
 
-Kept from ``bumpmap`` as it is: the tangent is projected from ``dp_du`` in
-world coordinates onto the normal in shading coordinates. On shapes whose
-shading frame is not the world's axes, this turns the perturbed tangent about
-the normal. Isotropic nested BSDFs do not see the tangent at all (and the
-Stokes correction uses whatever tangent the frame has), anisotropic ones do.
+Kept from ``bumpmap``: the tangent is ``dp_du`` in world coordinates
+projected off the normal in shading coordinates. On shapes whose shading frame
+is not the world's axes, this turns the perturbed tangent about the normal.
+Isotropic nested BSDFs do not see the tangent (and the Stokes correction uses
+whatever tangent the frame has), anisotropic ones do. Changed: where that
+projection vanishes (shorter than 1e-3 |dp_du|: a shape turned so that its
+world ``dp_du`` lies along the local normal, e.g. a rectangle turned 90° about
+y with a flat height map), ``bumpmap``'s frame degenerates and it renders
+nearly black; ``polarized_bumpmap`` takes the shading frame's x axis projected
+off the normal there (as ``normalmap`` does).
 
 XML::
 
@@ -117,7 +122,14 @@ def bumpmap_frame(texture, scale, si, flip_invalid_normals, active):
 
     frame_si = dr.zeros(mi.Frame3f)
     frame_si.n = n
-    frame_si.s = dr.normalize(dr.fma(-n, dr.dot(n, si.dp_du), si.dp_du))
+    # bumpmap's tangent: dp_du (world) projected off n (shading frame) ...
+    s = dr.fma(-n, dr.dot(n, si.dp_du), si.dp_du)
+    # ... which vanishes where dp_du is along the local normal (a shape turned
+    # so that its world dp_du points along local z): there bumpmap's frame is
+    # degenerate (black); take S's x axis projected off n instead.
+    s = dr.select(dr.squared_norm(s) > 1e-6 * dr.squared_norm(si.dp_du), s,
+                  dr.fma(-n, n.x, mi.Vector3f(1.0, 0.0, 0.0)))
+    frame_si.s = dr.normalize(s)
     frame_si.t = dr.cross(n, frame_si.s)
 
     frame_world = dr.zeros(mi.Frame3f)
