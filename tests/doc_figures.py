@@ -38,7 +38,7 @@ MARKER = re.compile(r"<!--\s*(from:\s*(?P<src>[^|>]+?)(?:\s*\|\s*(?P<label>[^>]+
 TABLE_MARKER = re.compile(r"^<!--\s*table from:\s*(?P<src>\S+)\s*-->\s*$")
 # the figure a marker refers to: the last number before it, then at most a
 # unit, a closing bracket or emphasis
-BEFORE_MARKER = re.compile(rf"(?P<num>{NUMBER})\s?(?:[A-Za-zµ%×]+)?[*)\]]*\s*$")
+BEFORE_MARKER = re.compile(rf"(?P<num>{NUMBER})\s?(?P<unit>[A-Za-zµ%×]+)?[*)\]]*\s*$")
 MEASUREMENT = re.compile(rf"(?<![\w.]){NUMBER}\s?(?:ms|s|min|h|MiB|GiB|kB|MB|GB)\b"
                          r"(?P<rest>[*)\]]*\s*(?P<marker><!--[^>]*-->)?)")
 
@@ -51,6 +51,7 @@ class Figure:
     number: str
     source: str
     label: Optional[str]
+    percent: bool = False  # written as a percentage: the report may hold the fraction
 
 
 def doc_files() -> List[str]:
@@ -100,8 +101,9 @@ def figures(doc: str) -> List[Figure]:
                 continue
             before = BEFORE_MARKER.search(line[:m.start()])
             number = before.group("num") if before else ""
+            percent = bool(before) and before.group("unit") == "%"
             found.append(Figure(doc, i + 1, number, m.group("src").strip(),
-                                (m.group("label") or "").strip() or None))
+                                (m.group("label") or "").strip() or None, percent))
     for source, first, last in table_spans(lines):
         for k in range(first, last + 1):
             row_source = source
@@ -112,8 +114,9 @@ def figures(doc: str) -> List[Figure]:
             cells = lines[k].strip().strip("|").split("|")[1:]
             for cell in cells:
                 cell = re.sub(r"`[^`]*`", "", cell)
-                for num in re.findall(rf"(?<![\w.]){NUMBER}", cell):
-                    found.append(Figure(doc, k + 1, num, row_source, None))
+                for m in re.finditer(rf"(?<![\w.])(?P<num>{NUMBER})(?P<pc>\s?%)?", cell):
+                    found.append(Figure(doc, k + 1, m.group("num"), row_source, None,
+                                        bool(m.group("pc"))))
     return found
 
 
@@ -159,6 +162,15 @@ def occurs(number: str, text: str) -> bool:
     return False
 
 
+def _held(figure: Figure, text: str) -> bool:
+    if occurs(figure.number, text):
+        return True
+    if figure.percent:  # 0.57 % quotes a report's 0.00572
+        fraction = _value(figure.number) / 100
+        return occurs(f"{fraction:.{_significant(figure.number) - 1}e}", text)
+    return False
+
+
 def check(figure: Figure) -> Optional[str]:
     """None if the report holds the figure, else why not."""
     where = f"{figure.doc}:{figure.line}"
@@ -172,11 +184,11 @@ def check(figure: Figure) -> Optional[str]:
         rows = [line for line in report.splitlines() if figure.label in line]
         if not rows:
             return f"{where}: {figure.source} has no line with {figure.label!r}"
-        if not any(occurs(figure.number, row) for row in rows):
+        if not any(_held(figure, row) for row in rows):
             return (f"{where}: {figure.number} is not in the line(s) of {figure.source} "
                     f"with {figure.label!r}: {rows[0].strip()[:160]}")
         return None
-    if not occurs(figure.number, report):
+    if not _held(figure, report):
         return f"{where}: {figure.number} does not occur in {figure.source}"
     return None
 
