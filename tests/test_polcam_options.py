@@ -37,3 +37,24 @@ def test_exposure_with_bits_saturates_at_the_exposure(tmp_path, capsys):
     dim = auto < 0.25 - 0.5 / 255
     # quantization steps: 0.5/255 without the exposure, 0.25/255 with it
     assert np.all(np.abs(half[dim] - auto[dim]) <= 0.5 / 255 + 1e-6)
+
+
+def test_picture_options_the_panels_do_not_use_are_warned_about(tmp_path, capfd):
+    """``pbrdf view`` with a picture option none of the chosen panels uses
+    prints one warning line naming it (and still draws); an option a chosen
+    panel uses prints none."""
+    exr = ramp_exr(tmp_path / "ramp.exr")
+    out = str(tmp_path / "v.png")
+    assert main(["view", exr, "--panels", "intensity", "--dolp-max", "0.5", "--min-dolp",
+                 "0.1", "--out", out]) == 0
+    err = [line for line in capfd.readouterr().err.splitlines() if "warning" in line]
+    assert err == [
+        "pbrdf view: warning: --dolp-max has no effect on the panels intensity "
+        "(it is used by dolp, hsv)",
+        "pbrdf view: warning: --min-dolp has no effect on the panels intensity "
+        "(it is used by aolp)"]
+    assert main(["view", exr, "--panels", "intensity,dolp", "--dolp-max", "0.5",
+                 "--stokes-scale", "separate", "--out", out]) == 0
+    err = [line for line in capfd.readouterr().err.splitlines() if "warning" in line]
+    assert err == ["pbrdf view: warning: --stokes-scale has no effect on the panels "
+                   "intensity,dolp (it is used by s1, s2, s3)"]
