@@ -39,20 +39,20 @@ def test_the_figure_checker_can_fail(tmp_path, monkeypatch):
     timing are each reported."""
     import doc_figures
 
-    (tmp_path / "docs").mkdir()
+    (tmp_path / "notes").mkdir()
     (tmp_path / "report.md").write_text("| backend | time |\n| drjit | 1.60 s |\n"
                                         "| reference | 3.52 s |\n")
-    (tmp_path / "docs" / "page.md").write_text(
+    (tmp_path / "notes" / "page.md").write_text(
         "drjit 1.60 s<!-- from: report.md | drjit -->, reference 3.52<!-- from: report.md -->,\n"
         "drjit 3.52 s<!-- from: report.md | drjit -->, old 1.7 s<!-- from: report.md -->,\n"
         "took 9 s here, timeout 20 s<!-- fixed -->.\n"
         "```\ncode 5 s\n```\n")
     monkeypatch.setattr(doc_figures, "ROOT", str(tmp_path))
-    results = [check(f) for f in figures("docs/page.md")]
+    results = [check(f) for f in figures("notes/page.md")]
     assert [r is None for r in results] == [True, True, False, False]
     assert "not in the line(s) of report.md with 'drjit'" in results[2]
     assert "1.7 does not occur" in results[3]
-    assert unsourced_measurements("docs/page.md") == ["docs/page.md:3: 9 s"]
+    assert unsourced_measurements("notes/page.md") == ["notes/page.md:3: 9 s"]
 
 
 # ---------------------------------------------------------------- options
