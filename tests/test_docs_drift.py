@@ -204,12 +204,16 @@ def test_every_exr_a_doc_views_is_rendered_first(doc):
 
 def script_options():
     """Options that the repository's validation and benchmark scripts define
-    (their ``add_argument("--x", ...)`` calls)."""
+    (their ``add_argument("--x", ...)`` calls), and those ``install.sh`` takes."""
     import glob
 
     from doc_figures import ROOT
 
     found = set()
+    install = os.path.join(ROOT, "install.sh")
+    if os.path.isfile(install):
+        with open(install, encoding="utf-8") as f:
+            found.update(re.findall(r"^\s*(--[\w-]+)\)", f.read(), flags=re.M))  # case arms
     for path in glob.glob(os.path.join(ROOT, "validation", "*.py")) + glob.glob(
             os.path.join(ROOT, "benchmarks", "*.py")):
         with open(path, encoding="utf-8") as f:
