@@ -72,6 +72,8 @@ height = 16
      ["polcam.full_well must be a finite number > 0"]),
     ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nread_noise = 2\n',
      ["polcam.read_noise", "needs polcam.full_well"]),
+    ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nexposure = 2.0\n',
+     ["polcam.exposure", "needs polcam.full_well or polcam.bits"]),
     ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nbits = 20\n',
      ["polcam.bits must be an integer in [1, 16]"]),
     ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\ngain = 2\n',

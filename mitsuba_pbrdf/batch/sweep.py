@@ -224,6 +224,10 @@ def _polcam_options(path, table, outputs) -> Dict[str, object]:
             options[key] = float(value)
     if options.get("read_noise") and "full_well" not in options:
         _fail(path, "polcam.read_noise (electrons) needs polcam.full_well")
+    if "exposure" in options and "full_well" not in options and "bits" not in options:
+        # without shot noise or an ADC nothing would use the exposure
+        _fail(path, "polcam.exposure (the radiance at full well) needs polcam.full_well "
+                    "or polcam.bits")
     if "bits" in options:
         _int(path, "polcam.bits", options["bits"], 1, 16)
     return options

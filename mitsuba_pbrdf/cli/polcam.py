@@ -24,10 +24,15 @@ def sensor_model(args):
     finite_float("--read-noise", args.read_noise, low=0.0)
     if args.read_noise and args.full_well is None:
         raise CliError("--read-noise (electrons) needs --full-well")
+    if args.exposure is not None and args.full_well is None and args.bits is None:
+        # without shot noise or an ADC nothing would use the exposure
+        raise CliError("--exposure (the radiance at full well) needs --full-well or --bits")
+    if args.seed is not None and args.full_well is None:
+        raise CliError("--seed (of the shot and read noise) needs --full-well")
     if args.bits is not None and not 1 <= args.bits <= 16:
         raise CliError(f"--bits must be in 1..16, got {args.bits}")
     return SensorModel(exposure=args.exposure, full_well=args.full_well,
-                       read_noise=args.read_noise or 0.0, bits=args.bits, seed=args.seed)
+                       read_noise=args.read_noise or 0.0, bits=args.bits, seed=args.seed or 0)
 
 
 def run(args) -> int:
@@ -77,9 +82,11 @@ def add_parser(subparsers):
     p.add_argument("--band", default=None,
                    help="Stokes band the mono sensor sees (default: the luminance combination "
                         "of R, G, B; the only band of a one-band image)")
-    g = p.add_argument_group("sensor model (off unless one of these is given)")
+    g = p.add_argument_group(
+        "sensor model (on with --full-well or --bits; the other options need one of them)")
     g.add_argument("--exposure", type=float, default=None, metavar="RADIANCE",
-                   help="radiance that fills the full well (default: the frame's maximum)")
+                   help="radiance that fills the full well (default: the frame's maximum); needs "
+                        "--full-well or --bits")
     g.add_argument("--full-well", type=float, default=None, metavar="ELECTRONS",
                    help="full-well capacity in electrons; adds photon shot noise")
     g.add_argument("--read-noise", type=float, default=None, metavar="ELECTRONS",
@@ -87,5 +94,6 @@ def add_parser(subparsers):
     g.add_argument("--bits", type=int, default=None, metavar="N",
                    help="ADC bits (1-16): quantize, and also write the counts as a 16-bit PNG "
                         "(values in the low N bits)")
-    g.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
+    g.add_argument("--seed", type=int, default=None,
+                   help="seed of the shot and read noise (default: 0; needs --full-well)")
     p.set_defaults(func=run)

@@ -15,6 +15,7 @@ from typing import Optional
 from .common import (PROG, CliError, check_outputs, chosen_variant, parse_defines,
                      picture_kwargs, picture_options, positive_int, progress_options,
                      report_quality, show_progress, variant_help)
+from .unused_options import warn_unused_picture_options
 
 
 def _out_stem(out: Optional[str], scene_path: str) -> str:
@@ -57,6 +58,7 @@ def run(args) -> int:
     positive_int("--spp", args.spp)
     positive_int("--passes", args.passes)
     picture = picture_kwargs(args)
+    warn_unused_picture_options(args, picture["panels"], "render")
     band = None
     if args.wavelength is not None:
         band = parse_wavelength(args.wavelength)

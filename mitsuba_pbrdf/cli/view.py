@@ -10,6 +10,7 @@ import os
 
 from .common import (CliError, check_outputs, one_line, picture_kwargs, picture_options,
                      report_quality, require_file)
+from .unused_options import warn_unused_picture_options
 
 
 def run(args) -> int:
@@ -28,6 +29,7 @@ def run(args) -> int:
     except (StokesChannelError, ValueError) as e:
         raise CliError(one_line(e)) from e
     picture = picture_kwargs(args, image)
+    warn_unused_picture_options(args, picture["panels"], "view")
     quality = report_quality(image, picture["band"], args.exr, "view")
     if not image.metadata.get("title"):
         image.metadata["title"] = os.path.basename(args.exr)
