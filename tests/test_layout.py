@@ -2,7 +2,8 @@
 evaluator never import each other, the reference needs NumPy alone, importing
 the package needs no variant, the plugin is registered in every variant, the
 old module names still import (with a DeprecationWarning), tests/ and
-validation/ never import each other (both use mitsuba_pbrdf.checks), and
+validation/ never import each other (both use proof/ and mitsuba_pbrdf.diagnostics),
+the package never imports proof/, and
 validation/run_all.py runs every study."""
 
 import ast
@@ -194,7 +195,7 @@ def test_no_project_file_cites_files_outside_the_repository():
     assert not missing, missing
 
 
-# ---------------------------------------------------------------- tests/, validation/, checks/
+# ---------------------------------------------------------------- tests/, validation/, proof/
 
 def import_references(path):
     """(module names a Python file imports, string constants it hands to
@@ -244,20 +245,33 @@ def layout_violations(folder, forbidden):
 
 
 def test_tests_never_import_validation():
-    """tests/ runs mitsuba_pbrdf.checks, never the validation scripts."""
+    """tests/ runs proof/ and mitsuba_pbrdf.diagnostics, never the validation scripts."""
     assert layout_violations("tests", {"validation"}) == []
 
 
 def test_validation_never_imports_tests():
-    """validation/ reads shared data from the package (e.g. checks/bad_input.py)."""
+    """validation/ reads shared scaffolding from proof/ (e.g. proof/bad_input.py)."""
     assert layout_violations("validation", {"tests"}) == []
 
 
-def test_checks_import_neither_tests_nor_validation():
-    assert layout_violations(os.path.join("mitsuba_pbrdf", "checks"),
-                             {"tests", "validation"}) == []
-    for name, modules in imported_modules("checks").items():
-        assert not [m for m in modules if m.split(".")[0] in ("tests", "validation")], name
+def _package_folders():
+    """Every folder of the package that holds Python files, relative to ROOT."""
+    return sorted(os.path.relpath(d, ROOT) for d, _, files in os.walk(PACKAGE)
+                  if "__pycache__" not in d and any(f.endswith(".py") for f in files))
+
+
+def test_the_package_imports_neither_proof_nor_tests_nor_validation():
+    """Nothing shipped imports the non-packaged folders: proof/ (test and study
+    scaffolding, not in the wheel), tests/ or validation/."""
+    folders = _package_folders()
+    assert os.path.join("mitsuba_pbrdf", "diagnostics") in folders
+    found = [v for folder in folders
+             for v in layout_violations(folder, {"proof", "tests", "validation"})]
+    assert found == [], found
+
+
+def test_proof_imports_neither_tests_nor_validation():
+    assert layout_violations("proof", {"tests", "validation"}) == []
 
 
 def test_the_folder_scan_sees_forbidden_imports(tmp_path, monkeypatch):
@@ -268,7 +282,10 @@ def test_the_folder_scan_sees_forbidden_imports(tmp_path, monkeypatch):
                                  "sys.path.insert(0, os.path.join(ROOT, 'tests'))\n"
                                  "import test_bad_input\n")
     (folder / "b.py").write_text("from tests.conftest import make_si\n")
-    (folder / "c.py").write_text("from . import common\nimport mitsuba_pbrdf.checks\n")
+    (folder / "c.py").write_text("from . import common\nimport mitsuba_pbrdf.diagnostics\n")
+    package = tmp_path / "mitsuba_pbrdf" / "imaging"
+    package.mkdir(parents=True)
+    (package / "d.py").write_text("from proof.stress import run\nfrom .proof import x\n")
     (tmp_path / "tests").mkdir()
     (tmp_path / "tests" / "t.py").write_text(
         "import importlib\nstress = importlib.import_module('validation.stress')\n"
@@ -279,6 +296,8 @@ def test_the_folder_scan_sees_forbidden_imports(tmp_path, monkeypatch):
                      "validation/b.py: tests.conftest"], found
     found = layout_violations("tests", {"validation"})
     assert found == ["tests/t.py: validation", "tests/t.py: validation.stress"], found
+    found = layout_violations(os.path.join("mitsuba_pbrdf", "imaging"), {"proof"})
+    assert found == ["mitsuba_pbrdf/imaging/d.py: proof.stress"], found
 
 
 def run_all(*args):

@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import use_variant
-from mitsuba_pbrdf.checks.gradients import functional_gradient, random_functional
+from proof.render_gradients import functional_gradient, random_functional
 from mitsuba_pbrdf.inverse.scenes import sphere_scene
 
 T = mi.ScalarTransform4f
