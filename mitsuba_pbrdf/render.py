@@ -1,12 +1,12 @@
-"""Deprecated: use :mod:`mitsuba_pbrdf.imaging` (rendering),
-:mod:`mitsuba_pbrdf.imaging.passes` (passes) and :mod:`mitsuba_pbrdf.variant`
+"""Deprecated: use :mod:`mitsuba_pbrdf.rendering` (rendering),
+:mod:`mitsuba_pbrdf.rendering.passes` (passes) and :mod:`mitsuba_pbrdf.variant`
 (variants). Kept so that old imports still work."""
 
 import warnings
 
-from .imaging.passes import MAX_AUTO_PASSES, SAMPLES_PER_PASS, pass_seeds, plan_passes
-from .imaging.render import (RenderTimings, SceneLoadError, load_scene, render_scene,
-                             render_scene_timed)
+from .rendering.passes import MAX_AUTO_PASSES, SAMPLES_PER_PASS, pass_seeds, plan_passes
+from .rendering.render import (RenderTimings, SceneLoadError, load_scene, render_scene,
+                               render_scene_timed)
 from .registry import use_variant
 from .variant import (DEFAULT_VARIANT, GPU_VARIANT, UnknownVariantError, cuda_available,
                       default_variant)
@@ -25,5 +25,5 @@ def set_variant(variant: str):
     return mi
 
 
-warnings.warn("mitsuba_pbrdf.render is deprecated; use mitsuba_pbrdf.imaging "
+warnings.warn("mitsuba_pbrdf.render is deprecated; use mitsuba_pbrdf.rendering "
               "(and mitsuba_pbrdf.use_variant)", DeprecationWarning, stacklevel=2)

@@ -12,7 +12,7 @@ import pytest
 
 from mitsuba_pbrdf import variant as variant_module
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging.exr import read_stokes_exr
+from mitsuba_pbrdf.stokes.exr import read_stokes_exr
 
 #: The real GPU probe (the autouse fixture below replaces it).
 CUDA_AVAILABLE = variant_module.cuda_available
@@ -222,7 +222,7 @@ def test_usage_error_exits_2():
 
 
 def test_plan_passes():
-    from mitsuba_pbrdf.imaging.passes import (SAMPLES_PER_GPU_PASS, SAMPLES_PER_PASS,
+    from mitsuba_pbrdf.rendering.passes import (SAMPLES_PER_GPU_PASS, SAMPLES_PER_PASS,
                                               derivative_seed, pass_seeds, plan_passes,
                                               samples_per_pass)
 
@@ -254,8 +254,8 @@ def test_passes_average_the_pass_images_weighted_by_their_samples():
     renders with the pass seeds. analytic_plane.xml has one emitter, so renders
     with the same seed are identical (with several emitters Mitsuba 3.9 may
     list them in another order at each load, changing the sample realization)."""
-    from mitsuba_pbrdf.imaging import render_scene
-    from mitsuba_pbrdf.imaging.passes import pass_seeds
+    from mitsuba_pbrdf.rendering import render_scene
+    from mitsuba_pbrdf.rendering.passes import pass_seeds
 
     scene = os.path.join(ROOT, "scenes", "analytic_plane.xml")
     small = {"width": 16, "height": 12}

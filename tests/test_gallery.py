@@ -19,7 +19,7 @@ from mitsuba_pbrdf.figures.gallery import (
     render_polarizer_images,
     run_gallery,
 )
-from mitsuba_pbrdf.imaging import render_scene
+from mitsuba_pbrdf.rendering import render_scene
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 SCENES = os.path.join(ROOT, "scenes", "gallery")

@@ -283,7 +283,7 @@ def test_the_folder_scan_sees_forbidden_imports(tmp_path, monkeypatch):
                                  "import test_bad_input\n")
     (folder / "b.py").write_text("from tests.conftest import make_si\n")
     (folder / "c.py").write_text("from . import common\nimport mitsuba_pbrdf.diagnostics\n")
-    package = tmp_path / "mitsuba_pbrdf" / "imaging"
+    package = tmp_path / "mitsuba_pbrdf" / "rendering"
     package.mkdir(parents=True)
     (package / "d.py").write_text("from proof.stress import run\nfrom .proof import x\n")
     (tmp_path / "tests").mkdir()
@@ -296,8 +296,8 @@ def test_the_folder_scan_sees_forbidden_imports(tmp_path, monkeypatch):
                      "validation/b.py: tests.conftest"], found
     found = layout_violations("tests", {"validation"})
     assert found == ["tests/t.py: validation", "tests/t.py: validation.stress"], found
-    found = layout_violations(os.path.join("mitsuba_pbrdf", "imaging"), {"proof"})
-    assert found == ["mitsuba_pbrdf/imaging/d.py: proof.stress"], found
+    found = layout_violations(os.path.join("mitsuba_pbrdf", "rendering"), {"proof"})
+    assert found == ["mitsuba_pbrdf/rendering/d.py: proof.stress"], found
 
 
 def run_all(*args):

@@ -1,5 +1,5 @@
 """Narrow-band Stokes renders (``pbrdf render --wavelength NM[:WIDTH]``,
-mitsuba_pbrdf.imaging.narrowband) against the float64 reference evaluator on
+mitsuba_pbrdf.rendering.narrowband) against the float64 reference evaluator on
 scenes/analytic_plane.xml, with a complex index that changes with wavelength
 (so that a render at the wrong wavelength, or with the wrong normalization,
 fails)."""
@@ -12,9 +12,10 @@ import pytest
 
 from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging import read_stokes_exr, render_scene
-from mitsuba_pbrdf.imaging.exr import read_exr_channels
-from mitsuba_pbrdf.imaging.narrowband import (band_response, parse_wavelength, rgb_response,
+from mitsuba_pbrdf.rendering import render_scene
+from mitsuba_pbrdf.stokes import read_stokes_exr
+from mitsuba_pbrdf.stokes.exr import read_exr_channels
+from mitsuba_pbrdf.rendering.narrowband import (band_response, parse_wavelength, rgb_response,
                                               scene_with_band)
 from test_analytic_scene import LIGHT_DIR, SCENE, expected_stokes
 

@@ -79,7 +79,7 @@ def installed(wheel):
 def test_wheel_carries_the_scenes(installed):
     bin_dir, work = installed
     out = run([str(bin_dir / "python"), "-c",
-               "import mitsuba_pbrdf, os; from mitsuba_pbrdf.imaging.scene_files import "
+               "import mitsuba_pbrdf, os; from mitsuba_pbrdf.rendering.scene_files import "
                "scenes_dir, packaged_scenes; print(mitsuba_pbrdf.__file__); "
                "print(scenes_dir()); print(' '.join(packaged_scenes())); "
                "print(os.path.isfile(scenes_dir() / 'gallery' / 'studio.exr'))"], cwd=work)

@@ -139,7 +139,7 @@ def test_primal_equals_stokes_path(case):
 
 def test_channels_are_those_of_stokes():
     use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.imaging.stokes import channel_names
+    from mitsuba_pbrdf.stokes.image import channel_names
     names = []
     for integrator in ("path", "stokes_prb"):
         scene = mi.load_dict(scene_dict(integrator, max_depth=1))
@@ -226,7 +226,7 @@ def test_loss_and_gradient_uses_replay_by_default():
     for k in PBRDF_KEYS[:3]:
         dr.enable_grad(params[k])
     params.update()
-    from mitsuba_pbrdf.imaging.passes import derivative_seed
+    from mitsuba_pbrdf.rendering.passes import derivative_seed
     image = mi.render(path, params, integrator=replay, spp=SPP, seed=2,
                       seed_grad=derivative_seed(2))
     dr.backward(loss(image))

@@ -1,4 +1,4 @@
-"""Pictures of Stokes images (mitsuba_pbrdf.imaging.panels) and pBRDF plots
+"""Pictures of Stokes images (mitsuba_pbrdf.pictures.panels) and pBRDF plots
 (mitsuba_pbrdf.figures.pbrdf_plots): the figures are built, saved and opened again, and the
 numbers behind them are checked against the reference evaluator."""
 
@@ -18,11 +18,11 @@ from mitsuba_pbrdf.figures.pbrdf_plots import (
     pbrdf_figure,
     save_pbrdf_plot,
 )
-from mitsuba_pbrdf.imaging.stokes import StokesImage
+from mitsuba_pbrdf.stokes.image import StokesImage
 from matplotlib.figure import Figure
 
-from mitsuba_pbrdf.imaging.colours import nice_ceiling
-from mitsuba_pbrdf.imaging.panels import (
+from mitsuba_pbrdf.pictures.colours import nice_ceiling
+from mitsuba_pbrdf.pictures.panels import (
     PANEL_PRESETS,
     draw_aolp,
     draw_docp,
@@ -134,7 +134,7 @@ def test_aolp_colours_are_polanalysers_hue_wheel():
     """The AoLP panel's colours are those of polanalyser's applyColorToAoLP
     (hue = AoLP / 180 deg, full saturation and value) up to its 8-bit
     rounding, no angle is dark, and grey marks DoLP below the threshold."""
-    from mitsuba_pbrdf.imaging.colours import MASKED_GREY, aolp_rgb
+    from mitsuba_pbrdf.pictures.colours import MASKED_GREY, aolp_rgb
 
     angles = np.linspace(-90.0, 90.0, 181)
     rgb = aolp_rgb(angles)

@@ -83,13 +83,13 @@ def _valid_exr(path: str, stokes: bool) -> bool:
         return False
     try:
         if stokes:
-            from ..imaging.exr import read_stokes_exr
+            from ..stokes.exr import read_stokes_exr
 
             read_stokes_exr(path)
         else:
             import OpenEXR
 
-            from ..imaging.exr import _library_output
+            from ..stokes.exr import _library_output
 
             with _library_output() as noise, OpenEXR.File(path, separate_channels=True) as f:
                 for channel in f.channels().values():

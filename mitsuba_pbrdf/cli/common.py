@@ -102,7 +102,7 @@ def parse_defines(items) -> dict:
 
 def parse_panels(text: str):
     """``--panels`` as panel names, or a :class:`CliError` naming unknown ones."""
-    from ..imaging.panels import parse_panels as parse
+    from ..pictures.panels import parse_panels as parse
 
     try:
         return parse(text)
@@ -139,7 +139,7 @@ def show_progress(args):
     """The ``progress`` argument of the rendering functions: ``"bar"`` with
     ``--progress``, ``"off"`` with ``--no-progress``, else ``"auto"`` (a bar
     when stderr is a terminal, a line every few seconds of long work otherwise;
-    :mod:`mitsuba_pbrdf.imaging.progress`)."""
+    :mod:`mitsuba_pbrdf.rendering.progress`)."""
     if args.progress is None:
         return "auto"
     return "bar" if args.progress else "off"
@@ -219,7 +219,7 @@ def picture_options(parser, panels_default: str):
 
 
 def picture_kwargs(args, image=None) -> dict:
-    """Checked keyword arguments of :func:`~mitsuba_pbrdf.imaging.panels.save_overview_png`
+    """Checked keyword arguments of :func:`~mitsuba_pbrdf.pictures.panels.save_overview_png`
     from the picture options (and *image*'s bands, for ``--band``)."""
     panels = parse_panels(args.panels)
     finite_float("--min-dolp", args.min_dolp, 0.0, 1.0)
@@ -237,7 +237,7 @@ def picture_kwargs(args, image=None) -> dict:
 def report_quality(image, band, source: str, command: str):
     """Warn (one line on stderr) about unusable pixels of *image*; a
     :class:`CliError` when none is usable. Returns the assessment."""
-    from ..imaging.quality import assess
+    from ..stokes.quality import assess
 
     quality = assess(image, band)
     if quality.usable == 0:

@@ -29,7 +29,7 @@ def _out_stem(out: Optional[str], scene_path: str) -> str:
 
 def _scene(path: str) -> str:
     """The scene file, or the packaged scene of that name (with a notice)."""
-    from ..imaging.scene_files import find_scene
+    from ..rendering.scene_files import find_scene
 
     if os.path.isfile(path):
         return path
@@ -45,12 +45,12 @@ def _wrote(path: str, existed: bool, detail: str = "") -> str:
 
 def run(args) -> int:
     """``pbrdf render``."""
-    from ..imaging.exr import write_stokes_exr
-    from ..imaging.narrowband import parse_wavelength
-    from ..imaging.panels import save_overview_png
-    from ..imaging.render import SceneLoadError, render_scene_timed, require_polarized
-    from ..imaging.scene_params import check_parameter_values
-    from ..imaging.stokes import StokesChannelError
+    from ..stokes.exr import write_stokes_exr
+    from ..rendering.narrowband import parse_wavelength
+    from ..pictures.panels import save_overview_png
+    from ..rendering.render import SceneLoadError, render_scene_timed, require_polarized
+    from ..rendering.scene_params import check_parameter_values
+    from ..stokes.image import StokesChannelError
 
     scene = _scene(args.scene)
     params = parse_defines(args.define)

@@ -53,13 +53,13 @@ __all__ = [
 
 
 def _deprecated_split_spp(spp, passes):
-    from ..imaging.passes import plan_passes
+    from ..rendering.passes import plan_passes
 
     return plan_passes(spp, passes)
 
 
 def _deprecated_pass_seeds(seed, passes):
-    from ..imaging.passes import derivative_seed, pass_seeds
+    from ..rendering.passes import derivative_seed, pass_seeds
 
     return [(s, derivative_seed(s)) for s in pass_seeds(seed, passes)]
 
@@ -74,8 +74,8 @@ def _mueller_brdf():
 _DEPRECATED = {
     "FitResult": ("mitsuba_pbrdf.inverse.OptimizationResult", lambda: OptimizationResult),
     "mueller_brdf": ("mitsuba_pbrdf.frames.mueller_brdf", _mueller_brdf),
-    "split_spp": ("mitsuba_pbrdf.imaging.passes.plan_passes", lambda: _deprecated_split_spp),
-    "pass_seeds": ("mitsuba_pbrdf.imaging.passes.pass_seeds and derivative_seed",
+    "split_spp": ("mitsuba_pbrdf.rendering.passes.plan_passes", lambda: _deprecated_split_spp),
+    "pass_seeds": ("mitsuba_pbrdf.rendering.passes.pass_seeds and derivative_seed",
                    lambda: _deprecated_pass_seeds),
 }
 

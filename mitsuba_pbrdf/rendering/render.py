@@ -2,21 +2,21 @@
 
 ::
 
-    from mitsuba_pbrdf.imaging import render_scene
+    from mitsuba_pbrdf.rendering import render_scene
     image = render_scene("scenes/default.xml", spp=16, params={"width": 160})
     print(image.metadata["time_render_s"])
 
-Long renders run in *passes* (:mod:`mitsuba_pbrdf.imaging.passes`) of
+Long renders run in *passes* (:mod:`mitsuba_pbrdf.rendering.passes`) of
 about a second each: the samples per pixel are split into passes with
 different seeds, and the pass images are averaged with weights proportional
 to their sample counts. Between passes a progress bar advances
-(:mod:`mitsuba_pbrdf.imaging.progress`) and Ctrl-C can stop the render
+(:mod:`mitsuba_pbrdf.rendering.progress`) and Ctrl-C can stop the render
 (``KeyboardInterrupt``; Dr.Jit returns to Python only between kernels).
 
 Before anything renders, the variant must be polarized
 (:func:`require_polarized`), the ``params`` must suit what the scene does with
 them, and the loaded film and sampler must be usable
-(:mod:`mitsuba_pbrdf.imaging.scene_params`); each failure is a one-line
+(:mod:`mitsuba_pbrdf.rendering.scene_params`); each failure is a one-line
 ``ValueError``.
 
 The default variant is ``cuda_ad_spectral_polarized`` when a CUDA GPU is
@@ -47,7 +47,7 @@ from .narrowband import (WavelengthBand, band_image, band_response, load_band_sc
 from .passes import pass_seeds, plan_passes, samples_per_pass
 from .progress import progress_reporter
 from .scene_params import check_loaded_scene, check_parameter_values
-from .stokes import StokesImage, from_mitsuba
+from ..stokes.image import StokesImage, from_mitsuba
 
 __all__ = [
     "RenderTimings",
@@ -208,12 +208,12 @@ def render_scene_timed(
     progress
         Progress over the passes' samples on stderr: False (default), True or
         ``"bar"`` (a ``tqdm`` bar), ``"lines"`` (lines for logs) or ``"auto"``
-        (:func:`~mitsuba_pbrdf.imaging.progress.progress_reporter`).
+        (:func:`~mitsuba_pbrdf.rendering.progress.progress_reporter`).
     wavelength
         None (R, G, B Stokes bands), or a narrow band: ``"632.8"``, ``"550:10"``
         (centre and width in nm) or a :class:`~.narrowband.WavelengthBand`; the
         image then has one Stokes band at that wavelength
-        (:mod:`mitsuba_pbrdf.imaging.narrowband`; spectral variants only).
+        (:mod:`mitsuba_pbrdf.rendering.narrowband`; spectral variants only).
 
     The returned image's ``metadata`` holds the scene, variant, spp, passes,
     seed, parameters and timings (keys ``time_<stage>_s``). Returns

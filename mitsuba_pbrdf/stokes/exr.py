@@ -6,7 +6,7 @@ sorts them alphabetically), and the band order survives that sorting. The
 one exception is an image Mitsuba wrote from a bare tensor
 (``mi.util.write_bitmap(path, mi.render(scene))``), whose channels lose their
 names (``ch00, ch01, ...``); those are read with the ``stokes`` integrator's
-layout and a warning. Stokes conventions: :mod:`mitsuba_pbrdf.imaging.stokes`.
+layout and a warning. Stokes conventions: :mod:`mitsuba_pbrdf.stokes.image`.
 
 ::
 
@@ -26,7 +26,7 @@ import warnings
 import numpy as np
 
 from ..outputs import atomic_path
-from .stokes import StokesImage, _from_channels, as_stokes_image
+from .image import StokesImage, _from_channels, as_stokes_image
 
 __all__ = ["write_stokes_exr", "read_stokes_exr", "write_exr", "read_exr_channels"]
 

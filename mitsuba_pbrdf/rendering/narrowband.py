@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .stokes import StokesImage
+from ..stokes.image import StokesImage
 
 __all__ = ["WavelengthBand", "parse_wavelength", "band_response", "BandResponse",
            "scene_with_band", "band_image", "LINE_WIDTH"]
@@ -170,7 +170,7 @@ def scene_with_band(scene_path, response: BandResponse) -> str:
 def load_band_scene(scene_path, params, response: BandResponse):
     """``mi.load_string`` of :func:`scene_with_band`, resolving the scene's
     relative paths (includes, textures) from its folder, as ``mi.load_file``
-    does. Raises what :func:`~mitsuba_pbrdf.imaging.render.load_scene` raises."""
+    does. Raises what :func:`~mitsuba_pbrdf.rendering.render.load_scene` raises."""
     import mitsuba as mi
 
     from .render import SceneLoadError, _condense, _interrupted
