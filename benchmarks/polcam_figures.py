@@ -26,7 +26,7 @@ sys.path.insert(0, str(ROOT))
 
 from mitsuba_pbrdf.figures.gallery import _Settings, render_polarizer_images  # noqa: E402
 from mitsuba_pbrdf.camera.polcam import (ANGLES, SensorModel, colour_mosaic,  # noqa: E402
-                                          mono_mosaic, polarizer_images, polcam_outputs)
+                                         mono_mosaic, polarizer_images, polcam_outputs)
 from mitsuba_pbrdf.stokes.image import StokesImage, aolp, dolp  # noqa: E402
 
 

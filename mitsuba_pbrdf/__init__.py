@@ -28,7 +28,9 @@ Sub-packages, one concern each:
 * :mod:`~mitsuba_pbrdf.inverse`: gradients of rendered Stokes images, Adam fits;
 * :mod:`~mitsuba_pbrdf.integrators`: Mitsuba integrators the package registers;
 * :mod:`~mitsuba_pbrdf.batch`: many renders (sweeps, datasets);
-* :mod:`~mitsuba_pbrdf.diagnostics`: physical checks of any polarized BSDF (realizability, reciprocity, albedo);
+* :mod:`~mitsuba_pbrdf.diagnostics`: physical checks of any polarized BSDF (realizability,
+  reciprocity, albedo);
+* :mod:`~mitsuba_pbrdf.errors`: errors in the library's terms, one-line descriptions;
 * :mod:`~mitsuba_pbrdf.cli`: the ``pbrdf`` command line;
 * :mod:`~mitsuba_pbrdf.options`: the model's option lists and defaults;
 * :mod:`~mitsuba_pbrdf.variant`, :mod:`~mitsuba_pbrdf.registry`: Mitsuba variants, and

@@ -13,7 +13,7 @@ from PIL import Image
 from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.stokes.exr import read_exr_channels, write_stokes_exr
 from mitsuba_pbrdf.camera.polcam import (ANGLES, SensorModel, colour_layout, colour_mosaic,
-                                          malus, mono_layout, mono_mosaic, polarizer_images)
+                                         malus, mono_layout, mono_mosaic, polarizer_images)
 from mitsuba_pbrdf.stokes.image import StokesImage, aolp, dolp
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))

@@ -6,17 +6,17 @@ import OpenEXR
 import pytest
 
 from mitsuba_pbrdf.stokes.image import (
-    StokesChannelError,
-    StokesImage,
-    as_stokes_image,
-    aolp,
-    docp,
-    dolp,
-    dop,
-    from_mitsuba,
-    intensity,
-    luminance_stokes,
-)
+                                        StokesChannelError,
+                                        StokesImage,
+                                        as_stokes_image,
+                                        aolp,
+                                        docp,
+                                        dolp,
+                                        dop,
+                                        from_mitsuba,
+                                        intensity,
+                                        luminance_stokes,
+                                        )
 from mitsuba_pbrdf.stokes.exr import read_stokes_exr, write_stokes_exr
 
 #: The channel order of Mitsuba's `stokes` integrator output (RGB/spectral variants).

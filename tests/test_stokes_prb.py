@@ -260,12 +260,12 @@ def test_unpolarized_variant_says_which_to_use(restore_variant):
 
 
 def test_svbrdf_example_runs_and_moves_the_maps():
-    """examples/svbrdf_recovery.py at toy size (the study is
-    validation/svbrdf_recovery.py): two Adam steps on the 2 x 64 texels keep
+    """mitsuba_pbrdf.inverse.svbrdf.recover (examples/svbrdf_recovery.py) at toy size
+    (the study is validation/svbrdf_recovery.py): two Adam steps on the 2 x 64 texels keep
     them inside their bounds, change the texels the cameras see, and leave
     the others."""
     use_variant("llvm_ad_spectral_polarized")
-    from examples.svbrdf_recovery import BOUNDS, START, recover
+    from mitsuba_pbrdf.inverse.svbrdf import BOUNDS, START, recover
     result = recover(iterations=2, size=12, spp=2, target_spp=4, log=None)
     assert len(result["loss"]) == 2 and np.all(np.isfinite(result["loss"]))
     for name, recovered in result["recovered"].items():

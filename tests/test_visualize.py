@@ -11,29 +11,29 @@ from PIL import Image
 
 from mitsuba_pbrdf import reference
 from mitsuba_pbrdf.figures.pbrdf_plots import (
-    PBRDFParams,
-    dop_unpolarized,
-    hemisphere,
-    in_plane,
-    pbrdf_figure,
-    save_pbrdf_plot,
-)
+                                               PBRDFParams,
+                                               dop_unpolarized,
+                                               hemisphere,
+                                               in_plane,
+                                               pbrdf_figure,
+                                               save_pbrdf_plot,
+                                               )
 from mitsuba_pbrdf.stokes.image import StokesImage
 from matplotlib.figure import Figure
 
 from mitsuba_pbrdf.pictures.colours import nice_ceiling
 from mitsuba_pbrdf.pictures.panels import (
-    PANEL_PRESETS,
-    draw_aolp,
-    draw_docp,
-    draw_dolp,
-    overview_figure,
-    parse_panels,
-    polarization_hsv,
-    save_overview_png,
-    save_png,
-    tonemap,
-)
+                                           PANEL_PRESETS,
+                                           draw_aolp,
+                                           draw_docp,
+                                           draw_dolp,
+                                           overview_figure,
+                                           parse_panels,
+                                           polarization_hsv,
+                                           save_overview_png,
+                                           save_png,
+                                           tonemap,
+                                           )
 
 
 def synthetic_image(h=24, w=32):

@@ -90,7 +90,7 @@ def set_drjit_threads(count: Optional[int]):
 
 
 def _one_line(error: BaseException) -> str:
-    from ..cli.common import describe_error
+    from ..errors import describe_error
 
     text = describe_error(error)
     known = (ValueError, RuntimeError, OSError, MemoryError)

@@ -84,7 +84,7 @@ def _lost_worker_error(error: BaseException) -> str:
     if isinstance(error, KilledWorker):
         return ("the worker running it died each time it was tried (killed, crashed or out "
                 "of memory; Dask's distributed.scheduler.allowed-failures)")
-    from ..cli.common import describe_error
+    from ..errors import describe_error
 
     return f"{type(error).__name__}: {describe_error(error)}"
 

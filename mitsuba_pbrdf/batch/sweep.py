@@ -247,7 +247,7 @@ def load_sweep(path) -> Sweep:
     """Read and check the sweep file *path* (see the module docstring); raises
     :class:`SweepError`, or ``FileNotFoundError`` for a missing file."""
     from ..rendering.scene_params import (SceneParameterError, check_parameter_values,
-                                        declared_parameters)
+                                          declared_parameters)
     from ..outputs import check_writable
 
     path = os.path.abspath(os.fspath(path))

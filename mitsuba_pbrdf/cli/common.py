@@ -6,7 +6,10 @@ Every command, present and future, reports through :func:`run_command`:
 
 * :class:`CliError`, ``OSError`` (``cannot write PATH: REASON``), ``ValueError``
   (bad values, unusable files), ``RuntimeError`` and ``MemoryError`` (Mitsuba,
-  Dr.Jit): ``pbrdf COMMAND: error: MESSAGE`` on one line, exit status 2;
+  Dr.Jit): ``pbrdf COMMAND: error: MESSAGE`` on one line, exit status 2; the
+  library's errors name its parameters (:class:`mitsuba_pbrdf.errors.ParameterError`),
+  and where the command has that parameter as an option the message names the
+  option instead (``--wavelength: ...``);
 * ``KeyboardInterrupt`` (Ctrl-C, SIGINT): ``pbrdf COMMAND: interrupted``, exit
   status 130 (128 + SIGINT, as shells report it). Outputs are written
   atomically (:mod:`mitsuba_pbrdf.outputs`), so nothing partial is left;
@@ -22,6 +25,8 @@ import os
 import sys
 from typing import Optional
 
+from ..errors import ParameterError, describe_error, one_line
+
 PROG = "pbrdf"
 EXIT_ERROR = 2
 EXIT_INTERNAL = 1
@@ -35,23 +40,13 @@ class CliError(Exception):
     """An error reported to the user as one line, exit status 2."""
 
 
-def one_line(message) -> str:
-    """A message (an exception's, possibly over several lines) on one line."""
-    return " ".join(str(message).split())
-
-
-def describe_error(error: BaseException) -> str:
-    """The one-line message of an error: ``cannot write PATH: REASON`` for an
-    output (:class:`mitsuba_pbrdf.outputs.OutputError`), ``PATH: REASON`` for
-    other ``OSError`` s naming a file, else the message."""
-    from ..outputs import OutputError
-
-    if isinstance(error, OSError) and error.filename is not None:
-        reason = error.strerror or one_line(error)
-        if isinstance(error, OutputError):
-            return f"cannot write {error.filename}: {reason}"
-        return f"{error.filename}: {reason}"
-    return one_line(error) or type(error).__name__
+def option_message(error: BaseException, args) -> str:
+    """The one-line message of *error* in the command line's terms: a
+    :class:`~mitsuba_pbrdf.errors.ParameterError` of a parameter that the
+    command has as an option (``wavelength`` -> ``--wavelength``) names the option."""
+    if isinstance(error, ParameterError) and hasattr(args, error.parameter):
+        return f"--{error.parameter.replace('_', '-')}: {one_line(error.detail)}"
+    return describe_error(error)
 
 
 def run_command(func, args, command: str) -> int:
@@ -67,7 +62,7 @@ def run_command(func, args, command: str) -> int:
         print(f"{prefix}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (CliError, OSError, ValueError, RuntimeError, MemoryError) as e:
-        print(f"{prefix}: error: {describe_error(e)}", file=sys.stderr)
+        print(f"{prefix}: error: {option_message(e, args)}", file=sys.stderr)
         return EXIT_ERROR
     except Exception as e:  # a bug: still one line, and how to see more
         print(f"{prefix}: internal error: {type(e).__name__}: {describe_error(e)} "

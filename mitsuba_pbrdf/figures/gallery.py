@@ -38,7 +38,7 @@ import numpy as np
 
 from ..stokes.exr import write_stokes_exr
 from ..pictures.panels import (DRAWERS, auto_exposure, linear_rgb, overview_figure, plot_aolp,
-                              plot_dolp, plot_intensity, save_png, tonemap)
+                               plot_dolp, plot_intensity, save_png, tonemap)
 from ..rendering.render import render_scene
 from ..stokes.image import StokesImage
 from ..reference.params import PBRDFParams

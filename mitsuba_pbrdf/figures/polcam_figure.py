@@ -11,7 +11,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from ..camera.polcam import (ANGLES, colour_layout, colour_mosaic, mono_layout, mono_mosaic,
-                              polarizer_images)
+                             polarizer_images)
 from ..stokes.image import StokesImage
 from ..pictures.tonemap import auto_exposure, linear_rgb, tonemap
 
