@@ -28,9 +28,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from mitsuba_pbrdf.figures.gallery import _Settings, render_polarizer_images  # noqa: E402
-from mitsuba_pbrdf.imaging.polcam import (ANGLES, SensorModel, colour_mosaic,  # noqa: E402
-                                          mono_mosaic, polarizer_images, polcam_outputs)
-from mitsuba_pbrdf.imaging.stokes import StokesImage, aolp, dolp  # noqa: E402
+from mitsuba_pbrdf.camera.polcam import (ANGLES, SensorModel, colour_mosaic,  # noqa: E402
+                                         mono_mosaic, polarizer_images, polcam_outputs)
+from mitsuba_pbrdf.stokes.image import StokesImage, aolp, dolp  # noqa: E402
 
 
 def round_trip(image: StokesImage):
@@ -83,8 +83,8 @@ def narrowband():
     import test_narrowband as t
 
     from mitsuba_pbrdf import use_variant
-    from mitsuba_pbrdf.imaging import render_scene
-    from mitsuba_pbrdf.imaging.narrowband import parse_wavelength
+    from mitsuba_pbrdf.rendering import render_scene
+    from mitsuba_pbrdf.rendering.narrowband import parse_wavelength
 
     use_variant(t.VARIANT)
 

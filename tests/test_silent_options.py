@@ -6,8 +6,8 @@ tests/test_cli_hostile.py and tests/test_batch.py)."""
 import numpy as np
 
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging.exr import read_exr_channels, write_stokes_exr
-from mitsuba_pbrdf.imaging.stokes import StokesImage
+from mitsuba_pbrdf.stokes.exr import read_exr_channels, write_stokes_exr
+from mitsuba_pbrdf.stokes.image import StokesImage
 
 
 def ramp_exr(path):

@@ -27,7 +27,7 @@ def run(args) -> int:
                    if args.exr_dir and renders else None))
     variant = chosen_variant(args) if renders else None
     if variant is not None:
-        from ..imaging.render import require_polarized
+        from ..rendering.render import require_polarized
 
         require_polarized(variant)
     run_gallery(out=args.out, scenes_dir=args.scenes, exr_dir=args.exr_dir or None,

@@ -6,7 +6,7 @@ sensor frame ``DIR/<stem>_mosaic.exr`` (monochrome sensor) or
 ``_mosaic_rgb.exr`` (colour sensor), one channel ``Y``; with ``--bits`` also
 the ADC counts as a 16-bit PNG. Everything is checked and computed before the
 first file is written, and each file is written atomically
-(:mod:`mitsuba_pbrdf.imaging.polcam`, ``docs/polarization-camera.md``)."""
+(:mod:`mitsuba_pbrdf.camera.polcam`, ``docs/polarization-camera.md``)."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from .common import CliError, check_outputs, finite_float, one_line, require_fil
 
 
 def sensor_model(args):
-    """The :class:`~mitsuba_pbrdf.imaging.polcam.SensorModel` of the options (checked)."""
-    from ..imaging.polcam import SensorModel
+    """The :class:`~mitsuba_pbrdf.camera.polcam.SensorModel` of the options (checked)."""
+    from ..camera.polcam import SensorModel
 
     finite_float("--exposure", args.exposure, low=0.0, low_open=True)
     finite_float("--full-well", args.full_well, low=0.0, low_open=True)
@@ -37,9 +37,9 @@ def sensor_model(args):
 
 def run(args) -> int:
     """``pbrdf polcam``."""
-    from ..imaging.exr import read_stokes_exr
-    from ..imaging.polcam import polcam_file_names, polcam_outputs, write_polcam_files
-    from ..imaging.stokes import StokesChannelError
+    from ..stokes.exr import read_stokes_exr
+    from ..camera.polcam import polcam_file_names, polcam_outputs, write_polcam_files
+    from ..stokes.image import StokesChannelError
 
     require_file(args.exr, "EXR file")
     model = sensor_model(args)

@@ -26,7 +26,7 @@ STOKES_PANELS = ("s1", "s2", "s3")
 def unused_picture_options(args, panels) -> List[str]:
     """The warnings (one line each, without the program prefix) for the
     picture options given a non-default value that none of *panels* uses."""
-    from ..imaging.panels import PANELS
+    from ..pictures.panels import PANELS
 
     users_of = {}
     for name, function in PANELS.items():

@@ -32,7 +32,7 @@ def cases():
     """[(extra parameters, error raised by the plugin or None for Mitsuba's
     parser, text the last line of the message must contain)], for the active
     variant."""
-    from ..variant import require_variant
+    from mitsuba_pbrdf.variant import require_variant
 
     mi = require_variant()
     return [

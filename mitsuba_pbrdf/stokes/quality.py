@@ -3,12 +3,12 @@ and polarization above 1.
 
 A physical Stokes vector has S0 >= 0 and a degree of polarization
 sqrt(S1² + S2² + S3²) / S0 <= 1. :func:`assess` counts the pixels that break
-this, so that pictures mark them (:mod:`mitsuba_pbrdf.imaging.panels`) and
+this, so that pictures mark them (:mod:`mitsuba_pbrdf.pictures.panels`) and
 commands warn about them, or refuse an image with no usable pixel.
 
 Which Stokes vector is checked, and how strictly:
 
-* the luminance vector (:func:`~mitsuba_pbrdf.imaging.stokes.luminance_stokes`,
+* the luminance vector (:func:`~mitsuba_pbrdf.stokes.image.luminance_stokes`,
   what the pictures draw by default): strictly. It is a combination of the
   spectral Stokes vectors with positive weights (the CIE ȳ curve), each
   physical, so only float32 rounding can push it out: the tolerance
@@ -37,7 +37,7 @@ from typing import Optional
 
 import numpy as np
 
-from .stokes import StokesImage, luminance_stokes
+from .image import StokesImage, luminance_stokes
 
 __all__ = ["LUMINANCE_TOLERANCE", "BAND_TOLERANCE", "StokesQuality", "assess"]
 

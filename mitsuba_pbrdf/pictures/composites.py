@@ -1,6 +1,6 @@
 """Pixel arrays computed from a Stokes image for pictures (no matplotlib axes):
 the HSV polarization composite and the ratios S1/S0, S2/S0, S3/S0 with their
-shared symmetric scale. The panels of :mod:`mitsuba_pbrdf.imaging.panels`
+shared symmetric scale. The panels of :mod:`mitsuba_pbrdf.pictures.panels`
 draw them; AoLP angles are in the Stokes frame of the image (0 = image right,
 positive counter-clockwise)."""
 
@@ -11,8 +11,8 @@ from typing import Optional, Union
 import numpy as np
 
 from .colours import auto_limit, resolve_limit
-from .quality import StokesQuality, assess
-from .stokes import StokesImage, aolp, dolp
+from ..stokes.quality import StokesQuality, assess
+from ..stokes.image import StokesImage, aolp, dolp
 from .tonemap import _LUMA, linear_rgb, pixel_stokes, tonemap
 
 __all__ = ["polarization_hsv", "stokes_ratios", "stokes_limit"]
@@ -26,8 +26,8 @@ def polarization_hsv(
     band: Optional[str] = None,
 ) -> np.ndarray:
     """The usual polarization composite as RGB in [0, 1], shape (H, W, 3):
-    hue = AoLP (a full turn of hue for 180°, as :func:`~mitsuba_pbrdf.imaging.panels.draw_aolp`), saturation
-    = DoLP / *dolp_max* (``"auto"``: see :func:`~mitsuba_pbrdf.imaging.panels.draw_dolp`), value =
+    hue = AoLP (a full turn of hue for 180°, as :func:`~mitsuba_pbrdf.pictures.panels.draw_aolp`), saturation
+    = DoLP / *dolp_max* (``"auto"``: see :func:`~mitsuba_pbrdf.pictures.panels.draw_dolp`), value =
     tone-mapped intensity (luminance)."""
     from matplotlib.colors import hsv_to_rgb
 

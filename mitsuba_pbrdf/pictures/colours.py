@@ -13,7 +13,7 @@ Conventions, as the ``polanalyser`` package and polarization cameras draw them:
   ``polanalyser.plotMueller`` defaults to the reverse, red negative), with one
   symmetric scale shared by the three by default, so they compare by eye.
 
-Unusable pixels (:mod:`mitsuba_pbrdf.imaging.quality`) are painted in a colour
+Unusable pixels (:mod:`mitsuba_pbrdf.stokes.quality`) are painted in a colour
 that the panel's map never produces (:data:`MARKERS`), named in its legend.
 """
 

@@ -42,7 +42,7 @@ import time
 
 import numpy as np
 
-from .. import reference
+from mitsuba_pbrdf import reference
 
 BAND = (628.0, 638.0)                        # nm, the light's spectrum (plus 1 nm ramps)
 BAND_NODES = np.linspace(BAND[0], BAND[1], 6)   # the reference's wavelengths in the band

@@ -6,7 +6,7 @@ sorts them alphabetically), and the band order survives that sorting. The
 one exception is an image Mitsuba wrote from a bare tensor
 (``mi.util.write_bitmap(path, mi.render(scene))``), whose channels lose their
 names (``ch00, ch01, ...``); those are read with the ``stokes`` integrator's
-layout and a warning. Stokes conventions: :mod:`mitsuba_pbrdf.imaging.stokes`.
+layout and a warning. Stokes conventions: :mod:`mitsuba_pbrdf.stokes.image`.
 
 ::
 
@@ -26,7 +26,7 @@ import warnings
 import numpy as np
 
 from ..outputs import atomic_path
-from .stokes import StokesImage, _from_channels, as_stokes_image
+from .image import StokesImage, _from_channels, as_stokes_image
 
 __all__ = ["write_stokes_exr", "read_stokes_exr", "write_exr", "read_exr_channels"]
 
@@ -103,19 +103,21 @@ def write_exr(path, channels, metadata=None, compression: str = "zip", attribute
     return path
 
 
+class _Captured:
+    """What :func:`_library_output` captured (bytes), and its text."""
+
+    data = b""
+
+    def text(self):
+        return self.data.decode("utf-8", "replace")
+
+
 @contextlib.contextmanager
 def _library_output():
     """Capture what C libraries (OpenEXR) print on the standard output and
     error streams (file descriptors 1 and 2) while the block runs; the text is
     in ``.text()`` afterwards, and never reaches the terminal."""
-
-    class Captured:
-        data = b""
-
-        def text(self):
-            return self.data.decode("utf-8", "replace")
-
-    captured = Captured()
+    captured = _Captured()
     for stream in (os.sys.stdout, os.sys.stderr):
         with contextlib.suppress(Exception):
             stream.flush()
@@ -149,26 +151,8 @@ def read_stokes_exr(path) -> StokesImage:
     of the terminal and quoted in the message) and :class:`StokesChannelError`
     for an EXR without Stokes channels.
     """
-    import OpenEXR
-
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"{path}: no such file")
-    error = None
-    with _library_output() as noise:  # OpenEXR prints warnings of its own
-        try:
-            with OpenEXR.File(path, separate_channels=True) as f:
-                header = dict(f.header())
-                channels = {name: ch.pixels for name, ch in f.channels().items()}
-        except Exception as e:  # OpenEXR raises plain RuntimeErrors
-            error = e
-    # a damaged file either fails or reads with a complaint (and missing pixels)
-    complaint = _first_line(noise.text())
-    if error is not None or complaint:
-        detail = (complaint or " ".join(str(error).split())).removeprefix(f"{path}: ")
-        raise ValueError(f"{path}: not a readable OpenEXR file, truncated or corrupt "
-                         f"({detail})") from error
-
+    header, channels = _read_checked(path)
     names = list(channels)
     if names and all(_UNNAMED.match(n) for n in names):
         layout = _unnamed_layout(len(names))
@@ -195,10 +179,32 @@ def read_stokes_exr(path) -> StokesImage:
 
 
 def read_exr_channels(path) -> dict:
-    """The channels ``{name: (H, W) float32}`` of an OpenEXR file (any names)."""
+    """The channels ``{name: (H, W) float32}`` of an OpenEXR file (any names).
+    Raises ``FileNotFoundError`` or ``ValueError`` as :func:`read_stokes_exr` does."""
+    _, channels = _read_checked(os.fspath(path))
+    return {name: np.asarray(pixels, dtype=np.float32) for name, pixels in channels.items()}
+
+
+def _read_checked(path: str):
+    """(header, {name: pixels}) of an OpenEXR file; ``FileNotFoundError`` for a
+    missing file, ``ValueError`` for a damaged one: OpenEXR fails on it or
+    reads it with a complaint (and missing pixels), which is kept out of the
+    terminal and quoted in the message."""
     import OpenEXR
 
-    with _library_output():
-        with OpenEXR.File(os.fspath(path), separate_channels=True) as f:
-            return {name: np.asarray(ch.pixels, dtype=np.float32)
-                    for name, ch in f.channels().items()}
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{path}: no such file")
+    error = None
+    with _library_output() as noise:  # OpenEXR prints warnings of its own
+        try:
+            with OpenEXR.File(path, separate_channels=True) as f:
+                header = dict(f.header())
+                channels = {name: ch.pixels for name, ch in f.channels().items()}
+        except Exception as e:  # OpenEXR raises plain RuntimeErrors
+            error = e
+    complaint = _first_line(noise.text())
+    if error is not None or complaint:
+        detail = (complaint or " ".join(str(error).split())).removeprefix(f"{path}: ")
+        raise ValueError(f"{path}: not a readable OpenEXR file, truncated or corrupt "
+                         f"({detail})") from error
+    return header, channels

@@ -20,8 +20,8 @@ Angles in degrees where named ``*_deg``, else radians; wavelengths in nm.
 
 import numpy as np
 
-from .. import reference
-from .physics import in_plane_pair, load_plugin, mueller_global
+from mitsuba_pbrdf import reference
+from mitsuba_pbrdf.diagnostics.physics import in_plane_pair, load_plugin, mueller_global
 
 METALS = ("Al", "Cu", "Au", "Ag")
 WAVELENGTHS = (400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0, 800.0)

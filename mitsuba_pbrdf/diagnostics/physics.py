@@ -12,12 +12,12 @@ surface's local frame (z = normal), ``to_viewer`` (the reference's wr) and
   global s/p frames).
 * Realizability: the eigenvalues of Cloude's coherency matrix are >= 0 and the
   degree of polarization of the output is <= 1 for every input Stokes vector
-  (:mod:`mitsuba_pbrdf.checks.realizability`).
+  (:mod:`mitsuba_pbrdf.diagnostics.realizability`).
 
 :func:`reciprocity_errors` and :func:`mueller_global` take any Mitsuba BSDF;
 :func:`reciprocity` and :func:`realizability` run the plugin configurations of
 :data:`CONFIGS` against the reference. The Fresnel checks are in
-:mod:`mitsuba_pbrdf.checks.fresnel`.
+:mod:`proof.mirror_fresnel`.
 """
 
 import numpy as np

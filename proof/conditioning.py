@@ -18,16 +18,16 @@ local frame.
 
 import numpy as np
 
-from .. import reference
+from mitsuba_pbrdf import reference
 from .fuzz_inputs import TEXTURED
-from .realizability import U32
+from mitsuba_pbrdf.diagnostics.realizability import U32
 
 
 def lane_parameters(config, wavelengths, lanes, n):
     """Per-lane parameter arrays: n, k, ks, kdd, kid of shape (n, 4); sigma,
     sigma_dd of shape (n, 1). ``lanes`` holds what the textured parameters
     evaluated to (the ``lanes`` of
-    :func:`~mitsuba_pbrdf.checks.bsdf_outputs.bsdf_outputs`)."""
+    :func:`~mitsuba_pbrdf.diagnostics.bsdf_outputs.bsdf_outputs`)."""
     p = {}
     for name in TEXTURED:
         if name in lanes:

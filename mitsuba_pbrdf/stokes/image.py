@@ -7,7 +7,7 @@ per Stokes component and colour band, named ``S<i>.<band>``: ``S0.R, S0.G, S0.B,
 S1.R, ..., S3.B``. (Mitsuba 3.9.1 names the Stokes bands ``R, G, B`` in mono
 variants too, with the three bands equal.) Channels are always looked up by
 name, never by position (:func:`from_mitsuba`; EXR files:
-:mod:`mitsuba_pbrdf.imaging.exr`).
+:mod:`mitsuba_pbrdf.stokes.exr`).
 
 Bands need not be colours: any names work (``S0.550nm``, ``S0.Y``, ...), e.g.
 for per-wavelength Stokes images assembled from several mono renders.

@@ -9,7 +9,7 @@
 * ``"off"`` (or False, None): nothing.
 
 The bar or lines are only shown for work split into at least two steps:
-one-pass renders are short by construction (:mod:`mitsuba_pbrdf.imaging.passes`).
+one-pass renders are short by construction (:mod:`mitsuba_pbrdf.rendering.passes`).
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ from typing import Optional
 
 import numpy as np
 
-from .stokes import StokesImage, luminance_stokes
+from ..stokes.image import StokesImage, luminance_stokes
 
 __all__ = ["linear_rgb", "auto_exposure", "tonemap", "pixel_stokes"]
 
@@ -61,6 +61,6 @@ def tonemap(rgb: np.ndarray, exposure: Optional[float] = None, percentile: float
 
 def pixel_stokes(image: StokesImage, band: Optional[str] = None) -> np.ndarray:
     """One Stokes vector per pixel, shape (H, W, 4): the luminance combination
-    of the bands (:func:`~mitsuba_pbrdf.imaging.stokes.luminance_stokes`), or the
+    of the bands (:func:`~mitsuba_pbrdf.stokes.image.luminance_stokes`), or the
     band named *band*."""
     return luminance_stokes(image) if band is None else image.band(band)

@@ -48,8 +48,8 @@ from dataclasses import dataclass, field
 
 from .mutation_tables import DEFECTS, EQUIVALENT, SUBSETS  # noqa: F401 (re-exported)
 
-#: The repository: the package's parent folder.
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+#: The repository: the folder that holds proof/ (this file's folder) and the package.
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 PACKAGES = ("mitsuba_pbrdf/plugin", "mitsuba_pbrdf/reference")
 
@@ -220,21 +220,32 @@ def all_mutants():
 # ---------------------------------------------------------------------------
 
 def make_copy(tests_rev=None):
-    """A private copy of the package, tests/ (from git ``tests_rev`` if
-    given) and pyproject.toml; returns its folder."""
+    """A private copy of the package, the test scaffolding (proof/), tests/ and
+    pyproject.toml; returns its folder. With ``tests_rev``, tests/ and its
+    scaffolding come from that git revision (proof/ there, or, before proof/
+    existed, the package's old mitsuba_pbrdf/checks/, which the old tests import)."""
     folder = tempfile.mkdtemp(prefix="pbrdf-mutation-")
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
     shutil.copytree(os.path.join(ROOT, "mitsuba_pbrdf"), os.path.join(folder, "mitsuba_pbrdf"),
                     ignore=ignore)
     shutil.copy(os.path.join(ROOT, "pyproject.toml"), folder)
     if tests_rev:
-        os.makedirs(os.path.join(folder, "tests"))
-        archive = subprocess.run(["git", "archive", tests_rev, "tests"], cwd=ROOT, check=True,
-                                 capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", folder], input=archive, check=True)
+        for path in ("tests", *_scaffolding_at(tests_rev)):
+            archive = subprocess.run(["git", "archive", tests_rev, path], cwd=ROOT, check=True,
+                                     capture_output=True).stdout
+            subprocess.run(["tar", "-x", "-C", folder], input=archive, check=True)
     else:
-        shutil.copytree(os.path.join(ROOT, "tests"), os.path.join(folder, "tests"), ignore=ignore)
+        for path in ("tests", "proof"):
+            shutil.copytree(os.path.join(ROOT, path), os.path.join(folder, path), ignore=ignore)
     return folder
+
+
+def _scaffolding_at(rev):
+    """The folders of test scaffolding that git revision ``rev`` has."""
+    listed = subprocess.run(["git", "ls-tree", "--name-only", rev, "proof",
+                             "mitsuba_pbrdf/checks"], cwd=ROOT, check=True,
+                            capture_output=True, text=True).stdout.split()
+    return [p for p in ("proof", "mitsuba_pbrdf/checks") if p in listed][:1]
 
 
 def run_tests(folder, tests, timeout, stop_first=True):

@@ -1,9 +1,9 @@
 """Record the ``pbrdf`` plugin's outputs on a fixed set of inputs, and compare
 two recordings: the check that a refactoring of the plugin changed no number.
 
-    python tools/plugin_snapshot.py record before.npz      # on the old code
-    python tools/plugin_snapshot.py record after.npz       # on the new code
-    python tools/plugin_snapshot.py compare before.npz after.npz
+    python proof/plugin_snapshot.py record before.npz      # on the old code
+    python proof/plugin_snapshot.py record after.npz       # on the new code
+    python proof/plugin_snapshot.py compare before.npz after.npz
 
 Inputs (fixed seeds): random direction pairs (half near the mirror
 direction), grazing pairs (cos theta from 1e-2 down to 1e-6), normal

@@ -2,22 +2,25 @@
 
 ::
 
-    from mitsuba_pbrdf.imaging import render_scene
+    from mitsuba_pbrdf.rendering import render_scene
     image = render_scene("scenes/default.xml", spp=16, params={"width": 160})
     print(image.metadata["time_render_s"])
 
-Long renders run in *passes* (:mod:`mitsuba_pbrdf.imaging.passes`) of
+Long renders run in *passes* (:mod:`mitsuba_pbrdf.rendering.passes`) of
 about a second each: the samples per pixel are split into passes with
 different seeds, and the pass images are averaged with weights proportional
 to their sample counts. Between passes a progress bar advances
-(:mod:`mitsuba_pbrdf.imaging.progress`) and Ctrl-C can stop the render
+(:mod:`mitsuba_pbrdf.rendering.progress`) and Ctrl-C can stop the render
 (``KeyboardInterrupt``; Dr.Jit returns to Python only between kernels).
 
-Before anything renders, the variant must be polarized
-(:func:`require_polarized`), the ``params`` must suit what the scene does with
-them, and the loaded film and sampler must be usable
-(:mod:`mitsuba_pbrdf.imaging.scene_params`); each failure is a one-line
-``ValueError``.
+Before anything renders, :func:`check_render` checks what needs no scene
+loaded, once: the variant must be polarized (:func:`require_polarized`), the
+``params`` must suit what the scene does with them, a wavelength band needs a
+spectral variant; after loading, the film and sampler must be usable
+(:mod:`mitsuba_pbrdf.rendering.scene_params`). Each failure is a one-line
+``ValueError`` naming the parameter. A caller that checks early (``pbrdf
+render``, before it checks its output files) renders the checked request with
+:func:`render_request`.
 
 The default variant is ``cuda_ad_spectral_polarized`` when a CUDA GPU is
 usable, else ``llvm_ad_spectral_polarized``
@@ -33,37 +36,37 @@ from __future__ import annotations
 
 import logging
 import os
-import re
 import time
 from dataclasses import asdict, dataclass
 from typing import Mapping, Optional
 
 import numpy as np
 
+from ..errors import ParameterError
 from ..registry import use_variant
 from ..variant import default_variant
+from .mitsuba_errors import SceneLoadError, interrupted, scene_load_errors
 from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
-                         parse_wavelength)
+                         parse_wavelength, require_spectral)
 from .passes import pass_seeds, plan_passes, samples_per_pass
 from .progress import progress_reporter
 from .scene_params import check_loaded_scene, check_parameter_values
-from .stokes import StokesImage, from_mitsuba
+from ..stokes.image import StokesImage, from_mitsuba
 
 __all__ = [
     "RenderTimings",
     "SceneLoadError",
     "UnpolarizedVariantError",
     "require_polarized",
+    "RenderRequest",
+    "check_render",
+    "render_request",
     "load_scene",
     "render_scene",
     "render_scene_timed",
 ]
 
 log = logging.getLogger(__name__)
-
-
-class SceneLoadError(RuntimeError):
-    """Mitsuba could not load the scene (its parser's message, on one line)."""
 
 
 class UnpolarizedVariantError(ValueError):
@@ -88,18 +91,6 @@ def require_polarized(variant: str):
     raise UnpolarizedVariantError(
         f"variant {variant!r} does not track polarization; Stokes images need a polarized "
         f"variant: {', '.join(choices) or 'none in this Mitsuba build'}")
-
-
-def _interrupted(error: BaseException) -> bool:
-    """Whether *error* is Ctrl-C that Mitsuba or Dr.Jit wrapped (it was raised
-    inside the plugin's Python code while they were calling it)."""
-    seen = set()
-    while error is not None and id(error) not in seen:
-        if isinstance(error, KeyboardInterrupt) or "KeyboardInterrupt" in str(error):
-            return True
-        seen.add(id(error))
-        error = error.__cause__ or error.__context__
-    return False
 
 
 @dataclass
@@ -142,19 +133,8 @@ def load_scene(scene_path, params: Optional[Mapping[str, object]] = None):
     if not os.path.isfile(scene_path):
         raise FileNotFoundError(f"{scene_path}: no such file")
     kwargs = {str(k): str(v) for k, v in (params or {}).items()}
-    try:
+    with scene_load_errors():
         return mi.load_file(scene_path, **kwargs)
-    except RuntimeError as e:
-        if _interrupted(e):
-            raise KeyboardInterrupt from e
-        raise SceneLoadError(_condense(str(e))) from e
-
-
-def _condense(message: str) -> str:
-    """Mitsuba's error message on one line; a Python traceback that a Python
-    plugin's constructor raised is reduced to its last line (the exception)."""
-    message = re.sub(r"Traceback \(most recent call last\):\n(?:[ \t].*\n)*", "", message)
-    return " ".join(message.split())
 
 
 def _kernel_stats(history):
@@ -175,6 +155,48 @@ def render_scene(scene_path, spp: Optional[int] = None, **options) -> StokesImag
     return render_scene_timed(scene_path, spp, **options)[0]
 
 
+@dataclass(frozen=True)
+class RenderRequest:
+    """A render whose inputs :func:`check_render` has checked: the scene file,
+    the variant (polarized; spectral for a band), the samples per pixel (None:
+    the scene's), the number of passes (None: automatic), the ``$key``
+    parameters and the wavelength band (None: R, G, B)."""
+
+    scene_path: str
+    variant: str
+    spp: Optional[int] = None
+    passes: Optional[int] = None
+    params: Optional[Mapping[str, object]] = None
+    band: Optional[WavelengthBand] = None
+
+
+def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] = None,
+                 params: Optional[Mapping[str, object]] = None, passes: Optional[int] = None,
+                 wavelength=None) -> RenderRequest:
+    """Every check of a render that needs no loaded scene, once: ``spp`` and
+    ``passes`` at least 1, the variant polarized (:func:`require_polarized`),
+    ``params`` suited to what the scene does with them
+    (:func:`~mitsuba_pbrdf.rendering.scene_params.check_parameter_values`),
+    ``wavelength`` a band (:func:`~mitsuba_pbrdf.rendering.narrowband.parse_wavelength`)
+    and the variant spectral for it. Raises a ``ValueError`` naming the
+    parameter (:class:`~mitsuba_pbrdf.errors.ParameterError` for ``spp``,
+    ``passes``, ``wavelength``). Sets no variant and loads nothing."""
+    for name, value in (("spp", spp), ("passes", passes)):
+        if value is not None and int(value) < 1:
+            raise ParameterError(name, f"must be at least 1, got {value}")
+    if variant is None:
+        variant = default_variant()
+    require_polarized(variant)
+    check_parameter_values(scene_path, params)
+    band = None
+    if wavelength is not None:
+        band = wavelength if isinstance(wavelength, WavelengthBand) else \
+            parse_wavelength(wavelength)
+        require_spectral(variant)
+    return RenderRequest(os.fspath(scene_path), variant, None if spp is None else int(spp),
+                         None if passes is None else int(passes), params, band)
+
+
 def render_scene_timed(
     scene_path,
     spp: Optional[int] = None,
@@ -185,7 +207,8 @@ def render_scene_timed(
     progress=False,
     wavelength=None,
 ):
-    """Render the scene file; return its Stokes image and the timings.
+    """Render the scene file; return its Stokes image and the timings:
+    :func:`render_request` of :func:`check_render`'s request.
 
     Parameters
     ----------
@@ -208,36 +231,33 @@ def render_scene_timed(
     progress
         Progress over the passes' samples on stderr: False (default), True or
         ``"bar"`` (a ``tqdm`` bar), ``"lines"`` (lines for logs) or ``"auto"``
-        (:func:`~mitsuba_pbrdf.imaging.progress.progress_reporter`).
+        (:func:`~mitsuba_pbrdf.rendering.progress.progress_reporter`).
     wavelength
         None (R, G, B Stokes bands), or a narrow band: ``"632.8"``, ``"550:10"``
         (centre and width in nm) or a :class:`~.narrowband.WavelengthBand`; the
         image then has one Stokes band at that wavelength
-        (:mod:`mitsuba_pbrdf.imaging.narrowband`; spectral variants only).
+        (:mod:`mitsuba_pbrdf.rendering.narrowband`; spectral variants only).
 
     The returned image's ``metadata`` holds the scene, variant, spp, passes,
     seed, parameters and timings (keys ``time_<stage>_s``). Returns
     ``(image, timings)``; the timings are also logged at INFO level.
     """
+    request = check_render(scene_path, spp, variant, params, passes, wavelength)
+    return render_request(request, seed=seed, progress=progress)
+
+
+def render_request(request: RenderRequest, seed: int = 0, progress=False):
+    """Render a request that :func:`check_render` made (its checks are not run
+    again); ``seed`` and ``progress`` as in :func:`render_scene_timed`. Returns
+    ``(image, timings)``."""
     import drjit as dr
 
     import mitsuba as mi
 
-    if spp is not None and int(spp) < 1:
-        raise ValueError(f"spp must be at least 1, got {spp}")
-    if variant is None:
-        variant = default_variant()
-    require_polarized(variant)
-    check_parameter_values(scene_path, params)
-    response = None
-    if wavelength is not None:
-        if not isinstance(wavelength, WavelengthBand):
-            wavelength = parse_wavelength(wavelength)
-        if "_spectral_" not in variant:
-            raise ValueError(f"--wavelength needs a spectral variant, not {variant}")
+    scene_path, spp, variant, params = (request.scene_path, request.spp, request.variant,
+                                        request.params)
     use_variant(variant)
-    if wavelength is not None:
-        response = band_response(wavelength)
+    response = None if request.band is None else band_response(request.band)
 
     t0 = time.perf_counter()
     if response is None:
@@ -253,7 +273,7 @@ def render_scene_timed(
     total_spp = int(spp if spp is not None else sensor.sampler().sample_count())
     size = sensor.film().crop_size()
     backend = "cuda" if variant.startswith("cuda") else "llvm"
-    plan = plan_passes(total_spp, passes, pixels=int(size[0]) * int(size[1]),
+    plan = plan_passes(total_spp, request.passes, pixels=int(size[0]) * int(size[1]),
                        budget=samples_per_pass(backend))
     seeds = pass_seeds(seed, len(plan))
 
@@ -273,7 +293,7 @@ def render_scene_timed(
                     # reading the result back runs the kernels
                     array = np.array(tensor, dtype=np.float64) * (pass_spp / total_spp)
                 except RuntimeError as e:
-                    if _interrupted(e):
+                    if interrupted(e):
                         raise KeyboardInterrupt from e
                     raise
                 accumulated = array if accumulated is None else accumulated + array

@@ -1,4 +1,4 @@
-"""Tables of the mutation study (:mod:`mitsuba_pbrdf.checks.mutation`)."""
+"""Tables of the mutation study (:mod:`proof.mutation`)."""
 
 #: The fast test subset run on each mutant of each package, in order (the
 #: quickest killers first: ``pytest -x`` stops at the first failure). A file
@@ -141,7 +141,7 @@ DEFECTS = [
              "tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"],
             ["tests/test_fuzz.py::test_fuzz_accuracy_within_float32_of_the_conditioning"]),
     _defect("Fuzz coverage: every lane's bound inflated 10^6 x (no comparison can fail)",
-            "mitsuba_pbrdf/checks/stress.py", "ACCURACY_UNITS = 128",
+            "proof/stress.py", "ACCURACY_UNITS = 128",
             "ACCURACY_UNITS = 128 * 10 ** 6",
             ["tests/test_fuzz.py::test_fuzz_covers_the_regions"],
             ["tests/test_fuzz.py::test_fuzz_covers_the_regions"]),

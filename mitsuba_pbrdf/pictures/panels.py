@@ -17,7 +17,7 @@ per row)::
     fig.savefig("aolp_s1.png", dpi=150)
 
 Polarization panels use the luminance Stokes vector of each pixel
-(:func:`mitsuba_pbrdf.imaging.stokes.luminance_stokes`, what a panchromatic
+(:func:`mitsuba_pbrdf.stokes.image.luminance_stokes`, what a panchromatic
 polarimeter would measure), or one band's Stokes vector with ``band="R"`` (or
 ``"Y"``, or a wavelength band's name).
 
@@ -25,12 +25,12 @@ Angles follow the Stokes frame of Mitsuba's ``stokes`` integrator: x-axis =
 cross(ray direction, camera up), i.e. image right, y-axis image up; AoLP = 0 is
 horizontal and positive angles turn counter-clockwise in the picture.
 
-Colours and scales (:mod:`mitsuba_pbrdf.imaging.colours`): AoLP on the hue
+Colours and scales (:mod:`mitsuba_pbrdf.pictures.colours`): AoLP on the hue
 wheel polarization cameras use (grey where DoLP is too low), DoLP and DoCP
 from 0 to a stated maximum (``"auto"`` by default: scaled to the data), S1,
 S2, S3 / S0 on one symmetric scale in the sheet; each colour bar states its
 scale. Unusable pixels (non-finite, S0 < 0, polarization > 1:
-:mod:`mitsuba_pbrdf.imaging.quality`) are painted in a marker colour named in
+:mod:`mitsuba_pbrdf.stokes.quality`) are painted in a marker colour named in
 the panel's legend, never drawn as if they were data.
 """
 
@@ -44,9 +44,9 @@ import numpy as np
 
 from .colours import (MARKERS, MASKED_GREY, aolp_colormap, aolp_rgb, colour_image,
                       paint, resolve_limit)
-from .quality import StokesQuality, assess
+from ..stokes.quality import StokesQuality, assess
 from .png import save_png
-from .stokes import StokesImage, aolp, docp, dolp
+from ..stokes.image import StokesImage, aolp, docp, dolp
 from .composites import polarization_hsv, stokes_limit, stokes_ratios
 from .tonemap import _LUMA, auto_exposure, linear_rgb, pixel_stokes, tonemap
 
@@ -182,7 +182,7 @@ def draw_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis",
               quality: Optional[StokesQuality] = None) -> Drawing:
     """Degree of linear polarization sqrt(S1² + S2²)/S0, from 0 to *dolp_max*
     (a number, default 1, or ``"auto"``: the data's 99.5th percentile rounded
-    up, what the command line uses; see :mod:`~mitsuba_pbrdf.imaging.colours`),
+    up, what the command line uses; see :mod:`~mitsuba_pbrdf.pictures.colours`),
     ``viridis`` or ``gray``."""
     with np.errstate(invalid="ignore"):
         values = dolp(pixel_stokes(image, band), axis=-1)
@@ -204,7 +204,7 @@ def draw_docp(ax, image: StokesImage, cmap: str = "viridis",
 def draw_aolp(ax, image: StokesImage, min_dolp: float = 0.01, band: Optional[str] = None,
               quality: Optional[StokesQuality] = None) -> Drawing:
     """Angle of linear polarization 0.5·atan2(S2, S1) in degrees on the AoLP
-    hue wheel (:func:`~mitsuba_pbrdf.imaging.colours.aolp_rgb`: −90° and +90°
+    hue wheel (:func:`~mitsuba_pbrdf.pictures.colours.aolp_rgb`: −90° and +90°
     share a colour, no angle is dark), neutral grey where DoLP < *min_dolp*
     since the angle is noise there."""
     quality = _quality(image, band, quality)
@@ -413,7 +413,7 @@ def overview_figure(
 
     *options* go to the panel functions that take them: ``band``,
     ``exposure``, ``dolp_cmap``, ``dolp_max``, ``docp_max``, ``min_dolp``,
-    ``quality`` (:func:`~mitsuba_pbrdf.imaging.quality.assess`, computed once
+    ``quality`` (:func:`~mitsuba_pbrdf.stokes.quality.assess`, computed once
     if not given). S1, S2, S3 / S0 share one scale (:func:`stokes_limit`)
     unless ``stokes_scale="separate"``, or ``stokes_limit=X`` fixes it.
     """

@@ -1,9 +1,9 @@
 """Numerical stability stress test of the ``pbrdf`` plugin: checks and tallies.
 
 :func:`run` draws random configurations and, for each, a batch of direction
-pairs from several regions (:mod:`mitsuba_pbrdf.checks.fuzz_inputs`); every
+pairs from several regions (:mod:`proof.fuzz_inputs`); every
 ``eval``, ``pdf``, ``eval_pdf`` and ``sample`` result, in both transport modes
-(:mod:`mitsuba_pbrdf.checks.bsdf_outputs`), is checked to be
+(:mod:`mitsuba_pbrdf.diagnostics.bsdf_outputs`), is checked to be
 
 * finite (no NaN, no Inf), with pdf >= 0, M00 >= 0 and sample weight M00 >= 0;
 * physically realizable: the smallest eigenvalue of Cloude's coherency matrix
@@ -16,7 +16,7 @@ pairs from several regions (:mod:`mitsuba_pbrdf.checks.fuzz_inputs`); every
 and its value (rotated into the global s/p frames, cosine divided out, 1/sr)
 is compared with the float64 reference evaluator: the worst error relative to
 M00, max_ij |M_ij - R_ij| / R00, per region of directions, also in units of
-u (1 + kappa) (:mod:`mitsuba_pbrdf.checks.conditioning`). :func:`check_outputs`
+u (1 + kappa) (:mod:`proof.conditioning`). :func:`check_outputs`
 applies the checks of the first three kinds to the outputs of any BSDF.
 """
 
@@ -24,10 +24,10 @@ import time
 
 import numpy as np
 
-from .bsdf_outputs import bsdf_outputs
+from mitsuba_pbrdf.diagnostics.bsdf_outputs import bsdf_outputs
 from .conditioning import lane_parameters, reference_brdf, sensitivity
 from .fuzz_inputs import FORCED, REGIONS, TEXELS, draw_config, draw_directions
-from .realizability import REALIZABILITY_TOL, U32, coherency_eigenvalues
+from mitsuba_pbrdf.diagnostics.realizability import REALIZABILITY_TOL, U32, coherency_eigenvalues
 
 __all__ = ["ACCURACY_UNITS", "M00_FLOOR", "REALIZABILITY_TOL", "TIGHT_BOUND", "Tally", "check_config",
            "check_outputs", "consistency_tolerance", "run"]
@@ -125,7 +125,7 @@ def consistency_tolerance(out, wi, wo, mode, p):
 
 def check_outputs(out, wi, wo, mode, tally, config, tolerance):
     """Tally the finiteness, sign, horizon, consistency and realizability checks
-    of one :func:`~mitsuba_pbrdf.checks.bsdf_outputs.bsdf_outputs` result.
+    of one :func:`~mitsuba_pbrdf.diagnostics.bsdf_outputs.bsdf_outputs` result.
     ``tolerance`` (n,): relative tolerance of the sample() consistency checks
     (:func:`consistency_tolerance`); lanes where it is not below 0.1 are not
     compared (ill-conditioned, not inconsistent)."""

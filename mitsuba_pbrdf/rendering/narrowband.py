@@ -37,9 +37,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .stokes import StokesImage
+from ..errors import ParameterError
+from ..stokes.image import StokesImage
+from .mitsuba_errors import scene_load_errors
 
-__all__ = ["WavelengthBand", "parse_wavelength", "band_response", "BandResponse",
+__all__ = ["WavelengthBand", "parse_wavelength", "require_spectral", "band_response", "BandResponse",
            "scene_with_band", "band_image", "LINE_WIDTH"]
 
 #: Width (nm) of the band a laser line (no WIDTH) is rendered with; the
@@ -74,22 +76,23 @@ class WavelengthBand:
                                         else " (line)")
 
 
-def parse_wavelength(text: str, option: str = "--wavelength") -> WavelengthBand:
-    """``NM`` or ``NM:WIDTH`` (nm) as a :class:`WavelengthBand`; ``ValueError``
-    naming *option* for anything else or a band outside 360-830 nm."""
+def parse_wavelength(text: str) -> WavelengthBand:
+    """``NM`` or ``NM:WIDTH`` (nm) as a :class:`WavelengthBand`;
+    :class:`~mitsuba_pbrdf.errors.ParameterError` naming ``wavelength`` for
+    anything else or a band outside 360-830 nm."""
     centre, _, width = str(text).partition(":")
     try:
         band = WavelengthBand(float(centre), float(width) if width.strip() else 0.0)
     except ValueError:
-        raise ValueError(f"{option} expects NM or NM:WIDTH in nanometres (e.g. 632.8 or "
-                         f"550:10), got {text!r}") from None
+        raise ParameterError("wavelength", "expects NM or NM:WIDTH in nanometres (e.g. 632.8 "
+                             f"or 550:10), got {text!r}") from None
     if not (math.isfinite(band.centre) and math.isfinite(band.width)) or band.width < 0:
-        raise ValueError(f"{option}: the wavelength and width must be finite and the width "
-                         f">= 0, got {text!r}")
+        raise ParameterError("wavelength", "the wavelength and width must be finite and the "
+                             f"width >= 0, got {text!r}")
     low, high = band.limits
     if low < CIE_RANGE[0] or high > CIE_RANGE[1]:
-        raise ValueError(f"{option}: the band {low:g}-{high:g} nm must lie within "
-                         f"{CIE_RANGE[0]:g}-{CIE_RANGE[1]:g} nm (Mitsuba's colour tables)")
+        raise ParameterError("wavelength", f"the band {low:g}-{high:g} nm must lie within "
+                             f"{CIE_RANGE[0]:g}-{CIE_RANGE[1]:g} nm (Mitsuba's colour tables)")
     return band
 
 
@@ -106,13 +109,19 @@ class BandResponse:
     scale: float
 
 
+def require_spectral(variant: str):
+    """:class:`~mitsuba_pbrdf.errors.ParameterError` (``wavelength``) unless
+    *variant* is spectral: only those render a wavelength band."""
+    if "_spectral" not in variant:
+        raise ParameterError("wavelength", f"needs a spectral variant, not {variant}")
+
+
 def rgb_response(wavelengths) -> np.ndarray:
     """K_c(λ) of the ``stokes`` integrator, shape (3, n) (a spectral Mitsuba
     variant must be set)."""
     import mitsuba as mi
 
-    if not mi.is_spectral:
-        raise ValueError(f"--wavelength needs a spectral variant, not {mi.variant()}")
+    require_spectral(mi.variant())
     lam = mi.Float(np.asarray(wavelengths, dtype=np.float32))
     w = mi.UnpolarizedSpectrum(lam, lam, lam, lam)  # the 4 lanes at the same wavelength
     pdf = mi.pdf_rgb_spectrum(w)
@@ -129,8 +138,8 @@ def band_response(band: WavelengthBand) -> BandResponse:
     strength = np.where(same_sign, np.abs(k).min(axis=1), 0.0)
     channel = int(np.argmax(strength))
     if strength[channel] <= 1e-6 * np.abs(rgb_response([555.0])).max():
-        raise ValueError(f"--wavelength: the band {low:g}-{high:g} nm is too wide: no colour "
-                         "channel of the stokes integrator keeps one sign over it")
+        raise ParameterError("wavelength", f"the band {low:g}-{high:g} nm is too wide: no "
+                             "colour channel of the stokes integrator keeps one sign over it")
     values = 1.0 / np.abs(k[channel])
     # the integral of the linear interpolation Mitsuba samples from (trapezoid rule)
     z = float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(lam)))
@@ -150,14 +159,14 @@ def scene_with_band(scene_path, response: BandResponse) -> str:
         raise ValueError(f"{path}: not readable XML ({e})") from None
     sensors = root.findall("sensor")
     if not sensors:
-        raise ValueError(f"--wavelength: {path} has no <sensor> of its own (one in an "
-                         "included file is not supported)")
+        raise ParameterError("wavelength", f"{path} has no <sensor> of its own (one in an "
+                             "included file is not supported)")
     sensor = sensors[0]
     if any(child.get("name") == "srf" for child in sensor):
-        raise ValueError(f"--wavelength: the sensor of {path} has a spectral response (srf) "
-                         "already")
+        raise ParameterError("wavelength", f"the sensor of {path} has a spectral response "
+                             "(srf) already")
     if any(child.tag == "film" and child.get("type") == "specfilm" for child in sensor):
-        raise ValueError("--wavelength: the scene's film is a specfilm; use hdrfilm")
+        raise ParameterError("wavelength", "the scene's film is a specfilm; use hdrfilm")
     srf = ET.SubElement(sensor, "spectrum", {"name": "srf", "type": "regular"})
     lam = response.wavelengths
     ET.SubElement(srf, "float", {"name": "wavelength_min", "value": repr(float(lam[0]))})
@@ -170,21 +179,16 @@ def scene_with_band(scene_path, response: BandResponse) -> str:
 def load_band_scene(scene_path, params, response: BandResponse):
     """``mi.load_string`` of :func:`scene_with_band`, resolving the scene's
     relative paths (includes, textures) from its folder, as ``mi.load_file``
-    does. Raises what :func:`~mitsuba_pbrdf.imaging.render.load_scene` raises."""
+    does. Raises what :func:`~mitsuba_pbrdf.rendering.render.load_scene` raises."""
     import mitsuba as mi
-
-    from .render import SceneLoadError, _condense, _interrupted
 
     text = scene_with_band(scene_path, response)
     resolver = mi.file_resolver()
     saved = [resolver[i] for i in range(len(resolver))]
     resolver.prepend(os.path.dirname(os.path.abspath(os.fspath(scene_path))))
     try:
-        return mi.load_string(text, **{str(k): str(v) for k, v in (params or {}).items()})
-    except RuntimeError as e:
-        if _interrupted(e):
-            raise KeyboardInterrupt from e
-        raise SceneLoadError(_condense(str(e))) from e
+        with scene_load_errors():
+            return mi.load_string(text, **{str(k): str(v) for k, v in (params or {}).items()})
     finally:
         resolver.clear()
         for p in saved:

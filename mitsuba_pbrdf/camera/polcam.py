@@ -16,7 +16,7 @@
 
 Frame: θ is measured from the image's horizontal (its right), counter-clockwise
 in the picture, in the Stokes frame of Mitsuba's ``stokes`` integrator (x-axis
-the image's right, y-axis its up; :mod:`mitsuba_pbrdf.imaging.stokes`). Light
+the image's right, y-axis its up; :mod:`mitsuba_pbrdf.stokes.image`). Light
 with AoLP = θ passes the θ polarizer best. Rows of the arrays run top to
 bottom, as in the picture. ``docs/polarization-camera.md`` has the details.
 
@@ -38,7 +38,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from ..outputs import atomic_path
-from .stokes import StokesImage, luminance_stokes
+from ..stokes.image import StokesImage, luminance_stokes
 
 __all__ = ["ANGLES", "MONO_LAYOUT", "BAYER_LAYOUT", "polarizer_images", "malus",
            "mono_layout", "colour_layout", "mono_mosaic", "colour_mosaic", "SensorModel",
@@ -260,7 +260,7 @@ def write_polcam_files(outputs: dict, folder, stem: str, metadata=None) -> list:
     """Write :func:`polcam_outputs`' results in *folder* (each file atomically:
     EXRs with *metadata* and a ``polcam`` attribute, counts as 16-bit PNGs);
     returns the file names, in the order of *outputs*."""
-    from .exr import write_exr
+    from ..stokes.exr import write_exr
 
     names = polcam_file_names(outputs, stem)
     for suffix, value in outputs.items():
