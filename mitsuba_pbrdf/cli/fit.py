@@ -147,7 +147,7 @@ def add_parser(subparsers):
                    help="assumed relative uncertainty of each value (default 0.05)")
     p.add_argument("--abs-uncertainty", type=float, default=0.005,
                    help="assumed absolute floor, times the column's largest value (CSV) or "
-                        "the entry's M00 (.pbsdf) (default 0.005)")
+                        "the entry's M00 (.pbsdf, NIST layout) (default 0.005)")
     p.add_argument("--cells", type=int, default=3000,
                    help=".pbsdf: number of table cells to fit (default 3000)")
     p.add_argument("--max-angle", type=float, default=80.0,

@@ -173,7 +173,7 @@ def read_measurements(path, layout="auto") -> Measurements:
 
     if layout not in LAYOUTS:
         raise MeasurementError(f"layout must be one of {', '.join(LAYOUTS)}, not {layout!r}")
-    header_line, header, rows = read_table(
+    _, header, rows = read_table(
         path, f"{', '.join(ANGLES)}, wavelength, m00 ... (or NIST's lambda, thetai, phi, "
               "thetar, phir, f_r11 ...)")
     if layout == "nist" or (layout == "auto" and nist_layout.is_nist_header(header)):

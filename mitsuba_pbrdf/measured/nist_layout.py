@@ -33,6 +33,11 @@ is the surface x-axis (``eta_out = -(phir + 90 deg)``, ``eta_in = phi_i -
 90 deg``). Directions: ``theta_i = |thetai|``, ``phi_i = phi`` (``+ 180`` when
 ``thetai < 0``), ``theta_r, phi_r = thetar, phir``; wavelength in nm =
 1000 ``lambda``. ``docs/fitting.md`` derives this.
+
+**Uncertainties.** The layout gives none. The elements are measured relative to
+``f_r11``, so the rows carry it as ``row_scale``: the fit's assumed absolute
+floor is ``--abs-uncertainty`` times the row's ``f_r11`` (as for ``.pbsdf``
+tables), not times the column's largest value.
 """
 
 from __future__ import annotations
@@ -175,8 +180,13 @@ def read_nist(path, header, rows) -> Measurements:
     M = nist_to_project(M, theta_i, phi_i, a[:, 3], a[:, 4])
     observed = {f"m{i}{j}": M[:, i, j] for i in range(4) for j in range(4)
                 if (i, j) in elements}
+    # the elements are measured relative to f_r11 (a polarimeter's errors scale
+    # with the intensity): the assumed uncertainties' floor follows each row's
+    # f_r11, as for .pbsdf tables, unless some row lacks it
+    m00 = M[:, 0, 0]
+    row_scale = m00.copy() if np.isfinite(m00).all() else None
     data = Measurements(theta_i, phi_i, a[:, 3], a[:, 4], 1000.0 * a[:, 0], observed, {},
-                        path, ignored, lines=np.array(numbers))
+                        path, ignored, row_scale, lines=np.array(numbers))
     check_measurements(data)
     return data
 
