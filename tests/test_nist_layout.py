@@ -127,6 +127,19 @@ def test_normalized_and_absolute_elements_read_the_same(tmp_path):
                                    atol=1e-15 * S[:, 0, 0].max())
 
 
+def test_m_names_read_as_f_r_names(tmp_path):
+    """1-indexed ``m11``, ``m12/m11`` ... read as ``f_r11``, ``f_r12/f_r11`` ...,
+    told by the angle columns (a header without f_r11)."""
+    rows = ROWS[:12]
+    S = scatmech_rows(rows)
+    a = read_measurements(write_nist(tmp_path / "f.csv", rows, S))
+    header = [h.replace("f_r", "m") for h in HEADER]
+    b = read_measurements(write_nist(tmp_path / "m.csv", rows, S, header=header))
+    assert sorted(b.observed) == sorted(a.observed)
+    for q in a.observed:
+        np.testing.assert_array_equal(b.observed[q], a.observed[q])
+
+
 def test_ptfe_file_reads_as_published():
     """The PTFE subset: its layout is recognised from the header; values are
     f_r11 and f_r11 times the normalized elements; the source of the signed
