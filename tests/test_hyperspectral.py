@@ -81,3 +81,27 @@ def test_bands_outside_a_named_material_are_refused_before_writing(tmp_path):
                 "--grid", "5x5x5", "--out", str(out))
     assert r.returncode == 0, r.stderr
     assert pbsdf.read_pbsdf(str(out)).wavelengths.tolist() == list(range(400, 1601, 100))
+
+
+def test_fit_chosen_bands_of_a_hyperspectral_table(tmp_path, capsys):
+    """pbrdf fit --wavelength fits only the chosen bands of a table (n, k at
+    those bands, within 1e-3 on noise-free entries) and draws them."""
+    import json
+
+    from mitsuba_pbrdf.cli import main
+
+    path = str(tmp_path / "cu.pbsdf")
+    p = PBRDFParams(material="Cu", sigma=0.15, kdd=0.1, sigma_dd=0.5, kid=0.02)
+    export.export_pbsdf(path, p, export.Grid(13, 18, 18), wavelengths=BANDS)
+    out, png = tmp_path / "fit.json", tmp_path / "fit.png"
+    assert main(["fit", path, "--wavelength", "500,600", "--cells", "150", "--starts", "1",
+                 "--model", "three", "--material", "Cu", "--json", str(out),
+                 "--plot", str(png)]) == 0
+    assert "at 2 of its wavelengths" in capsys.readouterr().out and png.stat().st_size > 0
+    r = json.loads(out.read_text())["three"]
+    assert r["wavelengths"] == [500.0, 600.0]
+    n, k = p.ior(np.array([500.0, 600.0]))
+    np.testing.assert_allclose(r["values"]["n"], n, rtol=1e-3)
+    np.testing.assert_allclose(r["values"]["k"], k, rtol=1e-3)
+    assert main(["fit", path, "--wavelength", "510"]) == 2
+    assert "no measurement at 510 nm" in capsys.readouterr().err

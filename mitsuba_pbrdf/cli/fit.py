@@ -64,12 +64,10 @@ def _read(args):
         if is_pbsdf(path):
             if args.layout != "auto":
                 raise CliError("--layout applies to CSV files (a .pbsdf table has one layout)")
-            if wavelengths:
-                raise CliError("--wavelength applies to CSV files (a .pbsdf table is fitted "
-                               "at all its wavelengths)")
             table = read_pbsdf(path)
             quantities = args.observables.split(",") if args.observables else None
-            return table, sample_table(table, args.cells, args.max_angle, args.seed, quantities)
+            data = sample_table(table, args.cells, args.max_angle, args.seed, quantities)
+            return table, select_wavelengths(data, wavelengths) if wavelengths else data
         data = read_measurements(path, layout=args.layout)
         if wavelengths:
             data = select_wavelengths(data, wavelengths)
@@ -98,7 +96,8 @@ def run(args) -> int:
         raise CliError(one_line(e)) from e
     if table is not None:
         print(f"table: {table.describe()}; fitted {len(data)} cell-wavelength entries "
-              f"({len(data) // max(table.wavelengths.size, 1)} cells, both directions within "
+              f"({len(data) // max(data.wavelengths.size, 1)} cells at "
+              f"{data.wavelengths.size} of its wavelengths, both directions within "
               f"{args.max_angle:g} deg of the normal)")
     print(report(data, results), end="")
     for r in results.values():
