@@ -19,7 +19,7 @@ Pictures (PNG, palette-quantized to stay small enough to commit):
   (:mod:`mitsuba_pbrdf.figures.polcam_figure`; ``pbrdf polcam``).
 * ``normalmap.png``: a hammered plate (``scenes/gallery/plate.xml``) with
   Mitsuba's ``normalmap`` and with ``polarized_normalmap``
-  (:mod:`mitsuba_pbrdf.figures.normalmap_plate`).
+  (its normal map: :mod:`mitsuba_pbrdf.figures.normalmap_plate`).
 * ``stokes_sheet.png``: every Stokes panel of ``scenes/default.xml`` (what
   ``pbrdf view --panels all`` draws).
 * ``pbrdf_plot.png``: the model's lobes and DoP (what ``pbrdf plot`` draws).
@@ -376,6 +376,20 @@ def render_polarizer(settings: _Settings):
     return save_png(fig, settings.out / "polarizer.png", dpi=100, colors=_PNG_COLOURS), check
 
 
+def render_normalmap_plate(settings: _Settings) -> str:
+    """``normalmap.png``: plate.xml with each wrapper of
+    :data:`~mitsuba_pbrdf.figures.normalmap_plate.WRAPPERS`."""
+    from .normalmap_plate import WRAPPERS, aolp_difference
+
+    images = {w: _render(settings, "plate.xml", f"plate_{w}", wrapper=w) for w, _ in WRAPPERS}
+    worst, median = aolp_difference(images["normalmap"], images["polarized_normalmap"])
+    fig = montage_figure(
+        [(label, images[w]) for w, label in WRAPPERS], dolp_max=0.3,
+        title=f"Hammered plate (plate.xml; {_subtitle(images['normalmap'])}): same intensity\n"
+              f"and DoLP, AoLP off by up to {worst:.0f}° (median {median:.0f}°) where DoLP ≥ 0.02")
+    return save_png(fig, settings.out / "normalmap.png", dpi=100, colors=_PNG_COLOURS)
+
+
 def render_polcam(settings: _Settings) -> str:
     """``polcam.png``: sphere.xml in copper as a polarization camera records it."""
     from .polcam_figure import polcam_figure
@@ -436,7 +450,6 @@ def run_gallery(out="gallery", scenes_dir=None, exr_dir="out/gallery", spp=None,
         elif item == "polcam":
             result[item] = render_polcam(settings)
         elif item == "normalmap":
-            from .normalmap_plate import render_normalmap_plate
             result[item] = render_normalmap_plate(settings)
         elif item == "sheet":
             result[item] = render_stokes_sheet(settings)

@@ -1,10 +1,12 @@
-"""The normal-mapped plate of the gallery (``normalmap.png``): a hammered
+"""The normal-mapped plate of the gallery (``normalmap.png``, drawn by
+:func:`mitsuba_pbrdf.figures.gallery.render_normalmap_plate`): a hammered
 aluminium plate (``scenes/gallery/plate.xml``) rendered with Mitsuba's
 ``normalmap`` and with ``polarized_normalmap``; same intensity and DoLP, a
 different AoLP inside the dimples (docs/normal-maps.md).
 
 ``write_hammered_normal_map`` makes the shipped normal map
-(``scenes/gallery/plate_normals.exr``)."""
+(``scenes/gallery/plate_normals.exr``); ``aolp_difference`` measures the
+difference the picture's title states."""
 
 from __future__ import annotations
 
@@ -56,26 +58,10 @@ def write_hammered_normal_map(path, **options) -> str:
 def aolp_difference(a, b, min_dolp=0.02):
     """Largest and median |AoLP(a) − AoLP(b)| (degrees, modulo 180°) over the
     pixels of two Stokes images where both DoLPs (luminance) exceed ``min_dolp``."""
-    from ..imaging.stokes import aolp, dolp, luminance_stokes
+    from ..stokes.image import aolp, dolp, luminance_stokes
 
     sa, sb = luminance_stokes(a), luminance_stokes(b)
     mask = (dolp(sa, axis=-1) > min_dolp) & (dolp(sb, axis=-1) > min_dolp)
     diff = np.degrees(aolp(sa, axis=-1) - aolp(sb, axis=-1))
     diff = np.abs((diff + 90.0) % 180.0 - 90.0)[mask]
     return (float(diff.max()), float(np.median(diff))) if diff.size else (0.0, 0.0)
-
-
-def render_normalmap_plate(settings) -> str:
-    """``normalmap.png``: plate.xml with each of :data:`WRAPPERS` (gallery
-    settings, see :func:`mitsuba_pbrdf.figures.gallery.run_gallery`)."""
-    from ..imaging.panels import save_png
-    from .gallery import _PNG_COLOURS, _render, _subtitle, montage_figure
-
-    images = {w: _render(settings, "plate.xml", f"plate_{w}", wrapper=w) for w, _ in WRAPPERS}
-    worst, median = aolp_difference(images["normalmap"], images["polarized_normalmap"])
-    fig = montage_figure(
-        [(label, images[w]) for w, label in WRAPPERS],
-        dolp_max=0.3,
-        title=f"Hammered plate (plate.xml; {_subtitle(images['normalmap'])}): same intensity\n"
-              f"and DoLP, AoLP off by up to {worst:.0f}° (median {median:.0f}°) where DoLP ≥ 0.02")
-    return save_png(fig, settings.out / "normalmap.png", dpi=100, colors=_PNG_COLOURS)
