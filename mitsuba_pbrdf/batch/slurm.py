@@ -31,13 +31,33 @@ from typing import Dict, List, Optional
 from .cluster import ALLOWED_FAILURES, WorkerSetup
 from .slurm_options import SlurmError, SlurmOptions, format_walltime
 
-__all__ = ["connect_slurm", "SlurmWorkerSetup", "check_partition", "job_states",
+__all__ = ["connect_slurm", "slurm_cluster_class", "SlurmWorkerSetup", "check_partition", "job_states",
            "REPLACE_INTERVAL_S"]
 
 #: Seconds between two checks that the cluster still has its worker jobs.
 REPLACE_INTERVAL_S = 2.0
 #: Worker events (topic of Dask's event log) that map a worker to its Slurm job.
 EVENT_TOPIC = "pbrdf-slurm-worker"
+
+
+def slurm_cluster_class():
+    """dask-jobqueue's ``SLURMCluster``; SlurmError naming the ``cluster``
+    extra when it is not installed. dask-jobqueue 0.9 replaces the process's
+    SIGINT handler when imported (``sys.exit``: Ctrl-C would end the sweep
+    with status 0 and no record); the handler is put back."""
+    import signal
+
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.getsignal(signal.SIGINT) if main else None
+    try:
+        from dask_jobqueue import SLURMCluster
+    except ImportError:
+        raise SlurmError("--slurm needs dask-jobqueue: pip install 'mitsuba-pbrdf[cluster]' "
+                         "(the 'cluster' extra)") from None
+    finally:
+        if main and previous is not None:
+            signal.signal(signal.SIGINT, previous)
+    return SLURMCluster
 
 
 def _slurm(*argv: str, timeout: float = 30.0) -> subprocess.CompletedProcess:
@@ -213,11 +233,7 @@ def connect_slurm(options: SlurmOptions, log_directory: str,
     Yields ``(client, explain)``: *explain* maps addresses of workers that
     left to one line each. Slurm's logs of the jobs go to *log_directory*.
     Raises :class:`SlurmError` (one line) when the workers cannot start."""
-    try:
-        from dask_jobqueue import SLURMCluster
-    except ImportError:
-        raise SlurmError("--slurm needs dask-jobqueue: pip install 'mitsuba-pbrdf[cluster]'") \
-            from None
+    SLURMCluster = slurm_cluster_class()
     import dask
     from dask.distributed import Client
 

@@ -51,14 +51,12 @@ def slurm_settings(args, sweep):
     if args.drjit_threads is not None:
         raise CliError("--drjit-threads does not go with --slurm: each worker's Dr.Jit "
                        "threads are its job's cores (--cores)")
-    try:
-        import dask_jobqueue  # noqa: F401
-    except ImportError:
-        raise CliError("--slurm needs dask-jobqueue: pip install 'mitsuba-pbrdf[cluster]' "
-                       "(the 'cluster' extra)") from None
+    from ..batch.slurm import slurm_cluster_class
+
     if given["sbatch"] is not None:
         given["sbatch"] = tuple(given["sbatch"])
     try:
+        slurm_cluster_class()  # dask-jobqueue is installed
         return slurm_options(sweep.slurm, where=f"{sweep.path}: ", **given)
     except SlurmError as e:
         raise CliError(str(e)) from None

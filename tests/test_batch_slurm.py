@@ -1,0 +1,315 @@
+"""``pbrdf batch --slurm`` against a real Slurm: a single-node Slurm
+(:mod:`single_node_slurm`: Debian's slurmctld, slurmd and munge, installed by
+``.ci/install-slurm.sh``) that the module's fixture starts and stops.
+
+Faults, as on the local cluster (tests/test_batch.py): a worker's Slurm job
+cancelled (``scancel``) and another one running out of walltime while they
+render lose nothing (the renders run again on other workers, every output
+reads back, the manifest's ``note`` names what happened), a rerun renders
+nothing, and no Slurm job is left in the queue when the sweep ends, fails or
+is interrupted (Ctrl-C), while a job of someone else stays.
+
+Without the packages (or not as root) these tests skip with a one-line
+reason saying how to get them; in CI (``CI=true``) they fail instead.
+The option checks at the top need no Slurm.
+"""
+
+import importlib.util
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mitsuba_pbrdf.batch.manifest import read_manifest
+from mitsuba_pbrdf.batch.slurm_options import (SlurmError, SlurmOptions, format_walltime,
+                                               parse_walltime, slurm_options)
+from mitsuba_pbrdf.batch.sweep import SweepError, load_sweep
+from mitsuba_pbrdf.cli import main
+from mitsuba_pbrdf.imaging.exr import read_stokes_exr
+from single_node_slurm import SingleNodeSlurm, missing
+
+ROOT = Path(__file__).resolve().parents[1]
+SPHERE = ROOT / "scenes" / "gallery" / "sphere.xml"
+IN_CI = os.environ.get("CI", "").lower() == "true"
+
+
+def write_sweep(folder: Path, body: str, name: str = "sweep.toml") -> Path:
+    path = folder / name
+    path.write_text(f'scene = "{SPHERE}"\nout = "out"\n' + body)
+    return path
+
+
+def grid(count: int, spp: int) -> str:
+    """A sweep body of *count* 16 x 16 px renders of the gallery sphere."""
+    sigmas = ", ".join(f"{0.05 + 0.002 * i:.3f}" for i in range(count))
+    return f"spp = {spp}\n[params]\nwidth = 16\nheight = 16\nsigma = [{sigmas}]\n"
+
+
+# ---------------------------------------------------------------- options (no Slurm needed)
+
+@pytest.mark.parametrize("text, seconds", [
+    ("90", 5400), ("1:30", 90), ("02:00:00", 7200), ("1-12", 129600), ("1-0:30", 88200),
+    ("2-01:02:03", 176523)])
+def test_walltime_formats_are_slurm_s(text, seconds):
+    assert parse_walltime(text) == seconds
+
+
+@pytest.mark.parametrize("text", ["", "1h", "01:60:00", "1:2:3:4", "-5", "1.5", "12-"])
+def test_malformed_walltimes_are_refused(text):
+    with pytest.raises(SlurmError, match="walltime"):
+        parse_walltime(text)
+
+
+def test_walltime_is_rounded_up_to_minutes_as_slurm_does():
+    assert format_walltime(61) == "00:02:00" and format_walltime(7200) == "02:00:00"
+
+
+@pytest.mark.parametrize("table, words", [
+    ({"walltime": "0:30"}, ["slurm.walltime", "too short", "00:01:00"]),
+    ({"walltime": "soon"}, ["slurm.walltime 'soon' is not a Slurm time"]),
+    ({"cores": 0}, ["slurm.cores", "positive integer"]),
+    ({"jobs": 1.5}, ["slurm.jobs", "positive integer"]),
+    ({"memory": "lots"}, ["slurm.memory 'lots'"]),
+    ({"memory": "10MB"}, ["at least 256 MiB"]),
+    ({"partition": "a b"}, ["slurm.partition", "not a partition name"]),
+    ({"sbatch": "--account=x"}, ["slurm.sbatch must be a list"]),
+    ({"sbatch": ["account=x"]}, ["slurm.sbatch", "one sbatch option"]),
+    ({"start_timeout": 0}, ["slurm.start_timeout", "positive number"]),
+    ({"queue": "x"}, ["slurm: unknown key 'queue'", "partition"]),
+])
+def test_bad_slurm_tables_are_refused_at_load_time(tmp_path, table, words):
+    def toml(value):
+        if isinstance(value, str):
+            return f'"{value}"'
+        if isinstance(value, list):
+            return "[" + ", ".join(toml(v) for v in value) + "]"
+        return str(value)
+
+    body = "[slurm]\n" + "".join(f"{k} = {toml(v)}\n" for k, v in table.items())
+    path = write_sweep(tmp_path, body)
+    with pytest.raises(SweepError) as e:
+        load_sweep(path)
+    message = str(e.value)
+    assert message.startswith(str(path)) and "\n" not in message
+    for word in words:
+        assert word in message
+
+
+def test_command_line_wins_over_the_table_and_adds_directives():
+    options = slurm_options({"jobs": 3, "cores": 8, "sbatch": ["--account=lab"]},
+                            where="s.toml: ", cores=2, sbatch=("--qos=short",))
+    assert options == SlurmOptions(jobs=3, cores=2, sbatch=("--account=lab", "--qos=short"))
+    with pytest.raises(SlurmError, match="^--walltime: '0:59' is too short"):
+        slurm_options({}, walltime="0:59")
+
+
+def test_slurm_options_need_slurm_and_threads_are_the_cores(tmp_path, capsys):
+    path = write_sweep(tmp_path, grid(1, 1))
+    assert main(["batch", str(path), "--partition", "debug"]) == 2
+    assert "--partition is a Slurm option: add --slurm" in capsys.readouterr().err
+    assert main(["batch", str(path), "--slurm", "--drjit-threads", "4"]) == 2
+    assert "--drjit-threads does not go with --slurm" in capsys.readouterr().err
+
+
+def test_slurm_without_slurm_is_one_line(tmp_path, capfd, monkeypatch):
+    """No Slurm command on PATH (a machine without Slurm): one line, exit 2,
+    no output folder content, nothing rendered."""
+    if importlib.util.find_spec("dask_jobqueue") is None:
+        pytest.skip("dask-jobqueue is not installed: pip install -e '.[test]'")
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    path = write_sweep(tmp_path, grid(2, 1))
+    assert main(["batch", str(path), "--slurm", "--no-progress"]) == 2
+    err = capfd.readouterr().err.strip()
+    assert err.count("\n") == 0 and "Traceback" not in err
+    assert err.startswith("pbrdf batch: error: Slurm is not reachable: no 'scontrol' command")
+    assert not list((tmp_path / "out").glob("*.exr"))
+
+
+# ---------------------------------------------------------------- a real Slurm
+
+@pytest.fixture(scope="module")
+def slurm():
+    """The single-node Slurm, started for this module and stopped after it
+    (also when a previous run left its daemons running); ``SLURM_CONF``
+    points the Slurm commands, dask-jobqueue and subprocesses at it."""
+    why = missing()
+    if why is None and importlib.util.find_spec("dask_jobqueue") is None:
+        why = "dask-jobqueue is not installed: pip install -e '.[test]'"
+    if why:
+        if IN_CI:
+            pytest.fail(f"CI must run the Slurm tests, not skip them: {why}", pytrace=False)
+        pytest.skip(why)
+    node = SingleNodeSlurm()
+    before = os.environ.get("SLURM_CONF")
+    try:
+        node.start()
+        os.environ["SLURM_CONF"] = node.conf
+        yield node
+    finally:
+        if before is None:
+            os.environ.pop("SLURM_CONF", None)
+        else:
+            os.environ["SLURM_CONF"] = before
+        node.stop()
+
+
+def rows_of(sweep):
+    return list(read_manifest(sweep.manifest).values())
+
+
+def running_jobs(node):
+    return node.run("squeue", "-h", "-t", "R", "-o", "%i").split()
+
+
+def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
+    """Two worker jobs with a walltime of 1 minute render a sweep that lasts
+    longer than that. Once the first output exists, one worker's job is
+    cancelled (scancel) while it renders; later the other one runs out of
+    walltime while it renders (Slurm ends a job between 60 and 90 s after
+    its start: it checks time limits every 30 s). Every job ends ``done``
+    with a valid image, the cancelled job's render equals an in-process
+    render with its seed, the notes name the cancellation and the walltime,
+    no job is left in the queue, and a rerun submits and renders nothing."""
+    from mitsuba_pbrdf.batch.runner import run_sweep
+    from mitsuba_pbrdf.imaging.render import render_scene
+
+    # 110 renders of ~1.8 s on one of 2 cores each: ~100 s for 2 workers, past the
+    # walltime kill at 60-90 s (measured here: 1024 spp of 16 x 16 px take 0.9 s on 2 threads)
+    sweep = load_sweep(write_sweep(tmp_path, grid(110, 1024)))
+    options = SlurmOptions(jobs=2, cores=1, memory="1GB", walltime="1", start_timeout=120)
+    cancelled = []
+
+    def canceller():
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            if list(Path(sweep.out).glob("*.exr")):
+                running = running_jobs(slurm)
+                if running:
+                    slurm.run("scancel", running[0])
+                    cancelled.append(running[0])
+                    return
+            time.sleep(0.1)
+
+    thread = threading.Thread(target=canceller, daemon=True)
+    thread.start()
+    summary = run_sweep(sweep, slurm=options, progress=False)
+    thread.join(5)
+    assert cancelled, "no worker job was running to cancel"
+    assert (summary.done, summary.failed, summary.pending) == (110, 0, 0), summary.failures
+    assert slurm.jobs() == [], "worker jobs left in the queue"
+    rows = rows_of(sweep)
+    assert all(r["status"] == "done" and not r["error"] for r in rows)
+    for row in rows:
+        image = read_stokes_exr(os.path.join(sweep.out, row["file"]))
+        assert image.stokes.shape[:2] == (16, 16) and np.isfinite(image.stokes).all()
+    assert not [p for p in Path(sweep.out).iterdir() if p.name.startswith(".")]  # no temp file
+
+    notes = {r["job"]: r["note"] for r in rows if r["note"]}
+    cancel = [job for job, note in notes.items()
+              if f"Slurm job {cancelled[0]} was cancelled" in note]
+    timeout = [job for job, note in notes.items() if "reached its walltime (00:01:00)" in note]
+    assert len(cancel) == 1, notes
+    assert timeout, f"no render was cut by a walltime (the sweep ended first?): {notes}"
+    assert all(note.startswith("run again: ") and "\n" not in note for note in notes.values())
+
+    # the cancelled job's render was run again with its own seed: equal to an
+    # in-process render up to the order of float32 additions (Mitsuba's film sums
+    # a pixel's 1024 spp x 9 filter splats with atomic adds in any order: at most
+    # 9216 * 2^-24 = 5.5e-4 of the sum of the terms' magnitudes, which |S1..S3| <= S0
+    # keeps below the image maximum; measured here: 2.5e-6). Another seed differs by
+    # the Monte Carlo noise, 3e-2 of the maximum here, 50 times the bound.
+    job = next(j for j in sweep.jobs if j.name == cancel[0])
+    retried = read_stokes_exr(os.path.join(sweep.out, f"{job.name}.exr")).stokes
+    again = render_scene(SPHERE, spp=1024, seed=job.seed, params=job.params).stokes
+    other = render_scene(SPHERE, spp=1024, seed=job.seed + 1, params=job.params).stokes
+    scale = np.abs(again).max()
+    assert np.abs(retried - again).max() <= 5.5e-4 * scale
+    assert np.abs(other - again).max() > 5e-3 * scale
+
+    stamps = {p.name: p.stat().st_mtime_ns for p in Path(sweep.out).glob("*.exr")}
+    logs = set(os.listdir(os.path.join(sweep.out, "slurm-logs")))
+    rerun = run_sweep(sweep, slurm=options, progress=False)
+    assert (rerun.skipped, rerun.done, rerun.failed) == (110, 0, 0)
+    assert stamps == {p.name: p.stat().st_mtime_ns for p in Path(sweep.out).glob("*.exr")}
+    assert set(os.listdir(os.path.join(sweep.out, "slurm-logs"))) == logs  # nothing submitted
+    assert slurm.jobs() == []
+
+
+def one_line_error(capfd):
+    err = capfd.readouterr().err.strip()
+    assert err.count("\n") == 0 and "Traceback" not in err, err
+    assert err.startswith("pbrdf batch: error: "), err
+    return err
+
+
+def test_bad_partition_is_one_line_and_submits_nothing(tmp_path, slurm, capfd):
+    path = write_sweep(tmp_path, grid(2, 1))
+    assert main(["batch", str(path), "--slurm", "--partition", "gpu-huge"]) == 2
+    err = one_line_error(capfd)
+    assert "--partition 'gpu-huge': no such Slurm partition; this cluster has debug" in err
+    assert slurm.jobs() == [] and not (tmp_path / "out" / "slurm-logs").exists()
+
+
+def test_a_job_slurm_refuses_is_one_line(tmp_path, slurm, capfd):
+    """More cores than the node has: ``sbatch --test-only`` refuses the
+    worker job before any is submitted."""
+    path = write_sweep(tmp_path, grid(2, 1))
+    assert main(["batch", str(path), "--slurm", "--cores", "4096", "--memory", "1GB"]) == 2
+    assert "sbatch refuses the worker job: " in one_line_error(capfd)
+    assert slurm.jobs() == []
+
+
+def test_a_job_that_never_starts_names_the_partition_and_the_reason(tmp_path, slurm, capfd):
+    """Worker jobs held back (``--begin=now+1hour``) do not start within
+    ``--start-timeout``: one line naming the partition and squeue's reason,
+    and the jobs are cancelled."""
+    path = write_sweep(tmp_path, grid(2, 1))
+    t = time.perf_counter()
+    assert main(["batch", str(path), "--slurm", "--cores", "1", "--memory", "1GB",
+                 "--sbatch=--begin=now+1hour", "--start-timeout", "3"]) == 2
+    err = one_line_error(capfd)
+    assert "no worker job started within 3 s on partition 'debug'" in err
+    assert "(squeue: PENDING (BeginTime))" in err
+    assert time.perf_counter() - t < 60
+    assert slurm.jobs() == []
+    assert all(r["status"] == "pending" for r in rows_of(load_sweep(path)))
+
+
+def test_ctrl_c_cancels_its_worker_jobs_and_nothing_else(tmp_path, slurm):
+    """SIGINT to the process group of ``pbrdf batch --slurm`` once an output
+    exists: exit status 130, one line, a manifest whose done rows name valid
+    files, none of its worker jobs left, and another job in the queue kept."""
+    other = slurm.run("sbatch", "--parsable", "-o", "/dev/null", "--wrap", "sleep 600").strip()
+    try:
+        path = write_sweep(tmp_path, grid(12, 4096))
+        sweep = load_sweep(path)
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "mitsuba_pbrdf", "batch", str(path), "--slurm", "--jobs", "1",
+             "--cores", "1", "--memory", "1GB", "--walltime", "5", "--no-progress"],
+            env=slurm.env(dict(os.environ, PYTHONPATH=os.pathsep.join(
+                [str(ROOT), os.environ.get("PYTHONPATH", "")]))),
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        deadline = time.time() + 120
+        while time.time() < deadline and proc.poll() is None:
+            if list(Path(sweep.out).glob("*.exr")):
+                break
+            time.sleep(0.05)
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+        assert proc.returncode == 130, err
+        assert err.strip().splitlines()[-1] == "pbrdf batch: interrupted", err
+        rows = rows_of(sweep)
+        assert len(rows) == 12 and {r["status"] for r in rows} <= {"done", "pending"}
+        assert "pending" in {r["status"] for r in rows}
+        for row in rows:
+            if row["status"] == "done":
+                assert read_stokes_exr(os.path.join(sweep.out, row["file"])).stokes.shape[0] == 16
+        assert slurm.jobs() == [other]
+    finally:
+        slurm.run("scancel", other, check=False)
