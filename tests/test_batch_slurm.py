@@ -179,9 +179,9 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     from mitsuba_pbrdf.batch.runner import run_sweep
     from mitsuba_pbrdf.imaging.render import render_scene
 
-    # 110 renders of ~1.8 s on one of 2 cores each: ~100 s for 2 workers, past the
-    # walltime kill at 60-90 s (measured here: 1024 spp of 16 x 16 px take 0.9 s on 2 threads)
-    sweep = load_sweep(write_sweep(tmp_path, grid(110, 1024)))
+    # 150 renders of 1024 spp at 16 x 16 px: ~105 s for 2 workers on 2 cores here (110
+    # took 85 s), past the walltime kill at 60-90 s after the worker jobs started
+    sweep = load_sweep(write_sweep(tmp_path, grid(150, 1024)))
     options = SlurmOptions(jobs=2, cores=1, memory="1GB", walltime="1", start_timeout=120)
     cancelled = []
 
@@ -201,8 +201,8 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     summary = run_sweep(sweep, slurm=options, progress=False)
     thread.join(5)
     assert cancelled, "no worker job was running to cancel"
-    assert (summary.done, summary.failed, summary.pending) == (110, 0, 0), summary.failures
-    assert slurm.jobs() == [], "worker jobs left in the queue"
+    assert (summary.done, summary.failed, summary.pending) == (150, 0, 0), summary.failures
+    assert slurm.jobs() == [], slurm.run("squeue")
     rows = rows_of(sweep)
     assert all(r["status"] == "done" and not r["error"] for r in rows)
     for row in rows:
@@ -214,7 +214,8 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     cancel = [job for job, note in notes.items()
               if f"Slurm job {cancelled[0]} was cancelled" in note]
     timeout = [job for job, note in notes.items() if "reached its walltime (00:01:00)" in note]
-    assert len(cancel) == 1, notes
+    # the job it rendered; at a job boundary also the one just sent to it
+    assert 1 <= len(cancel) <= 2, notes
     assert timeout, f"no render was cut by a walltime (the sweep ended first?): {notes}"
     assert all(note.startswith("run again: ") and "\n" not in note for note in notes.values())
 
@@ -224,7 +225,7 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     # 9216 * 2^-24 = 5.5e-4 of the sum of the terms' magnitudes, which |S1..S3| <= S0
     # keeps below the image maximum; measured here: 2.5e-6). Another seed differs by
     # the Monte Carlo noise, 3e-2 of the maximum here, 50 times the bound.
-    job = next(j for j in sweep.jobs if j.name == cancel[0])
+    job = next(j for j in sweep.jobs if j.name == cancel[0])  # the first lost: it was rendering
     retried = read_stokes_exr(os.path.join(sweep.out, f"{job.name}.exr")).stokes
     again = render_scene(SPHERE, spp=1024, seed=job.seed, params=job.params).stokes
     other = render_scene(SPHERE, spp=1024, seed=job.seed + 1, params=job.params).stokes
@@ -235,7 +236,7 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     stamps = {p.name: p.stat().st_mtime_ns for p in Path(sweep.out).glob("*.exr")}
     logs = set(os.listdir(os.path.join(sweep.out, "slurm-logs")))
     rerun = run_sweep(sweep, slurm=options, progress=False)
-    assert (rerun.skipped, rerun.done, rerun.failed) == (110, 0, 0)
+    assert (rerun.skipped, rerun.done, rerun.failed) == (150, 0, 0)
     assert stamps == {p.name: p.stat().st_mtime_ns for p in Path(sweep.out).glob("*.exr")}
     assert set(os.listdir(os.path.join(sweep.out, "slurm-logs"))) == logs  # nothing submitted
     assert slurm.jobs() == []

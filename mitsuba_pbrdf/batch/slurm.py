@@ -25,6 +25,7 @@ import os
 import subprocess
 import tempfile
 import threading
+import time
 import uuid
 from typing import Dict, List, Optional
 
@@ -36,6 +37,8 @@ __all__ = ["connect_slurm", "slurm_cluster_class", "SlurmWorkerSetup", "check_pa
 
 #: Seconds between two checks that the cluster still has its worker jobs.
 REPLACE_INTERVAL_S = 2.0
+#: Seconds to wait at exit for the worker jobs to leave Slurm's queue.
+LEAVE_TIMEOUT_S = 20.0
 #: Worker events (topic of Dask's event log) that map a worker to its Slurm job.
 EVENT_TOPIC = "pbrdf-slurm-worker"
 
@@ -126,13 +129,22 @@ def _queued(job_name: str) -> List[List[str]]:
     done = _slurm("squeue", "-h", "-u", str(os.getuid()), "-n", job_name, "-o", "%i|%T|%r")
     if done.returncode != 0:
         return []
-    return [line.split("|") for line in done.stdout.split()]
+    return [line.split("|", 2) for line in done.stdout.splitlines() if line.strip()]
 
 
-def _cancel_leftovers(job_name: str):
-    ids = [row[0] for row in _queued(job_name)]
-    if ids:
-        _slurm("scancel", *ids)
+def _cancel_leftovers(job_name: str, timeout: float = LEAVE_TIMEOUT_S):
+    """Cancel this user's jobs named *job_name* that are still queued, and
+    wait (at most *timeout* s) until they have left the queue, completing
+    ones included."""
+    deadline = time.monotonic() + timeout
+    while True:
+        queued = _queued(job_name)
+        if not queued or time.monotonic() > deadline:
+            return
+        ids = [job_id for job_id, state, _ in queued if state != "COMPLETING"]
+        if ids:
+            _slurm("scancel", *ids)
+        time.sleep(0.25)
 
 
 class SlurmWorkerSetup(WorkerSetup):
