@@ -131,13 +131,8 @@ def test_slurm_without_slurm_is_one_line(tmp_path, capfd, monkeypatch):
     assert not list((tmp_path / "out").glob("*.exr"))
 
 
-# ---------------------------------------------------------------- a real Slurm
-
-@pytest.fixture(scope="module")
-def slurm():
-    """The single-node Slurm, started for this module and stopped after it
-    (also when a previous run left its daemons running); ``SLURM_CONF``
-    points the Slurm commands, dask-jobqueue and subprocesses at it."""
+def require_slurm_commands():
+    """Skip (fail in CI) without the Slurm packages, dask-jobqueue or root."""
     why = missing()
     if why is None and importlib.util.find_spec("dask_jobqueue") is None:
         why = "dask-jobqueue is not installed: pip install -e '.[test]'"
@@ -145,6 +140,47 @@ def slurm():
         if IN_CI:
             pytest.fail(f"CI must run the Slurm tests, not skip them: {why}", pytrace=False)
         pytest.skip(why)
+
+
+def test_slurm_that_does_not_answer_is_one_line(tmp_path, capfd, monkeypatch):
+    """Slurm's commands installed but no controller answering (its daemons
+    down): one line naming scontrol's reason, exit 2, nothing rendered."""
+    require_slurm_commands()
+    conf = tmp_path / "slurm.conf"
+    conf.write_text("ClusterName=nowhere\nSlurmctldHost=localhost\nSlurmctldPort=6990\n"
+                    f"AuthType=auth/munge\nAuthInfo=socket={tmp_path}/munge.socket\n"
+                    "NodeName=localhost CPUs=1\nPartitionName=x Nodes=localhost\n")
+    monkeypatch.setenv("SLURM_CONF", str(conf))
+    path = write_sweep(tmp_path, grid(2, 1))
+    assert main(["batch", str(path), "--slurm", "--no-progress"]) == 2
+    err = capfd.readouterr().err.strip()
+    assert err.count("\n") == 0 and "Traceback" not in err
+    assert err.startswith("pbrdf batch: error: Slurm is not reachable: scontrol: ")
+    assert "Unable to contact slurm controller" in err
+    assert not list((tmp_path / "out").glob("*.exr"))
+
+
+def test_benchmark_section_replaces_its_own_and_keeps_the_rest(tmp_path):
+    """benchmarks/batch_slurm.py writes its section of batch.md, which
+    batch_throughput.py writes too: each keeps the other's part."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import batch_slurm
+
+    target = tmp_path / "batch.md"
+    target.write_text("# throughput\n\ntable\n")
+    batch_slurm.write_section(target, "## On Slurm\n\nfirst\n")
+    batch_slurm.write_section(target, "## On Slurm\n\nsecond\n")
+    assert target.read_text() == "# throughput\n\ntable\n\n## On Slurm\n\nsecond\n"
+
+
+# ---------------------------------------------------------------- a real Slurm
+
+@pytest.fixture(scope="module")
+def slurm():
+    """The single-node Slurm, started for this module and stopped after it
+    (also when a previous run left its daemons running); ``SLURM_CONF``
+    points the Slurm commands, dask-jobqueue and subprocesses at it."""
+    require_slurm_commands()
     node = SingleNodeSlurm()
     before = os.environ.get("SLURM_CONF")
     try:

@@ -245,23 +245,30 @@ def connect_slurm(options: SlurmOptions, log_directory: str,
     Yields ``(client, explain)``: *explain* maps addresses of workers that
     left to one line each. Slurm's logs of the jobs go to *log_directory*.
     Raises :class:`SlurmError` (one line) when the workers cannot start."""
-    SLURMCluster = slurm_cluster_class()
     import dask
-    from dask.distributed import Client
 
+    cluster_class = slurm_cluster_class()
     partition = check_partition(options.partition)
-    job_name = f"pbrdf-{uuid.uuid4().hex[:8]}"
     os.makedirs(log_directory, exist_ok=True)
+    # read by the scheduler (in this process) while the sweep runs, so set throughout
     settings = {"distributed.scheduler.worker-saturation": 1.0,
                 "distributed.scheduler.allowed-failures": int(allowed_failures),
                 # give up a lost worker's job after 1 s (Dask: 15 s), so it is replaced soon
                 "distributed.deploy.lost-worker-timeout": "1s"}
     with dask.config.set(settings):
-        cluster = SLURMCluster(
-            cores=1, processes=1, job_cpu=options.cores, memory=options.memory,
-            walltime=format_walltime(options.walltime_s), queue=partition, job_name=job_name,
-            log_directory=log_directory, job_extra_directives=list(options.sbatch),
-            scheduler_options={"dashboard_address": None}, silence_logs=logging.CRITICAL)
+        yield from _session(cluster_class, options, partition, log_directory)
+
+
+def _session(cluster_class, options: SlurmOptions, partition: str, log_directory: str):
+    """The body of :func:`connect_slurm` (a generator it delegates to)."""
+    from dask.distributed import Client
+
+    job_name = f"pbrdf-{uuid.uuid4().hex[:8]}"
+    cluster = cluster_class(
+        cores=1, processes=1, job_cpu=options.cores, memory=options.memory,
+        walltime=format_walltime(options.walltime_s), queue=partition, job_name=job_name,
+        log_directory=log_directory, job_extra_directives=list(options.sbatch),
+        scheduler_options={"dashboard_address": None}, silence_logs=logging.CRITICAL)
     keeper = None
     try:
         _test_only(cluster.job_script())

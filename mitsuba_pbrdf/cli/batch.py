@@ -65,8 +65,8 @@ def add_parser(subparsers):
                             "options below and the sweep file's [slurm] table")
     b.add_argument("--drjit-threads", type=int, default=None, metavar="N",
                    help="Dr.Jit threads per worker (default: local cluster: the cores shared "
-                        "out between the workers; --scheduler: the workers' own setting; "
-                        "--slurm: the cores of each job)")
+                        "out between the workers; --scheduler: the workers' own setting; not "
+                        "with --slurm, where each job's cores decide)")
     slurm_arguments(b)
     progress_options(b)
     b.set_defaults(func=run)

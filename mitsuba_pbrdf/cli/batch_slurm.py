@@ -56,7 +56,8 @@ def slurm_settings(args, sweep):
     if given["sbatch"] is not None:
         given["sbatch"] = tuple(given["sbatch"])
     try:
+        options = slurm_options(sweep.slurm, where=f"{sweep.path}: ", **given)
         slurm_cluster_class()  # dask-jobqueue is installed
-        return slurm_options(sweep.slurm, where=f"{sweep.path}: ", **given)
     except SlurmError as e:
         raise CliError(str(e)) from None
+    return options
