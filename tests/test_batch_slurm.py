@@ -378,3 +378,21 @@ def test_ctrl_c_cancels_its_worker_jobs_and_nothing_else(tmp_path, slurm, capsys
         assert slurm.jobs() == [other]
     finally:
         slurm.run("scancel", other, check=False)
+
+
+def test_a_start_stops_the_daemons_a_previous_run_left(slurm):
+    """What a test run killed before its teardown leaves (daemons still
+    running, their pid files in STATE) is stopped by the next start: the old
+    daemons are gone, new ones answer. Runs last: it restarts the fixture's Slurm."""
+    from single_node_slurm import DAEMONS, _ours
+
+    def pids():
+        return {d: int(Path(slurm.state, f"{d}.pid").read_text().split()[0]) for d in DAEMONS}
+
+    before = pids()
+    assert all(_ours(pid, d) for d, pid in before.items())
+    slurm.start()
+    after = pids()
+    assert not any(_ours(pid, d) for d, pid in before.items() if after[d] != pid)
+    assert all(after[d] != before[d] and _ours(after[d], d) for d in DAEMONS)
+    assert slurm.jobs() == [] and "idle" in slurm.run("sinfo", "-h", "-N", "-o", "%t")
