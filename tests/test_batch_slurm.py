@@ -215,7 +215,7 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     than that. Once the first output exists, one worker's job is cancelled
     (scancel) while it renders; later a worker job runs out of walltime while
     it renders (Slurm ends a job 60 to 90 s after its start: it checks time
-    limits every 30 s); 4 renders after that, the sweep is interrupted
+    limits every 30 s); 8 renders after that, the sweep is interrupted
     (SIGINT, as Ctrl-C). The jobs of both lost workers ran again and are
     ``done``, every done job's image reads back, the cancelled job's render
     equals an in-process render with its seed, the notes name the
@@ -246,7 +246,7 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
                 timed = timed_out_jobs(slurm)
                 if timed:
                     seen.update(timeout=timed[0], outputs=outputs)
-            elif outputs >= seen["outputs"] + 4:
+            elif outputs >= seen["outputs"] + 8:
                 os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C
                 seen["interrupted"] = outputs
                 return
@@ -276,7 +276,10 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     # the job each worker rendered; at a job boundary also the one just sent to it
     assert 1 <= len(cancel) <= 2 and 1 <= len(timeout) <= 2, notes
     # lost jobs are sent again first (Dask keeps their priority): done before the interrupt
-    assert all(notes[job]["status"] == "done" for job in cancel + timeout), notes
+    # (up to 2 per lost worker, and both workers may reach the walltime at one check of
+    # Slurm: 8 new files leave room for those and for a result still on its way)
+    assert all(notes[job]["status"] == "done" for job in cancel + timeout), \
+        {job: (r["status"], r["note"]) for job, r in notes.items()}
 
     # the cancelled job's render was run again with its own seed: equal to an
     # in-process render up to the order of float32 additions (Mitsuba's film sums
