@@ -1,4 +1,5 @@
-"""Running a sweep on Dask without losing work (docs/batch.md).
+"""Running a sweep on Dask (local, an existing scheduler, or Slurm worker
+jobs) without losing work (docs/batch.md).
 
 ::
 
@@ -17,6 +18,10 @@ What :func:`run_sweep` guarantees:
   worker that the nanny restarted or on another one, with the same seed; one
   that kills ``allowed-failures + 1`` workers is recorded as failed
   (:mod:`mitsuba_pbrdf.batch.cluster`);
+* the manifest's ``note`` says why a job ran again (its worker process
+  died; its worker's Slurm job was cancelled or reached its walltime:
+  :mod:`mitsuba_pbrdf.batch.lost`); on Slurm, lost worker jobs are replaced
+  and every worker job is cancelled at the end (:mod:`mitsuba_pbrdf.batch.slurm`);
 * temporary files that a worker killed while writing left behind are
   removed at the end;
 * only this process writes ``manifest.csv``, whole and atomically, after
