@@ -117,6 +117,15 @@ def test_slurm_options_need_slurm_and_threads_are_the_cores(tmp_path, capsys):
     assert "--drjit-threads does not go with --slurm" in capsys.readouterr().err
 
 
+def test_slurm_without_dask_jobqueue_names_the_extra(tmp_path, capfd, monkeypatch):
+    monkeypatch.setitem(sys.modules, "dask_jobqueue", None)  # import fails as if absent
+    path = write_sweep(tmp_path, grid(2, 1))
+    assert main(["batch", str(path), "--slurm", "--no-progress"]) == 2
+    err = capfd.readouterr().err.strip()
+    assert err == ("pbrdf batch: error: --slurm needs dask-jobqueue: pip install "
+                   "'mitsuba-pbrdf[cluster]' (the 'cluster' extra)")
+
+
 def test_slurm_without_slurm_is_one_line(tmp_path, capfd, monkeypatch):
     """No Slurm command on PATH (a machine without Slurm): one line, exit 2,
     no output folder content, nothing rendered."""
