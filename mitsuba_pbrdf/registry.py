@@ -7,6 +7,12 @@ keeping them registered when the variant changes.
     import mitsuba_pbrdf
     mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")   # set it, register the plugins
 
+Each plugin class is defined at module level, in a module that subclasses the
+active variant's Mitsuba base class (``mi.BSDF``, Mitsuba's ``ADIntegrator``)
+when it runs, as Mitsuba's own Python integrators do; :func:`variant_module`
+runs such a module once per variant and keeps each variant's copy, so a
+variant's classes stay the same objects however often the variant changes.
+
 Mitsuba's Python plugins are registered per variant. Importing
 ``mitsuba_pbrdf`` registers them in the variant already set (if any) and,
 through Mitsuba's variant callbacks, in every variant set afterwards with
@@ -17,28 +23,72 @@ calls :func:`install_hook`, which imports Mitsuba only where it is installed
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import logging
 import sys
 
 from .variant import UnknownVariantError, _mitsuba, require_variant
 
-__all__ = ["register", "use_variant", "install_hook"]
+__all__ = ["PLUGINS", "register", "use_variant", "install_hook", "variant_module", "plugin_class"]
 
 log = logging.getLogger(__name__)
 
 
-def register():
-    """Register the ``pbrdf`` BSDF plugin and the package's integrators
-    (``stokes_prb``, :mod:`mitsuba_pbrdf.integrators`) in the active variant;
-    returns the variant's name. Raises :class:`VariantNotSetError` if none is
-    set."""
-    mi = require_variant()
-    from .integrators import register as register_integrators
-    from .plugin import plugin_class
+#: Every Mitsuba plugin the package registers: (plugin kind, name in scene
+#: files, module, class). Each module sets ``VARIANT = mi.variant()``.
+PLUGINS = (
+    ("bsdf", "pbrdf", "mitsuba_pbrdf.plugin.bsdf", "PolarizedBRDF"),
+    ("integrator", "stokes_prb", "mitsuba_pbrdf.integrators.stokes_prb", "StokesPRBIntegrator"),
+)
 
-    mi.register_bsdf("pbrdf", plugin_class())
-    register_integrators()
+_modules = {}
+
+
+def variant_module(name: str):
+    """Module *name* as run under the active variant (its classes derive from
+    that variant's Mitsuba base classes): run once per variant, then reused."""
+    mi = require_variant()
+    variant = mi.variant()
+    module = _modules.get((name, variant))
+    if module is None:
+        current = sys.modules.get(name)
+        if current is not None and getattr(current, "VARIANT", None) == variant:
+            module = current
+        else:
+            spec = importlib.util.find_spec(name)
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module
+            try:
+                spec.loader.exec_module(module)
+            except BaseException:
+                sys.modules.pop(name, None)
+                raise
+        _modules[(name, variant)] = module
+    sys.modules[name] = module
+    return module
+
+
+def plugin_class(name: str):
+    """The class of plugin *name* (``"pbrdf"``, ``"stokes_prb"``) for the
+    active variant."""
+    for _, plugin, module, cls in PLUGINS:
+        if plugin == name:
+            return getattr(variant_module(module), cls)
+    raise KeyError(f"no plugin {name!r}; plugins: {', '.join(p[1] for p in PLUGINS)}")
+
+
+def _factory(name):
+    return lambda props: plugin_class(name)(props)
+
+
+def register():
+    """Register the package's plugins (:data:`PLUGINS`: the ``pbrdf`` BSDF and
+    the ``stokes_prb`` integrator) in the active variant; returns the
+    variant's name. Raises :class:`VariantNotSetError` if none is set."""
+    mi = require_variant()
+    for kind, name, _, _ in PLUGINS:
+        getattr(mi, f"register_{kind}")(name, _factory(name))
     return mi.variant()
 
 

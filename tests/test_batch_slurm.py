@@ -31,7 +31,7 @@ from mitsuba_pbrdf.batch.slurm_options import (SlurmError, SlurmOptions, format_
                                                parse_walltime, slurm_options)
 from mitsuba_pbrdf.batch.sweep import SweepError, load_sweep
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging.exr import read_stokes_exr
+from mitsuba_pbrdf.stokes.exr import read_stokes_exr
 from single_node_slurm import SingleNodeSlurm, missing
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -232,7 +232,7 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     the queue. Interrupting keeps the test's length set by the walltime, not
     by the machine's speed."""
     from mitsuba_pbrdf.batch.runner import run_sweep
-    from mitsuba_pbrdf.imaging.render import render_scene
+    from mitsuba_pbrdf.rendering.render import render_scene
 
     # 400 renders of 1024 spp at 16 x 16 px: over 4 minutes for 2 workers on 2 cores,
     # so the walltime comes first (the sweep is interrupted long before its end)

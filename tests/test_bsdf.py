@@ -197,7 +197,7 @@ def test_smallest_accepted_roughness_loads():
     """sigma and sigma_dd exactly at the floor MIN_SIGMA (alpha = 1e-4) are
     valid; only smaller ones are rejected (tests/test_bad_input.py)."""
     use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.plugin.bsdf import MIN_SIGMA
+    from mitsuba_pbrdf.schema import MIN_SIGMA
 
     floor = float(np.float32(MIN_SIGMA))
     while floor < MIN_SIGMA:                     # the float32 value at or above the floor

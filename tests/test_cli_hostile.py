@@ -24,12 +24,13 @@ import pytest
 from mitsuba_pbrdf import cli
 from mitsuba_pbrdf import variant as variant_module
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging.exr import read_stokes_exr, write_stokes_exr
-from mitsuba_pbrdf.imaging.stokes import StokesImage
+from mitsuba_pbrdf.stokes.exr import read_stokes_exr, write_stokes_exr
+from mitsuba_pbrdf.stokes.image import StokesImage
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 DEFAULT = os.path.join(ROOT, "scenes", "default.xml")
 CSV = os.path.join(ROOT, "tests", "data", "fit_example.csv")
+PTFE = os.path.join(ROOT, "tests", "data", "nist_ptfe_subset.csv")
 README = os.path.join(ROOT, "README.md")
 SMALL = ["-D", "width=32", "-D", "height=24", "--spp", "2"]
 
@@ -83,7 +84,7 @@ TABLE = [
      None),
     ("render: -D float that is not a number",
      ["render", DEFAULT, "-D", "sigma=abc"], 2, "-D sigma must be a number", None),
-    ("render: --spp 0", ["render", "{scene}", "--spp", "0"], 2, "--spp must be at least 1", None),
+    ("render: --spp 0", ["render", "{scene}", "--spp", "0"], 2, "--spp: must be at least 1", None),
     ("render: unpolarized variant",
      ["render", "{scene}", "--variant", "llvm_ad_rgb"], 2,
      "variant 'llvm_ad_rgb' does not track polarization", None),
@@ -118,7 +119,7 @@ TABLE = [
     ("view: unknown band", ["view", "{exr}", "--band", "Q", "--out", "{tmp}/q.png"], 2,
      "no band 'Q'", "{tmp}/q.png"),
     ("render: --wavelength not a number", ["render", "{scene}", "--wavelength", "red"], 2,
-     "--wavelength expects NM or NM:WIDTH", "{tmp}/out"),
+     "--wavelength: expects NM or NM:WIDTH", "{tmp}/out"),
     ("render: --wavelength outside the colour tables", ["render", "{scene}", "--wavelength",
                                                         "900"], 2,
      "must lie within 360-830 nm", "{tmp}/out"),
@@ -126,7 +127,7 @@ TABLE = [
                                                     "600:-5"], 2, "width >= 0", "{tmp}/out"),
     ("render: --wavelength in an RGB variant", ["render", "{scene}", "--wavelength", "600",
                                                 "--variant", "llvm_ad_mono_polarized"], 2,
-     "--wavelength needs a spectral variant, not llvm_ad_mono_polarized", "{tmp}/out"),
+     "--wavelength: needs a spectral variant, not llvm_ad_mono_polarized", "{tmp}/out"),
     ("render: --band of another wavelength", ["render", "{scene}", "--wavelength", "600",
                                               "--band", "R"], 2,
      "no band 'R' in a render; bands are 600nm", "{tmp}/out"),
@@ -159,6 +160,12 @@ TABLE = [
      "--read-noise (electrons) needs --full-well", "{tmp}/cam"),
     ("polcam: --exposure 0", ["polcam", "{exr}", "--out", "{tmp}/cam", "--exposure", "0"], 2,
      "--exposure must be a finite number > 0", "{tmp}/cam"),
+    ("polcam: --exposure alone would be ignored", ["polcam", "{exr}", "--out", "{tmp}/cam",
+                                                  "--exposure", "2"], 2,
+     "--exposure (the radiance at full well) needs --full-well or --bits", "{tmp}/cam"),
+    ("polcam: --seed without noise would be ignored", ["polcam", "{exr}", "--out", "{tmp}/cam",
+                                                       "--bits", "8", "--seed", "3"], 2,
+     "--seed (of the shot and read noise) needs --full-well", "{tmp}/cam"),
     ("polcam: unknown band", ["polcam", "{exr}", "--out", "{tmp}/cam", "--band", "Q"], 2,
      "no band 'Q'; bands are R, G, B", "{tmp}/cam"),
     ("polcam: --band with the colour sensor", ["polcam", "{exr}", "--out", "{tmp}/cam",
@@ -175,6 +182,41 @@ TABLE = [
      "cannot write /proc/x.png", None),
     ("fit: unwritable --json, before fitting", ["fit", CSV, "--json", "/sys/x.json"], 2,
      "cannot write /sys/x.json", None),
+    ("fit: NIST layout without f_r11", ["fit", "{nist_no_f11}"], 2,
+     "missing column f_r11", None),
+    ("fit: NIST layout, a normalized element above 1", ["fit", "{nist_over_one}"], 2,
+     "line 3: f_r23/f_r11 = -1.5 is above 1 in magnitude", None),
+    ("fit: NIST layout, mixed units (a wavelength in nm among um)", ["fit", "{nist_nm}"], 2,
+     "line 4: lambda = 532 is not a wavelength in µm", None),
+    ("fit: NIST layout, mixed units (normalized and 1/sr elements)",
+     ["fit", "{nist_mixed}"], 2, "mixed units: 'f_r12/f_r11' is normalized by f_r11 but "
+     "'f_r13' is in 1/sr", None),
+    ("fit: --layout nist on a goniometer file", ["fit", CSV, "--layout", "nist"], 2,
+     "missing column(s) lambda, thetai, phi, thetar, phir", None),
+    ("fit: --wavelength not in the file", ["fit", PTFE, "--wavelength", "500"], 2,
+     "no measurement at 500 nm (wavelengths in the file: 532, 633 nm)", None),
+    ("fit: --wavelength not a number", ["fit", PTFE, "--wavelength", "green"], 2,
+     "--wavelength expects comma-separated numbers", None),
+    ("export: --bands range without a step", ["export", "--bands", "400:700",
+                                              "--out", "{tmp}/h.pbsdf"], 2,
+     "--bands: '400:700' must be a whole number of nm or START:STOP:STEP", "{tmp}/h.pbsdf"),
+    ("export: --bands empty item", ["export", "--bands", "450,,500", "--out", "{tmp}/h.pbsdf"],
+     2, "--bands: expected comma-separated wavelengths", "{tmp}/h.pbsdf"),
+    ("export: --bands decreasing", ["export", "--bands", "500,450", "--out", "{tmp}/h.pbsdf"],
+     2, "--bands: wavelengths must be strictly increasing", "{tmp}/h.pbsdf"),
+    ("export: --bands word", ["export", "--bands", "visible", "--out", "{tmp}/h.pbsdf"], 2,
+     "--bands: 'visible' is not a wavelength (nm) or START:STOP:STEP", "{tmp}/h.pbsdf"),
+    ("export: --bands zero step", ["export", "--bands", "400:700:0", "--out", "{tmp}/h.pbsdf"],
+     2, "--bands: '400:700:0' needs STEP > 0", "{tmp}/h.pbsdf"),
+    ("export: --bands fractional nm", ["export", "--bands", "450.5,500",
+                                       "--out", "{tmp}/h.pbsdf"], 2,
+     "--bands: '450.5' must be a whole number of nm", "{tmp}/h.pbsdf"),
+    ("export: --bands beyond uint16", ["export", "--bands", "60000:70000:5000",
+                                       "--out", "{tmp}/h.pbsdf"], 2,
+     "--bands: wavelengths must lie in 1..65535 nm", "{tmp}/h.pbsdf"),
+    ("export: --bands with --wavelengths", ["export", "--bands", "400:700:10", "--wavelengths",
+                                            "450,500,550,600,650", "--out", "{tmp}/h.pbsdf"], 2,
+     "give --wavelengths (the 5 bands measured_polarized renders) or --bands", "{tmp}/h.pbsdf"),
     # pbrdf batch --slurm: checked before Slurm is asked (the rows that need a running
     # Slurm, Ctrl-C among them, are in tests/test_batch_slurm.py)
     ("batch: --slurm, malformed walltime", ["batch", "{sweep}", "--slurm", "--walltime", "2h"],
@@ -189,6 +231,25 @@ TABLE = [
 ]
 
 
+def nist_files(tmp_path):
+    """Files in NIST's layout, each with one fault, from the PTFE subset's
+    header and first rows."""
+    with open(PTFE) as f:
+        header, *rows = f.read().splitlines()[:4]
+    def write(name, head, body):
+        path = tmp_path / f"{name}.csv"
+        path.write_text("\n".join([head] + body) + "\n")
+        return str(path)
+    over = rows[1].split(",")
+    over[header.split(",").index("f_r23/f_r11")] = "-1.5"
+    nm = rows[2].split(",")
+    nm[0] = "532"
+    return dict(nist_no_f11=write("no_f11", header.replace(",f_r11,", ",f_r00,"), rows),
+                nist_over_one=write("over", header, [rows[0], ",".join(over), rows[2]]),
+                nist_nm=write("nm", header, rows[:2] + [",".join(nm)]),
+                nist_mixed=write("mixed", header.replace("f_r13/f_r11", "f_r13"), rows))
+
+
 @pytest.fixture
 def files(tmp_path):
     scene = tmp_path / "tiny.xml"
@@ -200,13 +261,15 @@ def files(tmp_path):
         data = f.read()
     (tmp_path / "truncated.exr").write_bytes(data[: len(data) // 2])
     (tmp_path / "text.exr").write_text("not an image\n")
-    from mitsuba_pbrdf.imaging.exr import write_exr
+    from mitsuba_pbrdf.stokes.exr import write_exr
 
     plain = write_exr(tmp_path / "plain.exr", {"Y": np.ones((4, 4), np.float32)})
     y_exr = write_stokes_exr(tmp_path / "y.exr", np.ones((4, 4, 4), np.float32) * [1, 0, 0, 0])
     sweep = tmp_path / "sweep.toml"
     sweep.write_text(f'scene = "{scene}"\nout = "out"\n')
-    return dict(tmp=str(tmp_path), scene=str(scene), sweep=str(sweep), exr=good, plain_exr=plain, y_exr=y_exr,
+    return dict(tmp=str(tmp_path), scene=str(scene), sweep=str(sweep), exr=good, plain_exr=plain,
+                y_exr=y_exr,
+                **nist_files(tmp_path),
                 odd_exr=stokes_exr(tmp_path / "odd.exr", h=13),
                 nan_exr=stokes_exr(tmp_path / "nan.exr", set_nan),
                 truncated=str(tmp_path / "truncated.exr"), text=str(tmp_path / "text.exr"))
@@ -240,7 +303,7 @@ def test_hostile_input(case, argv, status, text, absent, files, capfd, monkeypat
 
 
 def test_unpolarized_variant_is_refused_before_loading_the_scene(files, capfd, monkeypatch):
-    import mitsuba_pbrdf.imaging.render as render_module
+    import mitsuba_pbrdf.rendering.render as render_module
 
     def no_load(*args, **kwargs):
         raise AssertionError("the scene was loaded")
@@ -254,9 +317,9 @@ def test_unpolarized_variant_is_refused_before_loading_the_scene(files, capfd, m
 def test_unusable_pixels_are_counted_and_marked(files, capfd, tmp_path):
     """Some non-finite, negative and over-polarized pixels: exit 0, one warning
     line with the counts, and the picture paints them in each panel's marker."""
-    from mitsuba_pbrdf.imaging.colours import MARKERS
-    from mitsuba_pbrdf.imaging.panels import overview_figure
-    from mitsuba_pbrdf.imaging.quality import assess
+    from mitsuba_pbrdf.pictures.colours import MARKERS
+    from mitsuba_pbrdf.pictures.panels import overview_figure
+    from mitsuba_pbrdf.stokes.quality import assess
 
     path = stokes_exr(tmp_path / "bad.exr", some_bad)
     assert main(["view", path, "--out", str(tmp_path / "bad.png")]) == 0
@@ -287,7 +350,7 @@ def test_unusable_pixels_are_counted_and_marked(files, capfd, tmp_path):
 def test_band_tolerance_allows_slightly_unphysical_rgb_bands(tmp_path):
     """One RGB band may be out of range by up to 5 % of the pixel's luminance S0;
     the luminance vector is judged strictly."""
-    from mitsuba_pbrdf.imaging.quality import assess
+    from mitsuba_pbrdf.stokes.quality import assess
 
     def blue_over(s):
         s[:, :, 0, 2] = 0.2             # dim blue band
@@ -460,7 +523,7 @@ def test_ctrl_c_inside_the_plugin_is_reported_as_an_interruption(files, capfd, m
 def test_progress_lines_when_stderr_is_not_a_terminal(monkeypatch, capsys):
     """Logs get plain lines (not a bar's carriage returns), at most one per
     interval, and a last line saying how long it took; short work gets none."""
-    from mitsuba_pbrdf.imaging import progress
+    from mitsuba_pbrdf.rendering import progress
 
     monkeypatch.setattr(progress.sys.stderr, "isatty", lambda: False, raising=False)
     with progress.progress_reporter(4, "rendering x.xml (4 passes)", "auto", steps=4) as p:

@@ -41,7 +41,7 @@ def scene(sampling, depth):
     import mitsuba as mi
 
     from mitsuba_pbrdf import inverse
-    from mitsuba_pbrdf.integrators.stokes_prb import from_path
+    from mitsuba_pbrdf.integrators import from_path
 
     bsdf = {"type": "pbrdf", "eta": 2.0, "k": 4.0, "sigma": 0.12, "ks": 1.0, "kdd": 0.1,
             "sigma_dd": 0.5, "kid": 0.03, "sampling": sampling}
@@ -50,13 +50,13 @@ def scene(sampling, depth):
 
 
 def weights():
-    from mitsuba_pbrdf.checks.gradients import random_functional
+    from proof.render_gradients import random_functional
 
     return random_functional(SIZE, SIZE, seed=0)
 
 
 def gradient(sc, integrator, w, seed, mode="reverse"):
-    from mitsuba_pbrdf.checks.gradients import functional_gradient
+    from proof.render_gradients import functional_gradient
 
     return functional_gradient(sc, KEYS, w, integrator=integrator, spp=SPP, seed=seed,
                                seed_grad=seed + 50_000, mode=mode)

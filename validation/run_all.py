@@ -35,6 +35,7 @@ NOT_STUDIES = ("common", "run_all")
 ARGUMENTS = {
     "accuracy": (["--pairs", "100000"], ["--pairs", "10000"]),
     "fit_pbsdf": ([], ["--quick"]),
+    "fit_ptfe": ([], ["--quick"]),
     "fit_synthetic": ([], ["--quick"]),
     "furnace": (["--samples", "1048576"], ["--samples", "65536"]),
     "inverse_memory": ([], ["--quick"]),

@@ -11,7 +11,7 @@ worker, :mod:`.manifest` keeps ``out/manifest.csv``, :mod:`.cluster` starts or
 joins a Dask cluster, :mod:`.slurm` starts the workers as Slurm jobs (settings:
 :mod:`.slurm_options`), :mod:`.lost` tells which jobs lost their worker and why,
 :mod:`.runner` runs a sweep without losing work. Single
-renders live in :mod:`mitsuba_pbrdf.imaging`. Importing this package does not
+renders live in :mod:`mitsuba_pbrdf.rendering`. Importing this package does not
 import Dask; running a sweep needs it (``pip install 'mitsuba-pbrdf[batch]'``)."""
 
 from .runner import SweepSummary, run_sweep

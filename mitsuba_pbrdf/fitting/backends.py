@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .layout import SHARED
+from .layout import DEFAULTS, PER_WAVELENGTH, PLUGIN_NAMES, SHARED
 from .observables import model_observables
 
 __all__ = ["weights", "ReferenceResiduals", "DrJitResiduals", "BACKENDS"]
@@ -68,10 +68,11 @@ class DrJitResiduals:
         bitmap = lambda a: {"type": "bitmap", "raw": True, "filter_type": "nearest",
                             "data": self._texels(a)}
         # weights load as non-zero so that every lobe of the model exists
+        shared = {name: (0.0 if name in layout.fixed and v[name] == 0 else DEFAULTS[name])
+                  for name in SHARED}     # a weight fixed at 0 drops its lobe
         self.bsdf = mi.load_dict({
             "type": "pbrdf", "eta": bitmap(v["n"]), "k": bitmap(np.maximum(v["k"], 1e-3)),
-            "sigma": 0.1, "ks": 1.0, "kdd": 0.0 if v["kdd"] == 0 and "kdd" in layout.fixed else 0.1,
-            "sigma_dd": 0.5, "kid": 0.1, "shadowing": shadowing, "dd_distribution": dd})
+            **shared, "shadowing": shadowing, "dd_distribution": dd})
         self.params = mi.traverse(self.bsdf)
         ti, pi_, tr, pr = data.radians()
         d = lambda t, p: np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
@@ -92,8 +93,8 @@ class DrJitResiduals:
     def _set(self, x):
         values = self.layout.unpack(x)
         p = self.params
-        p["eta.data"] = self._texels(values["n"])
-        p["k.data"] = self._texels(values["k"])
+        for name in PER_WAVELENGTH:
+            p[PLUGIN_NAMES[name] + ".data"] = self._texels(values[name])
         for name in SHARED:
             key = name + ".value"
             if key in p:
@@ -128,11 +129,10 @@ class DrJitResiduals:
         """{free parameter: {quantity: derivative at every measurement}}."""
         dr, mi = self.dr, self.mi
         self._set(x)
-        keys = {"n": "eta.data", "k": "k.data"}
         cols = {}
         for name in self.layout.free:
             p, _, j = name.partition("@")
-            key = keys.get(p, p + ".value")
+            key = PLUGIN_NAMES[p] + (".data" if j else ".value")
             dr.enable_grad(self.params[key])
             self.params.update()
             out = self._evaluate()

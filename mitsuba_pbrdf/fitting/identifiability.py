@@ -26,6 +26,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import schema
+from .layout import SCALE_FLOORS
+
+#: The lobe weights (ks, kdd, kid): measured against each other.
+LOBE_WEIGHTS = tuple(weight for weight, _ in schema.LOBES.values())
+
 __all__ = ["GROUP_SHARE", "parameter_scales", "analyze"]
 
 #: Share of an undetermined direction (component of the unit singular vector)
@@ -39,10 +45,9 @@ def parameter_scales(names, x):
     and kid (a weight at 0 is still measured against the others)."""
     x = np.abs(np.asarray(x, dtype=np.float64))
     base = [n.partition("@")[0] for n in names]
-    weights = [v for b, v in zip(base, x) if b in ("ks", "kdd", "kid")]
+    weights = [v for b, v in zip(base, x) if b in LOBE_WEIGHTS]
     weight_floor = 0.01 * max(weights) if weights and max(weights) > 0 else 1e-3
-    floors = {"n": 0.1, "k": 0.1, "sigma": 1e-3, "sigma_dd": 1e-3}
-    return np.array([max(v, floors.get(b, weight_floor)) for b, v in zip(base, x)])
+    return np.array([max(v, SCALE_FLOORS.get(b, weight_floor)) for b, v in zip(base, x)])
 
 
 def analyze(J, names, x, chi2_scale=1.0):

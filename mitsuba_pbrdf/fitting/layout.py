@@ -7,14 +7,27 @@ import math
 
 import numpy as np
 
-__all__ = ["SHARED", "DEFAULTS", "BOUNDS", "MODELS", "parse_assignments", "ParameterLayout"]
+from .. import schema
 
-SHARED = ("sigma", "ks", "kdd", "sigma_dd", "kid")
-DEFAULTS = dict(n=1.5, k=5.0, sigma=0.15, ks=1.0, kdd=0.1, sigma_dd=0.5, kid=0.01)
-BOUNDS = dict(n=(0.01, 20.0), k=(0.0, 40.0), sigma=(1e-3, 2.0), ks=(0.0, 20.0),
-              kdd=(0.0, 20.0), sigma_dd=(1e-3, 5.0), kid=(0.0, 10.0))
+__all__ = ["PER_WAVELENGTH", "SHARED", "DEFAULTS", "BOUNDS", "SCALE_FLOORS", "PLUGIN_NAMES", "MODELS",
+           "TWO_COMPONENT_FIXED", "parse_assignments", "ParameterLayout"]
+
+_FITTED = [p for p in schema.PARAMETERS if p.fit is not None]
+
+#: Fitted per wavelength (n, k), by their names in fits.
+PER_WAVELENGTH = tuple(p.fit.name or p.name for p in _FITTED if p.fit.per_wavelength)
+#: Fitted once for all wavelengths.
+SHARED = tuple(p.fit.name or p.name for p in _FITTED if not p.fit.per_wavelength)
+#: Starting values, bounds (lower, upper) and uncertainty scale floors by fitted name.
+DEFAULTS = {p.fit.name or p.name: p.fit.initial for p in _FITTED}
+BOUNDS = {p.fit.name or p.name: (p.fit.lower, p.fit.upper) for p in _FITTED}
+SCALE_FLOORS = {p.fit.name or p.name: p.fit.scale_floor for p in _FITTED if p.fit.scale_floor}
+#: The plugin's (and the reference's) name of each fitted parameter: eta for n.
+PLUGIN_NAMES = {p.fit.name or p.name: p.name for p in _FITTED}
 MODELS = {"three": "three-component (specular + directional diffuse + ideal diffuse)",
           "two": "two-component (specular + ideal diffuse, kdd = 0)"}
+#: What the two-component model fixes: the directional diffuse lobe's parameters (kdd = 0).
+TWO_COMPONENT_FIXED = tuple(name for name in schema.LOBES["directional_diffuse"] if name)
 
 
 def parse_assignments(text, what):
@@ -51,19 +64,20 @@ class ParameterLayout:
     def __init__(self, wavelengths, model, init, fix):
         self.wavelengths = np.asarray(wavelengths, dtype=np.float64)
         W = len(self.wavelengths)
-        self.values = {"n": np.full(W, DEFAULTS["n"]), "k": np.full(W, DEFAULTS["k"])}
+        self.values = {p: np.full(W, DEFAULTS[p]) for p in PER_WAVELENGTH}
         self.values.update({p: float(DEFAULTS[p]) for p in SHARED})
         self.fixed = set()
         if model == "two":
-            self.values["kdd"] = 0.0
-            self.fixed |= {"kdd", "sigma_dd"}
+            self.values[TWO_COMPONENT_FIXED[0]] = 0.0       # the lobe's weight
+            self.fixed |= set(TWO_COMPONENT_FIXED)
         for source, is_fix in ((init, False), (fix, True)):
             for key, v in source.items():
                 name, _, at = key.partition("@")
-                if name not in ("n", "k") + SHARED:
-                    raise ValueError(f"unknown parameter {name!r}; parameters: n, k, "
-                                     f"{', '.join(SHARED)} (n@<nm>, k@<nm> for one wavelength)")
-                if name in ("n", "k"):
+                if name not in PER_WAVELENGTH + SHARED:
+                    raise ValueError(f"unknown parameter {name!r}; parameters: "
+                                     f"{', '.join(PER_WAVELENGTH + SHARED)} "
+                                     f"(n@<nm>, k@<nm> for one wavelength)")
+                if name in PER_WAVELENGTH:
                     if at:
                         j = np.flatnonzero(np.isclose(self.wavelengths, float(at)))
                         if not j.size:
@@ -77,12 +91,12 @@ class ParameterLayout:
                         if is_fix:
                             self.fixed |= {f"{name}@{j}" for j in range(W)}
                 else:
-                    if model == "two" and name in ("kdd", "sigma_dd") and not is_fix:
+                    if model == "two" and name in TWO_COMPONENT_FIXED and not is_fix:
                         continue
                     self.values[name] = float(v)
                     if is_fix:
                         self.fixed.add(name)
-        self.free = [f"{p}@{j}" for p in ("n", "k") for j in range(W)
+        self.free = [f"{p}@{j}" for p in PER_WAVELENGTH for j in range(W)
                      if f"{p}@{j}" not in self.fixed]
         self.free += [p for p in SHARED if p not in self.fixed]
 
@@ -104,7 +118,7 @@ class ParameterLayout:
         return lo, hi
 
     def unpack(self, x):
-        values = {"n": self.values["n"].copy(), "k": self.values["k"].copy()}
+        values = {p: self.values[p].copy() for p in PER_WAVELENGTH}
         values.update({p: self.values[p] for p in SHARED})
         for name, v in zip(self.free, x):
             p, _, j = name.partition("@")

@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import reference as ref
 from ..measured.measurements import Measurements
+from .layout import SHARED
 
 __all__ = ["model_observables", "synthetic_measurements"]
 
@@ -41,8 +42,8 @@ def model_observables(data: Measurements, values: Dict, shadowing="vgroove",
     n = np.broadcast_to(values["n"], data.wavelengths.shape)
     k = np.broadcast_to(values["k"], data.wavelengths.shape)
     M = ref.pbrdf(*data.radians(), _per_point(data, n), _per_point(data, k),
-                  values["sigma"], values["ks"], values["kdd"], values["sigma_dd"],
-                  values["kid"], shadowing, dd_distribution)
+                  shadowing=shadowing, dd_distribution=dd_distribution,
+                  **{name: values[name] for name in SHARED})
     return _observables_from_mueller(M, names)
 
 

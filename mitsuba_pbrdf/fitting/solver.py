@@ -40,7 +40,7 @@ from .. import reference as ref
 from ..measured.measurements import Measurements
 from .backends import BACKENDS, weights
 from .identifiability import analyze
-from .layout import MODELS, SHARED, ParameterLayout, parse_assignments
+from .layout import MODELS, SCALE_FLOORS, SHARED, ParameterLayout, parse_assignments
 from .observables import model_observables
 
 __all__ = ["FitResult", "fit_model", "fit_models"]
@@ -168,7 +168,7 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
         x_start = x0.copy()
         if start:
             for i, name in enumerate(layout.free):
-                if name.partition("@")[0] in ("sigma", "n", "k", "sigma_dd"):
+                if name.partition("@")[0] in SCALE_FLOORS:      # indices and widths
                     x_start[i] *= math.exp(rng.uniform(-math.log(2), math.log(2)))
             x_start = np.clip(x_start, lo + 1e-9, hi)
         sol = least_squares(residuals, x_start, jac=jac, bounds=(lo, hi), method="trf",

@@ -20,12 +20,11 @@ determines::
 Modules: :mod:`.scenes` (a scene to invert), :mod:`.losses` (Stokes losses),
 :mod:`.gradients` (gradients by polarized path replay, or by reverse
 or forward mode in passes; Jacobians, Fisher information; the methods and
-their memory and time are in its docstring), :mod:`.optimize` (Adam). The Mueller matrices of a BSDF with
-derivatives, in the reference's frames, are
+their memory and time are in its docstring), :mod:`.optimize` (Adam),
+:mod:`.svbrdf` (texture maps recovered by polarized path replay). The Mueller
+matrices of a BSDF with derivatives, in the reference's frames, are
 :func:`mitsuba_pbrdf.frames.mueller_brdf`.
 """
-
-import warnings as _warnings
 
 from .gradients import (METHODS, REVERSE_BYTES_PER_SAMPLE_AND_DEPTH, GradientStats,
                         fisher_information, gradient_method, jacobian, loss_and_gradient, render,
@@ -50,40 +49,3 @@ __all__ = [
     "OptimizationResult",
     "fit_parameters",
 ]
-
-
-def _deprecated_split_spp(spp, passes):
-    from ..imaging.passes import plan_passes
-
-    return plan_passes(spp, passes)
-
-
-def _deprecated_pass_seeds(seed, passes):
-    from ..imaging.passes import derivative_seed, pass_seeds
-
-    return [(s, derivative_seed(s)) for s in pass_seeds(seed, passes)]
-
-
-def _mueller_brdf():
-    from ..frames import mueller_brdf
-
-    return mueller_brdf
-
-
-#: Old names: {name: (what replaces it, how to get the object)}.
-_DEPRECATED = {
-    "FitResult": ("mitsuba_pbrdf.inverse.OptimizationResult", lambda: OptimizationResult),
-    "mueller_brdf": ("mitsuba_pbrdf.frames.mueller_brdf", _mueller_brdf),
-    "split_spp": ("mitsuba_pbrdf.imaging.passes.plan_passes", lambda: _deprecated_split_spp),
-    "pass_seeds": ("mitsuba_pbrdf.imaging.passes.pass_seeds and derivative_seed",
-                   lambda: _deprecated_pass_seeds),
-}
-
-
-def __getattr__(name):
-    if name in _DEPRECATED:
-        replacement, get = _DEPRECATED[name]
-        _warnings.warn(f"mitsuba_pbrdf.inverse.{name} is deprecated; use {replacement}",
-                       DeprecationWarning, stacklevel=2)
-        return get()
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

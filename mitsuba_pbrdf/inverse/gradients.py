@@ -44,7 +44,7 @@ same paths, the same estimator; tested), and ``"prb"`` what they give with
 ``stokes_prb``. The seed of the derivative renders differs from the primal
 one, as in ``mi.render``, so the gradient of a non-linear loss is unbiased.
 
-Passes and their seeds follow :mod:`mitsuba_pbrdf.imaging.passes`.
+Passes and their seeds follow :mod:`mitsuba_pbrdf.rendering.passes`.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from ..imaging.passes import derivative_seed, pass_seeds, plan_passes
+from ..rendering.passes import derivative_seed, pass_seeds, plan_passes
 
 __all__ = ["METHODS", "render", "reverse_passes", "GradientStats", "gradient_method",
            "loss_and_gradient", "jacobian", "fisher_information"]
@@ -68,7 +68,7 @@ METHODS = ("auto", "prb", "reverse", "forward")
 
 
 def _passes(seed, spp, passes):
-    """(primal seed, derivative seed, spp) of each pass (:mod:`mitsuba_pbrdf.imaging.passes`)."""
+    """(primal seed, derivative seed, spp) of each pass (:mod:`mitsuba_pbrdf.rendering.passes`)."""
     plan = plan_passes(spp, passes)
     return [(s, derivative_seed(s), n) for s, n in zip(pass_seeds(seed, len(plan)), plan)]
 
@@ -76,8 +76,8 @@ def _passes(seed, spp, passes):
 def render(scene, spp=16, seed=0, passes=1):
     """Primal render (no derivatives) of ``scene``'s first sensor as a
     ``mi.TensorXf`` (H, W, C), the samples split into ``passes`` renders
-    (:func:`~mitsuba_pbrdf.imaging.passes.plan_passes`, seeds from
-    :func:`~mitsuba_pbrdf.imaging.passes.pass_seeds`) whose mean it returns."""
+    (:func:`~mitsuba_pbrdf.rendering.passes.plan_passes`, seeds from
+    :func:`~mitsuba_pbrdf.rendering.passes.pass_seeds`) whose mean it returns."""
     integrator, sensor = scene.integrator(), scene.sensors()[0]
     image = None
     with dr.suspend_grad():
@@ -131,7 +131,7 @@ def gradient_method(scene, method="auto"):
     ``"auto"`` becomes ``"prb"`` where ``stokes_prb`` can replay the scene's
     integrator, else ``"reverse"``. Raises ``ValueError`` for an unknown
     method or ``"prb"`` on a scene it cannot replay (saying why)."""
-    from ..integrators.stokes_prb import supports_scene
+    from ..integrators import supports_scene
 
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, not {method!r}")
@@ -144,13 +144,13 @@ def gradient_method(scene, method="auto"):
 
 
 def _is_replay(integrator):
-    from ..integrators.stokes_prb import integrator_class
+    from ..integrators import integrator_class
 
     return isinstance(integrator, integrator_class())
 
 
 def _replay_integrator(scene):
-    from ..integrators.stokes_prb import from_path
+    from ..integrators import from_path
 
     return from_path(scene)
 

@@ -1,14 +1,14 @@
 """The ``pbrdf`` Mitsuba plugin: the three-component polarized BRDF as a
-Dr.Jit-vectorized ``mi.BSDF`` (:mod:`.bsdf`, parameter table in its
-docstring), with its lobes as records (:mod:`.lobes`), the facet's Fresnel
-Mueller matrix (:mod:`.fresnel`), microfacet helpers (:mod:`.microfacet`),
-parameter checks (:mod:`.params`) and named conductors (:mod:`.ior`).
+Dr.Jit-vectorized ``mi.BSDF`` (:mod:`.bsdf`, a module-level class with its
+parameter table in the docstring), with its lobes as records (:mod:`.lobes`),
+the facet's Fresnel Mueller matrix (:mod:`.fresnel`), microfacet helpers
+(:mod:`.microfacet`), parameter checks (:mod:`.params`) and named conductors
+(:mod:`.ior`).
 
-It needs a Mitsuba variant to be set before :func:`plugin_class` is called
-and never imports the NumPy reference evaluator (:mod:`mitsuba_pbrdf.reference`):
-the two are independent implementations of the model that tests compare.
+:mod:`.bsdf` subclasses the active variant's ``mi.BSDF`` when it runs, so it is
+loaded per variant by :func:`mitsuba_pbrdf.registry.variant_module`
+(``mitsuba_pbrdf.registry.plugin_class("pbrdf")`` gives the class). The
+plugin never imports the NumPy reference evaluator
+(:mod:`mitsuba_pbrdf.reference`): the two are independent implementations of
+the model that tests compare.
 """
-
-from .bsdf import MIN_SIGMA, plugin_class
-
-__all__ = ["MIN_SIGMA", "plugin_class"]

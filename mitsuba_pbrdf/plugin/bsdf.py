@@ -1,73 +1,10 @@
 """The ``pbrdf`` plugin: three-component polarized BRDF for metals.
 
-.. list-table::
-   :header-rows: 1
+Parameters (declared in :mod:`mitsuba_pbrdf.schema`; the table is appended to
+the class's docstring from there):
 
-   * - Parameter
-     - Type
-     - Description
-     - Default
-     - Flags
-   * - ``material``
-     - string
-     - Named conductor from Mitsuba's tabulated spectra (``Al``, ``Cu``, ``Au``,
-       ``Ag``, ...). Mutually exclusive with ``eta``/``k``.
-     - ``Al``
-     - --
-   * - ``eta``, ``k``
-     - spectrum or texture
-     - Complex index of refraction N = n + ik of the metal (dimensionless);
-       ``eta`` > 0, ``k`` >= 0.
-     - from ``material``
-     - |exposed|, |differentiable|, |discontinuous|
-   * - ``sigma``
-     - float or texture
-     - RMS microfacet slope per axis of the specular lobe (paper Eq. 3);
-       Beckmann width alpha = sqrt(2) * sigma. At least 7.07e-5 (Mitsuba's
-       microfacet distributions clamp alpha to 1e-4).
-     - 0.1
-     - |exposed|, |differentiable|, |discontinuous|
-   * - ``ks``
-     - spectrum or texture
-     - Weight of the specular (polarizing) lobe, >= 0.
-     - 1.0
-     - |exposed|, |differentiable|
-   * - ``kdd``
-     - spectrum or texture
-     - Weight of the directional diffuse (depolarized) lobe, >= 0.
-     - 0.0
-     - |exposed|, |differentiable|
-   * - ``sigma_dd``
-     - float or texture
-     - RMS slope of the directional diffuse lobe (alpha_dd = sqrt(2) * sigma_dd),
-       at least 7.07e-5.
-     - 0.5
-     - |exposed|, |differentiable|, |discontinuous|
-   * - ``kid``
-     - spectrum or texture
-     - Weight of the ideal (Lambertian, depolarized) diffuse lobe, >= 0.
-     - 0.0
-     - |exposed|, |differentiable|
-   * - ``shadowing``
-     - string
-     - ``vgroove`` (Torrance-Sparrow/Blinn, the paper's) or ``smith`` (Beckmann
-       Smith, as Mitsuba's ``roughconductor``).
-     - ``vgroove``
-     - --
-   * - ``dd_distribution``
-     - string
-     - Normal distribution of the directional diffuse lobe: ``beckmann`` or ``ggx``.
-     - ``beckmann``
-     - --
-   * - ``sampling``
-     - string
-     - ``mixture`` (lobe mixture, see below) or ``cosine`` (cosine-weighted
-       hemisphere sampling only: the baseline benchmarks compare against).
-     - ``mixture``
-     - --
-
-|exposed|: in ``mi.traverse``; |differentiable|: gradients flow to it;
-|discontinuous|: flagged ``ParamFlags.Discontinuous``, as Mitsuba's
+exposed: in ``mi.traverse``; differentiable: gradients flow to it;
+discontinuous: flagged ``ParamFlags.Discontinuous``, as Mitsuba's
 ``roughconductor`` flags its index and roughness (the sampling distribution
 depends on them). The weight and width of a lobe that is absent (weight
 exactly 0 at load time) are not exposed.
@@ -109,21 +46,21 @@ XML::
 
 from __future__ import annotations
 
-import math
 
 import drjit as dr
 import mitsuba as mi
 
-from ..options import DD_DISTRIBUTIONS, DEFAULTS, SAMPLING, SHADOWING
+from .. import schema
 from ..variant import require_variant
 from . import params
 from .fresnel import fresnel_unpolarized, specular_mueller
 from .ior import complex_ior_textures
 from .lobes import HalfVector, LambertianLobe, MicrofacetLobe
 
-#: Smallest accepted sigma, sigma_dd: Mitsuba's microfacet distributions clamp
-#: the Beckmann/GGX width alpha = sqrt(2) sigma to 1e-4.
-MIN_SIGMA = 1e-4 / math.sqrt(2.0)
+#: The Mitsuba variant whose ``mi.BSDF`` this module's class derives from;
+#: :func:`mitsuba_pbrdf.registry.variant_module` runs the module once per variant.
+VARIANT = require_variant().variant()
+
 
 def _read_ior(props):
     """``(material or None, eta, k)`` from ``material`` or ``eta``/``k``."""
@@ -133,11 +70,11 @@ def _read_ior(props):
     if has_ior:
         if "eta" not in props or "k" not in props:
             raise ValueError("pbrdf: 'eta' and 'k' must be given together")
-        return (None, params.texture(props, "eta", 0.0, spectral=True, positive=True),
-                params.texture(props, "k", 0.0, spectral=True))
+        return (None, params.declared(props, schema.parameter("eta"), 0.0),
+                params.declared(props, schema.parameter("k"), 0.0))
     if "material" in props and props.type("material") != mi.Properties.Type.String:
         raise TypeError("pbrdf: parameter 'material' must be a string such as 'Al'")
-    material = props["material"] if "material" in props else DEFAULTS["material"]
+    material = props["material"] if "material" in props else schema.DEFAULTS["material"]
     return (material, *complex_ior_textures(material))
 
 
@@ -146,224 +83,210 @@ def _depolarized(value):
     return mi.depolarizer(value) if mi.is_polarized else value
 
 
-_classes = {}
+class PolarizedBRDF(mi.BSDF):
+    __doc__ = __doc__ + "\n" + schema.rst_table()
 
+    def __init__(self, props):
+        super().__init__(props)
+        self.material, self.eta, self.k = _read_ior(props)
+        for p in schema.PARAMETERS:       # every other parameter, read and checked
+            if p.plugin and p.kind in ("float", "spectrum") and p.name not in ("eta", "k"):
+                setattr(self, p.name, params.declared(props, p))
+            elif p.plugin and p.kind == "choice":
+                setattr(self, p.name, params.choice(props, p.name, p.choices, p.default))
+        self.lobes = self._build_lobes()
+        self.m_components = [lobe.flags | mi.BSDFFlags.FrontSide for lobe in self.lobes]
+        self.m_flags = mi.BSDFFlags.Empty
+        for flags in self.m_components:
+            self.m_flags = self.m_flags | flags
 
-def plugin_class():
-    """The ``pbrdf`` BSDF class for the active Mitsuba variant (defined once
-    per variant, since ``mi.BSDF`` is a different class in each)."""
-    variant = require_variant().variant()
-    if variant not in _classes:
-        _classes[variant] = _define_class()
-    return _classes[variant]
+    def _build_lobes(self):
+        """One record per lobe whose weight is not exactly zero, in component
+        order (:data:`schema.LOBES`): specular, directional diffuse, ideal
+        diffuse."""
+        lobes = []
+        for name, (weight, width) in schema.LOBES.items():
+            if not params.is_constant_zero(getattr(self, weight)):
+                lobes.append(self._lobe(name, getattr(self, weight),
+                                        getattr(self, width) if width else None, len(lobes)))
+        return lobes
 
-
-def _define_class():
-    class PolarizedBRDF(mi.BSDF):
-        __doc__ = __doc__
-
-        def __init__(self, props):
-            super().__init__(props)
-            tex = params.texture
-            self.material, self.eta, self.k = _read_ior(props)
-            self.sigma = tex(props, "sigma", DEFAULTS["sigma"], spectral=False, positive=True,
-                             minimum=MIN_SIGMA)
-            self.ks = tex(props, "ks", DEFAULTS["ks"], spectral=True)
-            self.kdd = tex(props, "kdd", DEFAULTS["kdd"], spectral=True)
-            self.sigma_dd = tex(props, "sigma_dd", DEFAULTS["sigma_dd"], spectral=False,
-                                positive=True, minimum=MIN_SIGMA)
-            self.kid = tex(props, "kid", DEFAULTS["kid"], spectral=True)
-            self.shadowing = params.choice(props, "shadowing", SHADOWING, DEFAULTS["shadowing"])
-            self.dd_distribution = params.choice(props, "dd_distribution", DD_DISTRIBUTIONS,
-                                                 DEFAULTS["dd_distribution"])
-            self.sampling = params.choice(props, "sampling", SAMPLING, DEFAULTS["sampling"])
-            self.lobes = self._build_lobes()
-            self.m_components = [lobe.flags | mi.BSDFFlags.FrontSide for lobe in self.lobes]
-            self.m_flags = mi.BSDFFlags.Empty
-            for flags in self.m_components:
-                self.m_flags = self.m_flags | flags
-
-        def _build_lobes(self):
-            """One record per lobe whose weight is not exactly zero, in component
-            order: specular, directional diffuse, ideal diffuse."""
-            glossy, diffuse = mi.BSDFFlags.GlossyReflection, mi.BSDFFlags.DiffuseReflection
+    def _lobe(self, name, weight, width, index):
+        """The record of lobe *name*: the polarizing Beckmann specular lobe, the
+        depolarized directional diffuse lobe, the Lambertian lobe."""
+        glossy, diffuse = mi.BSDFFlags.GlossyReflection, mi.BSDFFlags.DiffuseReflection
+        if name == "specular":
+            return MicrofacetLobe(name, weight, width, mi.MicrofacetType.Beckmann,
+                                  self.shadowing, glossy, index, polarizing=True)
+        if name == "directional_diffuse":
             dd_type = {"beckmann": mi.MicrofacetType.Beckmann,
                        "ggx": mi.MicrofacetType.GGX}[self.dd_distribution]
-            lobes = []
-            if not params.is_constant_zero(self.ks):
-                lobes.append(MicrofacetLobe("specular", self.ks, self.sigma,
-                                            mi.MicrofacetType.Beckmann, self.shadowing, glossy,
-                                            len(lobes), polarizing=True))
-            if not params.is_constant_zero(self.kdd):
-                lobes.append(MicrofacetLobe("directional_diffuse", self.kdd, self.sigma_dd, dd_type,
-                                            self.shadowing, glossy, len(lobes), polarizing=False))
-            if not params.is_constant_zero(self.kid):
-                lobes.append(LambertianLobe("ideal_diffuse", self.kid, diffuse, len(lobes)))
-            return lobes
+            return MicrofacetLobe(name, weight, width, dd_type, self.shadowing, glossy, index,
+                                  polarizing=False)
+        return LambertianLobe(name, weight, diffuse, index)
 
-        # -------------------------------------------------------------- traversal
+    # -------------------------------------------------------------- traversal
 
-        def _parameter_table(self):
-            """name -> (texture, flags, positive, minimum) of every exposed parameter."""
-            diff = mi.ParamFlags.Differentiable
-            disc = mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous
-            table = {"eta": (self.eta, disc, True, None), "k": (self.k, disc, False, None)}
-            names = {"specular": ("ks", "sigma"), "directional_diffuse": ("kdd", "sigma_dd"),
-                     "ideal_diffuse": ("kid", None)}
-            for lobe in self.lobes:
-                weight, width = names[lobe.name]
-                table[weight] = (lobe.weight, diff, False, None)
-                if width is not None:
-                    table[width] = (lobe.width, disc, True, MIN_SIGMA)
-            return table
+    def _parameter_table(self):
+        """name -> (texture, flags, positive, minimum) of every exposed
+        parameter: the index, then each present lobe's weight and width."""
+        exposed = ["eta", "k"] + [name for lobe in self.lobes
+                                  for name in schema.LOBES[lobe.name] if name]
+        table = {}
+        for name in exposed:
+            p = schema.parameter(name)
+            flags = mi.ParamFlags.Differentiable
+            if p.discontinuous:
+                flags = flags | mi.ParamFlags.Discontinuous
+            table[name] = (getattr(self, name), flags, p.positive, p.floor)
+        return table
 
-        def traverse(self, callback):
-            for name, (texture, flags, _, _) in self._parameter_table().items():
-                callback.put(name, texture, flags)
+    def traverse(self, callback):
+        for name, (texture, flags, _, _) in self._parameter_table().items():
+            callback.put(name, texture, flags)
 
-        def parameters_changed(self, keys):
-            # Textures refresh their own state; re-check values an update may have broken.
-            for name, (texture, _, positive, minimum) in self._parameter_table().items():
-                if not keys or any(k == name or k.startswith(name + ".") for k in keys):
-                    params.check_texture_values(name, texture, positive, minimum)
+    def parameters_changed(self, keys):
+        # Textures refresh their own state; re-check values an update may have broken.
+        for name, (texture, _, positive, minimum) in self._parameter_table().items():
+            if not keys or any(k == name or k.startswith(name + ".") for k in keys):
+                params.check_texture_values(name, texture, positive, minimum)
 
-        def to_string(self):
-            ior = (f"material = {self.material!r}" if self.material
-                   else f"eta = {self.eta},\n  k = {self.k}")
-            return (f"PolarizedBRDF[\n  {ior},\n  lobes = {[lobe.name for lobe in self.lobes]},\n"
-                    f"  sigma = {self.sigma},\n  ks = {self.ks},\n  kdd = {self.kdd},\n"
-                    f"  sigma_dd = {self.sigma_dd},\n  kid = {self.kid},\n"
-                    f"  shadowing = {self.shadowing!r},\n"
-                    f"  dd_distribution = {self.dd_distribution!r},\n"
-                    f"  sampling = {self.sampling!r}\n]")
+    def to_string(self):
+        ior = (f"material = {self.material!r}" if self.material
+               else f"eta = {self.eta},\n  k = {self.k}")
+        rest = "".join(f",\n  {p.name} = {getattr(self, p.name)!r}" if p.kind == "choice"
+                       else f",\n  {p.name} = {getattr(self, p.name)}"
+                       for p in schema.PARAMETERS
+                       if p.plugin and p.kind != "material" and p.name not in ("eta", "k"))
+        return (f"PolarizedBRDF[\n  {ior},\n  lobes = {[lobe.name for lobe in self.lobes]}"
+                f"{rest}\n]")
 
-        # -------------------------------------------------------------- BSDF API
+    # -------------------------------------------------------------- BSDF API
 
-        def eval(self, ctx, si, wo, active=True):
-            value, _ = self._eval_pdf(ctx, si, wo, active, want_pdf=False)
-            return value
+    def eval(self, ctx, si, wo, active=True):
+        value, _ = self._eval_pdf(ctx, si, wo, active, want_pdf=False)
+        return value
 
-        def pdf(self, ctx, si, wo, active=True):
-            _, pdf = self._eval_pdf(ctx, si, wo, active, want_value=False)
-            return pdf
+    def pdf(self, ctx, si, wo, active=True):
+        _, pdf = self._eval_pdf(ctx, si, wo, active, want_value=False)
+        return pdf
 
-        def eval_pdf(self, ctx, si, wo, active=True):
-            return self._eval_pdf(ctx, si, wo, active)
+    def eval_pdf(self, ctx, si, wo, active=True):
+        return self._eval_pdf(ctx, si, wo, active)
 
-        def sample(self, ctx, si, sample1, sample2, active=True):
-            cos_i = mi.Frame3f.cos_theta(si.wi)
-            active = mi.Bool(active) & (cos_i > 0)
-            enabled = self._enabled_lobes(ctx)
-            if not enabled:
-                return _sample_record(si.wi, mi.Float(0.0), mi.UInt32(0), mi.UInt32(0),
-                                      mi.Bool(False), dr.zeros(mi.Spectrum))
-            if self.sampling == "cosine":
-                wo = mi.warp.square_to_cosine_hemisphere(sample2)
-                value, pdf = self._eval_pdf(ctx, si, wo, active)
-                return _sample_record(wo, pdf, mi.UInt32(enabled[0].index),
-                                      mi.UInt32(self._component_flags(enabled[0])), active, value)
-            if len(enabled) == 1:
-                lobe = enabled[0]
-                wo, pdf, value, h, active = lobe.sample_alone(si, sample2, active)
-                value = self._weighted(lobe, ctx, si, wo, h, value, active)
-                return _sample_record(wo, pdf, mi.UInt32(lobe.index),
-                                      mi.UInt32(self._component_flags(lobe)), active, value)
+    def sample(self, ctx, si, sample1, sample2, active=True):
+        cos_i = mi.Frame3f.cos_theta(si.wi)
+        active = mi.Bool(active) & (cos_i > 0)
+        enabled = self._enabled_lobes(ctx)
+        if not enabled:
+            return _sample_record(si.wi, mi.Float(0.0), mi.UInt32(0), mi.UInt32(0),
+                                  mi.Bool(False), dr.zeros(mi.Spectrum))
+        if self.sampling == "cosine":
+            wo = mi.warp.square_to_cosine_hemisphere(sample2)
+            value, pdf = self._eval_pdf(ctx, si, wo, active)
+            return _sample_record(wo, pdf, mi.UInt32(enabled[0].index),
+                                  mi.UInt32(self._component_flags(enabled[0])), active, value)
+        if len(enabled) == 1:
+            lobe = enabled[0]
+            wo, pdf, value, h, active = lobe.sample_alone(si, sample2, active)
+            value = self._weighted(lobe, ctx, si, wo, h, value, active)
+            return _sample_record(wo, pdf, mi.UInt32(lobe.index),
+                                  mi.UInt32(self._component_flags(lobe)), active, value)
+        probs = self._lobe_probabilities(ctx, si, active)
+
+        # Pick a lobe with sample1, then draw a direction from it with sample2.
+        wo = mi.Vector3f(0.0, 0.0, 1.0)
+        component = mi.UInt32(0)
+        sampled_type = mi.UInt32(0)
+        cdf = mi.Float(0.0)
+        for lobe in enabled:
+            prob = probs[lobe.index]
+            chosen = active & (sample1 >= cdf) & (sample1 < cdf + prob)
+            if lobe is enabled[-1]:  # guard against rounding at the top of the cdf
+                chosen = active & (sample1 >= cdf) & (prob > 0)
+            cdf = cdf + prob
+            wo = dr.select(chosen, lobe.sample_direction(si, sample2, chosen), wo)
+            component = dr.select(chosen, lobe.index, component)
+            sampled_type = dr.select(chosen, self._component_flags(lobe), sampled_type)
+
+        # One-sample MIS: the weight is the full value over the mixture pdf.
+        value, pdf = self._eval_pdf(ctx, si, wo, active, probs=probs)
+        return _sample_record(wo, pdf, component, sampled_type, active, value)
+
+    # -------------------------------------------------------------- internals
+
+    def _enabled_lobes(self, ctx):
+        """The lobes that ``ctx`` selects (a Python-level choice: nothing else
+        is traced)."""
+        return [lobe for lobe in self.lobes if ctx.is_enabled(lobe.flags, lobe.index)]
+
+    def _component_flags(self, lobe):
+        return int(self.m_components[lobe.index])
+
+    def _weighted(self, lobe, ctx, si, wo, h, value, active):
+        """The lobe's weight times its unweighted ``value`` (times cos_o): a
+        depolarizer, or for the polarizing lobe the facet's Fresnel
+        reflection (Mueller matrix in polarized variants)."""
+        weight = lobe.weight.eval(si, active) * value
+        if not lobe.polarizing:
+            return _depolarized(weight)
+        eta, k = self.eta.eval(si, active), self.k.eval(si, active)
+        if mi.is_polarized:
+            return specular_mueller(ctx, si, wo, h, eta, k, weight)
+        return weight * fresnel_unpolarized(dr.dot(si.wi, h), eta, k)
+
+    def _lobe_probabilities(self, ctx, si, active):
+        """Lobe selection probabilities (scalar per sample) by component
+        index, proportional to each enabled lobe's estimated albedo for
+        ``si.wi``: ks times the unpolarized Fresnel reflectance at the
+        incidence angle, kdd, kid, averaged over wavelengths."""
+        enabled = self._enabled_lobes(ctx)
+        if len(enabled) <= 1:  # nothing to choose: no estimate to trace
+            return [mi.Float(1.0 if lobe in enabled else 0.0) for lobe in self.lobes]
+        estimates = {}
+        for lobe in enabled:
+            estimate = lobe.weight.eval(si, active)
+            if lobe.polarizing:
+                estimate = estimate * fresnel_unpolarized(
+                    mi.Frame3f.cos_theta(si.wi), self.eta.eval(si, active),
+                    self.k.eval(si, active))
+            estimates[lobe.index] = dr.maximum(dr.mean(estimate, axis=0), 0.0)
+        total = mi.Float(0.0)
+        for e in estimates.values():
+            total = total + e
+        uniform = 1.0 / len(estimates)
+        return [dr.select(total > 0, estimates[lobe.index] / total, uniform)
+                if lobe.index in estimates else mi.Float(0.0) for lobe in self.lobes]
+
+    def _eval_pdf(self, ctx, si, wo, active, want_value=True, want_pdf=True, probs=None):
+        wi = si.wi
+        cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
+        active = mi.Bool(active) & (cos_i > 0) & (cos_o > 0)
+        half = HalfVector.of(wi, wo, active)
+        enabled = self._enabled_lobes(ctx)
+
+        zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
+        value, pdf = zero, mi.Float(0.0)
+        if want_pdf and self.sampling == "cosine":
+            if enabled:
+                pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
+            want_pdf = False
+        if want_pdf and probs is None:
             probs = self._lobe_probabilities(ctx, si, active)
 
-            # Pick a lobe with sample1, then draw a direction from it with sample2.
-            wo = mi.Vector3f(0.0, 0.0, 1.0)
-            component = mi.UInt32(0)
-            sampled_type = mi.UInt32(0)
-            cdf = mi.Float(0.0)
-            for lobe in enabled:
-                prob = probs[lobe.index]
-                chosen = active & (sample1 >= cdf) & (sample1 < cdf + prob)
-                if lobe is enabled[-1]:  # guard against rounding at the top of the cdf
-                    chosen = active & (sample1 >= cdf) & (prob > 0)
-                cdf = cdf + prob
-                wo = dr.select(chosen, lobe.sample_direction(si, sample2, chosen), wo)
-                component = dr.select(chosen, lobe.index, component)
-                sampled_type = dr.select(chosen, self._component_flags(lobe), sampled_type)
+        for lobe in enabled:
+            lobe_value, lobe_pdf = lobe.eval_pdf(si, wo, half, active,
+                                                 probs[lobe.index] if want_pdf else None,
+                                                 want_value, want_pdf)
+            if want_pdf:
+                pdf = pdf + lobe_pdf
+            if want_value:
+                value = value + self._weighted(lobe, ctx, si, wo, half.h, lobe_value, active)
 
-            # One-sample MIS: the weight is the full value over the mixture pdf.
-            value, pdf = self._eval_pdf(ctx, si, wo, active, probs=probs)
-            return _sample_record(wo, pdf, component, sampled_type, active, value)
+        value = dr.select(active, value, zero)
+        pdf = dr.select(active & dr.isfinite(pdf), pdf, 0.0)
+        return value, pdf
 
-        # -------------------------------------------------------------- internals
-
-        def _enabled_lobes(self, ctx):
-            """The lobes that ``ctx`` selects (a Python-level choice: nothing else
-            is traced)."""
-            return [lobe for lobe in self.lobes if ctx.is_enabled(lobe.flags, lobe.index)]
-
-        def _component_flags(self, lobe):
-            return int(self.m_components[lobe.index])
-
-        def _weighted(self, lobe, ctx, si, wo, h, value, active):
-            """The lobe's weight times its unweighted ``value`` (times cos_o): a
-            depolarizer, or for the polarizing lobe the facet's Fresnel
-            reflection (Mueller matrix in polarized variants)."""
-            weight = lobe.weight.eval(si, active) * value
-            if not lobe.polarizing:
-                return _depolarized(weight)
-            eta, k = self.eta.eval(si, active), self.k.eval(si, active)
-            if mi.is_polarized:
-                return specular_mueller(ctx, si, wo, h, eta, k, weight)
-            return weight * fresnel_unpolarized(dr.dot(si.wi, h), eta, k)
-
-        def _lobe_probabilities(self, ctx, si, active):
-            """Lobe selection probabilities (scalar per sample) by component
-            index, proportional to each enabled lobe's estimated albedo for
-            ``si.wi``: ks times the unpolarized Fresnel reflectance at the
-            incidence angle, kdd, kid, averaged over wavelengths."""
-            enabled = self._enabled_lobes(ctx)
-            if len(enabled) <= 1:  # nothing to choose: no estimate to trace
-                return [mi.Float(1.0 if lobe in enabled else 0.0) for lobe in self.lobes]
-            estimates = {}
-            for lobe in enabled:
-                estimate = lobe.weight.eval(si, active)
-                if lobe.polarizing:
-                    estimate = estimate * fresnel_unpolarized(
-                        mi.Frame3f.cos_theta(si.wi), self.eta.eval(si, active),
-                        self.k.eval(si, active))
-                estimates[lobe.index] = dr.maximum(dr.mean(estimate, axis=0), 0.0)
-            total = mi.Float(0.0)
-            for e in estimates.values():
-                total = total + e
-            uniform = 1.0 / len(estimates)
-            return [dr.select(total > 0, estimates[lobe.index] / total, uniform)
-                    if lobe.index in estimates else mi.Float(0.0) for lobe in self.lobes]
-
-        def _eval_pdf(self, ctx, si, wo, active, want_value=True, want_pdf=True, probs=None):
-            wi = si.wi
-            cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
-            active = mi.Bool(active) & (cos_i > 0) & (cos_o > 0)
-            half = HalfVector.of(wi, wo, active)
-            enabled = self._enabled_lobes(ctx)
-
-            zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
-            value, pdf = zero, mi.Float(0.0)
-            if want_pdf and self.sampling == "cosine":
-                if enabled:
-                    pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
-                want_pdf = False
-            if want_pdf and probs is None:
-                probs = self._lobe_probabilities(ctx, si, active)
-
-            for lobe in enabled:
-                lobe_value, lobe_pdf = lobe.eval_pdf(si, wo, half, active,
-                                                     probs[lobe.index] if want_pdf else None,
-                                                     want_value, want_pdf)
-                if want_pdf:
-                    pdf = pdf + lobe_pdf
-                if want_value:
-                    value = value + self._weighted(lobe, ctx, si, wo, half.h, lobe_value, active)
-
-            value = dr.select(active, value, zero)
-            pdf = dr.select(active & dr.isfinite(pdf), pdf, 0.0)
-            return value, pdf
-
-    return PolarizedBRDF
 
 
 def _sample_record(wo, pdf, component, sampled_type, active, value):

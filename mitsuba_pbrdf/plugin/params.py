@@ -31,6 +31,15 @@ def choice(props, name, options, default):
     return value
 
 
+def declared(props, parameter, default=None):
+    """Parameter *parameter* (a :class:`mitsuba_pbrdf.schema.Parameter` of kind
+    ``float`` or ``spectrum``) read from *props* and checked against its
+    declared bounds; *default* replaces the declared default."""
+    return texture(props, parameter.name, parameter.default if default is None else default,
+                   spectral=parameter.kind == "spectrum", positive=parameter.positive,
+                   minimum=parameter.floor)
+
+
 def texture(props, name, default, *, spectral, positive=False, minimum=None):
     """A float/spectrum/texture parameter, checked to be finite and >= 0
     (> 0 when ``positive``, >= ``minimum`` when given) everywhere.

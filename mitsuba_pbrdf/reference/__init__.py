@@ -90,8 +90,8 @@ components and the full pBRDF, Eq. 2-6), :mod:`.params` (a record of the
 model's parameters with its checks).
 """
 
-from ..options import DD_DISTRIBUTIONS as DISTRIBUTIONS
-from ..options import REFERENCE_SHADOWING as SHADOWING_KINDS
+from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
+from ..schema import REFERENCE_SHADOWING as SHADOWING_KINDS
 from . import fresnel, geometry, materials, microfacet, model  # noqa: F401 (submodules)
 from .fresnel import fresnel_amplitudes, fresnel_mueller, jones_to_mueller, rotator
 from .geometry import rotation_angles

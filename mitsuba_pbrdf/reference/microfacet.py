@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 
-from ..options import DD_DISTRIBUTIONS as DISTRIBUTIONS
-from ..options import REFERENCE_SHADOWING as SHADOWING_KINDS
+from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
+from ..schema import REFERENCE_SHADOWING as SHADOWING_KINDS
 
 
 def gaussian_slope_pdf(alpha_angle, sigma):

@@ -5,8 +5,8 @@ docstring for frames, units and signs).
 
 import numpy as np
 
-from ..options import DD_DISTRIBUTIONS as DISTRIBUTIONS
-from ..options import REFERENCE_SHADOWING as SHADOWING_KINDS
+from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
+from ..schema import REFERENCE_SHADOWING as SHADOWING_KINDS
 from .fresnel import _jones_rotator, fresnel_amplitudes, jones_to_mueller
 from .geometry import _geometry, _rotation_angles
 from .microfacet import beckmann_D, ggx_D, shadowing_G

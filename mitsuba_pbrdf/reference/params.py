@@ -5,45 +5,25 @@ checks, and quantities derived from a Mueller BRDF. NumPy only.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Optional
+from dataclasses import field, make_dataclass
+from typing import Any
 
 import numpy as np
 
-from ..options import DD_DISTRIBUTIONS, DEFAULTS, SHADOWING
+from ..schema import PARAMETERS
 from .materials import available_materials, conductor_ior
 from .model import pbrdf
 
 
-@dataclass
-class PBRDFParams:
-    """Parameters of the model, as the plugin takes them (table: ``docs/plugin.md``).
-
-    Either *material* (a Mitsuba conductor name: ``Al``, ``Cu``, ``Au``, ``Ag``,
-    ...) or both *eta* and *k* (a complex index n + ik, constant over
-    wavelength). :meth:`validate` checks them and raises ``ValueError`` with a
-    message naming the parameter.
-    """
-
-    material: Optional[str] = DEFAULTS["material"]
-    eta: Optional[float] = None
-    k: Optional[float] = None
-    sigma: float = DEFAULTS["sigma"]
-    ks: float = DEFAULTS["ks"]
-    kdd: float = DEFAULTS["kdd"]
-    sigma_dd: float = DEFAULTS["sigma_dd"]
-    kid: float = DEFAULTS["kid"]
-    shadowing: str = DEFAULTS["shadowing"]
-    dd_distribution: str = DEFAULTS["dd_distribution"]
+class _ParamsMethods:
+    """What a :class:`PBRDFParams` can do; its fields come from the schema."""
 
     def validate(self) -> "PBRDFParams":
-        """Check every parameter; returns self."""
+        """Check every parameter against its declaration; returns self."""
         if (self.eta is None) != (self.k is None):
             raise ValueError("give both eta and k (the complex index n + ik), or neither")
         if self.eta is not None:
             self.material = None
-            _finite("eta", self.eta, positive=True)
-            _finite("k", self.k)
         elif self.material is None:
             raise ValueError("give a material (e.g. Cu) or eta and k")
         elif self.material not in available_materials():
@@ -51,16 +31,13 @@ class PBRDFParams:
                 f"unknown material {self.material!r}; available: "
                 f"{', '.join(available_materials())}"
             )
-        _finite("sigma", self.sigma, positive=True)
-        _finite("sigma_dd", self.sigma_dd, positive=True)
-        for name in ("ks", "kdd", "kid"):
-            _finite(name, getattr(self, name))
-        if self.shadowing not in SHADOWING:
-            raise ValueError(f"shadowing must be one of {', '.join(SHADOWING)}, "
-                             f"got {self.shadowing!r}")
-        if self.dd_distribution not in DD_DISTRIBUTIONS:
-            raise ValueError(f"dd_distribution must be one of {', '.join(DD_DISTRIBUTIONS)}, "
-                             f"got {self.dd_distribution!r}")
+        for p in PARAMETERS:
+            value = getattr(self, p.name, None) if p.reference else None
+            if p.kind in ("float", "spectrum") and value is not None:
+                _finite(p.name, value, positive=p.positive)
+            elif p.kind == "choice" and p.reference and value not in p.choices:
+                raise ValueError(f"{p.name} must be one of {', '.join(p.choices)}, "
+                                 f"got {value!r}")
         return self
 
     def ior(self, wavelengths_nm):
@@ -102,6 +79,21 @@ class PBRDFParams:
             return pbrdf(*angles, n, k, self.sigma, sigma_dd=self.sigma_dd,
                                    shadowing=self.shadowing,
                                    dd_distribution=self.dd_distribution, **weights)
+
+
+#: Parameters of the model, as the plugin takes them: one field per parameter
+#: of :data:`mitsuba_pbrdf.PARAMETERS` that the reference takes, with
+#: its default (``eta``, ``k``: None, meaning "from the material").
+#: Either *material* (a Mitsuba conductor name: ``Al``, ``Cu``, ``Au``, ``Ag``,
+#: ...) or both *eta* and *k* (a complex index n + ik, constant over
+#: wavelength). :meth:`validate` checks them and raises ``ValueError`` naming
+#: the parameter.
+PBRDFParams = make_dataclass(
+    "PBRDFParams",
+    [(p.name, Any, field(default=p.default)) for p in PARAMETERS if p.reference],
+    bases=(_ParamsMethods,), namespace={"__module__": __name__})
+PBRDFParams.__doc__ = ("Parameters of the model, as the plugin takes them (table: "
+                       "``docs/plugin.md``; declared in :mod:`mitsuba_pbrdf.schema`).")
 
 
 def _finite(name, value, positive=False):

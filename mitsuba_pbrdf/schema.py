@@ -1,0 +1,259 @@
+"""The model's parameters, each declared once: name, kind, default, bounds,
+flags and a one-line doc.
+
+Pure Python, no imports beyond the standard library. Everything that takes a
+model parameter reads it from here:
+
+* the plugin (:mod:`mitsuba_pbrdf.plugin.bsdf`): which properties it reads and
+  checks, what ``traverse`` exposes with which flags, the lobe records and the
+  parameter table of its docstring;
+* the reference evaluator's parameter record
+  (:class:`mitsuba_pbrdf.reference.PBRDFParams`) and its checks;
+* the model options of ``pbrdf plot``, ``pbrdf export`` and ``pbrdf fit``
+  (:mod:`mitsuba_pbrdf.cli.model_options`);
+* the fitted parameters, their starting values and bounds
+  (:mod:`mitsuba_pbrdf.fitting.layout`);
+* the parameter table of ``docs/plugin.md`` (:func:`markdown_table`; a test
+  checks the two are the same).
+
+The plugin and the reference still compute the model independently: only the
+names, defaults and bounds are shared. Adding a parameter means a line here and
+its physics in ``plugin/`` and ``reference/``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional, Tuple
+
+__all__ = ["Parameter", "Fit", "PARAMETERS", "MIN_SIGMA", "LOBES", "DEFAULTS", "SHADOWING",
+           "REFERENCE_SHADOWING", "DD_DISTRIBUTIONS", "SAMPLING", "parameter", "names",
+           "markdown_table", "rst_table"]
+
+#: Smallest accepted RMS slope (``sigma``, ``sigma_dd``): Mitsuba's microfacet
+#: distributions clamp the Beckmann/GGX width alpha = sqrt(2) sigma to 1e-4.
+MIN_SIGMA = 1e-4 / math.sqrt(2.0)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """How a parameter is fitted to measurements: starting value, bounds, and
+    the scale below which its relative uncertainty is not meaningful."""
+
+    initial: float
+    lower: float
+    upper: float
+    name: Optional[str] = None        # its name in fits, if not the parameter's (n for eta)
+    per_wavelength: bool = False      # one value per measured wavelength (n, k)
+    scale_floor: float = 0.0          # uncertainty is judged against max(|value|, scale_floor)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One model parameter.
+
+    ``kind``: ``"spectrum"`` (a number, spectrum or texture; may vary with
+    wavelength), ``"float"`` (a number or texture, one value per point),
+    ``"choice"`` (a string from ``choices``) or ``"material"`` (a conductor
+    name). ``lower``/``positive``: the value must be >= ``lower`` (> 0 where
+    ``positive``); ``floor``: the smallest value the plugin takes (Mitsuba's
+    limit). ``lobe``/``role``: the lobe it weights (``"weight"``) or shapes
+    (``"width"``). ``plugin``/``reference``/``cli``: whether the plugin, the
+    reference evaluator, the model options of the commands take it.
+    """
+
+    name: str
+    kind: str
+    default: object
+    doc: str
+    lower: Optional[float] = None
+    positive: bool = False
+    floor: Optional[float] = None
+    choices: Tuple[str, ...] = ()
+    reference_choices: Tuple[str, ...] = ()   # choices only the reference evaluator offers
+    differentiable: bool = False
+    discontinuous: bool = False
+    lobe: Optional[str] = None
+    role: Optional[str] = None
+    fit: Optional[Fit] = None
+    plugin: bool = True
+    reference: bool = True
+    cli: bool = True
+    default_doc: Optional[str] = None         # the default as the docs state it
+    unit: str = "dimensionless"
+    typical: str = ""                         # typical values, for the docs
+
+    @property
+    def option(self) -> str:
+        """The command-line option: ``--sigma-dd`` for ``sigma_dd``."""
+        return "--" + self.name.replace("_", "-")
+
+    @property
+    def bound_doc(self) -> str:
+        if self.kind == "choice":
+            return " or ".join(f"``{c}``" for c in self.choices)
+        if self.floor is not None:
+            return f">= {self.floor:.3g}"
+        if self.positive:
+            return "> 0"
+        if self.lower is not None:
+            return f">= {self.lower:g}"
+        return ""
+
+
+#: Every model parameter, in the order of the docs' table.
+PARAMETERS: Tuple[Parameter, ...] = (
+    Parameter("material", "material", "Al",
+              "Named conductor from Mitsuba's tabulated spectra; mutually exclusive with "
+              "eta and k.", unit="–", typical="71 names (Al, Cu, Au, Ag, Cr, ...)"),
+    Parameter("eta", "spectrum", None,
+              "Real part n of the metal's complex index of refraction N = n + ik.",
+              positive=True, differentiable=True, discontinuous=True,
+              fit=Fit(1.5, 0.01, 20.0, name="n", per_wavelength=True, scale_floor=0.1),
+              default_doc="from material", typical="metals in the visible: 0.05–3.5"),
+    Parameter("k", "spectrum", None,
+              "Imaginary part k (extinction coefficient) of the complex index N = n + ik.",
+              lower=0.0, differentiable=True, discontinuous=True,
+              fit=Fit(5.0, 0.0, 40.0, per_wavelength=True, scale_floor=0.1),
+              default_doc="from material", typical="metals in the visible: 1.8–8"),
+    Parameter("sigma", "float", 0.1,
+              "RMS microfacet slope per axis of the specular lobe (paper Eq. 3); Beckmann "
+              "width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor).",
+              positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
+              lobe="specular", role="width", fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3),
+              unit="dimensionless (slope)", typical="0.02 polished – 0.5 rough"),
+    Parameter("ks", "spectrum", 1.0, "Weight k_s of the specular (polarizing) lobe (paper Eq. 2).",
+              lower=0.0, differentiable=True, lobe="specular", role="weight",
+              fit=Fit(1.0, 0.0, 20.0), typical="0–1"),
+    Parameter("kdd", "spectrum", 0.0,
+              "Weight k_dd of the directional diffuse (depolarized) lobe (paper Eq. 2).",
+              lower=0.0, differentiable=True, lobe="directional_diffuse", role="weight",
+              fit=Fit(0.1, 0.0, 20.0), typical="0–1"),
+    Parameter("sigma_dd", "float", 0.5,
+              "RMS slope of the directional diffuse lobe (alpha_dd = sqrt(2) sigma_dd).",
+              positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
+              lobe="directional_diffuse", role="width",
+              fit=Fit(0.5, 1e-3, 5.0, scale_floor=1e-3), unit="dimensionless (slope)",
+              typical="wider than sigma"),
+    Parameter("kid", "spectrum", 0.0,
+              "Weight k_id of the ideal (Lambertian, depolarized) diffuse lobe (paper Eq. 2).",
+              lower=0.0, differentiable=True, lobe="ideal_diffuse", role="weight",
+              fit=Fit(0.01, 0.0, 10.0), typical="0–1"),
+    Parameter("shadowing", "choice", "vgroove",
+              "Shadowing-masking G: vgroove (Torrance-Sparrow/Blinn, the paper's) or smith "
+              "(Smith's, as Mitsuba's roughconductor).",
+              choices=("vgroove", "smith"), reference_choices=("none",), unit="–"),
+    Parameter("dd_distribution", "choice", "beckmann",
+              "Normal distribution of the directional diffuse lobe.",
+              choices=("beckmann", "ggx"), unit="–"),
+    Parameter("sampling", "choice", "mixture",
+              "mixture (lobes chosen by estimated albedo) or cosine (cosine-weighted "
+              "hemisphere only: the benchmarks' baseline).",
+              choices=("mixture", "cosine"), reference=False, cli=False, unit="–"),
+)
+
+_BY_NAME = {p.name: p for p in PARAMETERS}
+
+
+def parameter(name: str) -> Parameter:
+    """The declaration of parameter *name*."""
+    return _BY_NAME[name]
+
+
+def names(**flags) -> Tuple[str, ...]:
+    """Names of the parameters whose attributes equal *flags*, in table order
+    (``names(reference=True)``, ``names(kind="choice")``)."""
+    return tuple(p.name for p in PARAMETERS
+                 if all(getattr(p, key) == value for key, value in flags.items()))
+
+
+#: Lobes in component order, each with its weight and width parameter
+#: (None: the lobe has no width).
+LOBES = {
+    lobe: (next(p.name for p in PARAMETERS if p.lobe == lobe and p.role == "weight"),
+           next((p.name for p in PARAMETERS if p.lobe == lobe and p.role == "width"), None))
+    for lobe in dict.fromkeys(p.lobe for p in PARAMETERS if p.lobe)
+}
+
+#: Default values by name (eta and k: None, meaning "from the material").
+DEFAULTS = {p.name: p.default for p in PARAMETERS}
+
+SHADOWING = parameter("shadowing").choices
+#: The reference evaluator also offers ``"none"`` (G = 1: the original
+#: Priest-Germer model, unbounded at grazing; for validation plots only).
+REFERENCE_SHADOWING = SHADOWING + parameter("shadowing").reference_choices
+DD_DISTRIBUTIONS = parameter("dd_distribution").choices
+SAMPLING = parameter("sampling").choices
+
+_KIND_DOC = {"spectrum": "spectrum or texture", "float": "float or texture",
+             "choice": "string", "material": "string"}
+
+
+def _flags(p: Parameter) -> str:
+    if not p.differentiable:
+        return "--"
+    return "exposed, differentiable" + (", discontinuous" if p.discontinuous else "")
+
+
+def _default(p: Parameter) -> str:
+    return p.default_doc if p.default_doc else f"``{p.default}``" if p.kind in (
+        "choice", "material") else f"{p.default:g}"
+
+
+def markdown_table() -> str:
+    """The plugin's parameter table in Markdown (``docs/plugin.md``)."""
+    rows = ["| name | type | default | unit | valid (typical) | meaning | flags |",
+            "|---|---|---|---|---|---|---|"]
+    for p in PARAMETERS:
+        if p.plugin:
+            valid = p.bound_doc.replace("``", "`")
+            if p.typical:
+                valid = f"{valid} ({p.typical})" if valid else p.typical
+            rows.append(f"| `{p.name}` | {_KIND_DOC[p.kind]} | {_default(p).replace('``', '`')} "
+                        f"| {p.unit} | {valid} | {p.doc} | {_flags(p)} |")
+    return "\n".join(rows) + "\n"
+
+
+def rst_table() -> str:
+    """The same table as a reStructuredText list-table (the plugin's docstring)."""
+    lines = [".. list-table::", "   :header-rows: 1", "",
+             "   * - Parameter", "     - Type", "     - Description", "     - Default",
+             "     - Flags"]
+    for p in PARAMETERS:
+        if p.plugin:
+            bound = f" Valid: {p.bound_doc}." if p.bound_doc else ""
+            lines += [f"   * - ``{p.name}``", f"     - {_KIND_DOC[p.kind]}",
+                      f"     - {p.doc}{bound}", f"     - {_default(p)}", f"     - {_flags(p)}"]
+    return "\n".join(lines) + "\n"
+
+
+#: The markers around the generated table in ``docs/plugin.md``.
+TABLE_START = "<!-- schema table: generated from mitsuba_pbrdf/schema.py"
+TABLE_END = "<!-- end of schema table -->"
+
+
+def docs_table(text: str) -> str:
+    """The generated table as it stands in *text* (a Markdown file), between
+    :data:`TABLE_START`'s line and :data:`TABLE_END`."""
+    start = text.index("\n", text.index(TABLE_START)) + 1
+    return text[start:text.index(TABLE_END, start)]
+
+
+def write_docs_table(path: str) -> None:
+    """Replace the generated table in Markdown file *path* by :func:`markdown_table`."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    old = docs_table(text)
+    start = text.index(old, text.index(TABLE_START))
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text[:start] + markdown_table() + text[start + len(old):])
+
+
+if __name__ == "__main__":      # python -m mitsuba_pbrdf.schema docs/plugin.md
+    import sys
+
+    for target in sys.argv[1:]:
+        write_docs_table(target)
+    if len(sys.argv) == 1:
+        print(markdown_table(), end="")

@@ -1,0 +1,184 @@
+"""The parameter schema drives every place that takes a model parameter: the
+plugin's checks and ``traverse``, the reference's record, the commands' model
+options, the fit layout and the docs' table. Each test compares one of them
+with the schema, and the last one adds a parameter to the schema alone and
+finds it everywhere."""
+
+import os
+import subprocess
+import sys
+
+import mitsuba as mi
+import numpy as np
+import pytest
+
+from mitsuba_pbrdf import schema
+
+ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
+VALUED = [p for p in schema.PARAMETERS if p.plugin and p.kind in ("float", "spectrum")]
+
+
+def test_docs_table_is_the_schemas():
+    with open(os.path.join(ROOT, "docs", "plugin.md"), encoding="utf-8") as f:
+        text = f.read()
+    assert schema.docs_table(text) == schema.markdown_table(), (
+        "docs/plugin.md's parameter table is out of date: run "
+        "`python -m mitsuba_pbrdf.schema docs/plugin.md`")
+
+
+def test_plugin_docstring_holds_the_table():
+    from mitsuba_pbrdf.registry import plugin_class
+
+    doc = plugin_class("pbrdf").__doc__
+    for p in schema.PARAMETERS:
+        assert f"``{p.name}``" in doc
+    assert schema.rst_table() in doc
+
+
+@pytest.mark.parametrize("p", VALUED, ids=lambda p: p.name)
+def test_plugin_checks_each_declared_bound(p):
+    """A value below the declared bound, and NaN, are refused at load time
+    with the parameter named."""
+    extra = {"k": 1.0} if p.name == "eta" else {"eta": 1.0} if p.name == "k" else {}
+    bad = [float("nan"), -0.5] + ([0.0] if p.positive else [])
+    if p.floor is not None:
+        bad.append(p.floor * 0.5)
+    for value in bad:
+        with pytest.raises((RuntimeError, ValueError), match=f"parameter '{p.name}'"):
+            mi.load_dict({"type": "pbrdf", p.name: value, **extra})
+    ok = 0.2 if p.floor is None else max(0.2, p.floor)
+    mi.load_dict({"type": "pbrdf", p.name: ok, **extra})
+
+
+@pytest.mark.parametrize("p", [p for p in schema.PARAMETERS if p.plugin and p.kind == "choice"],
+                         ids=lambda p: p.name)
+def test_plugin_checks_each_declared_choice(p):
+    for choice in p.choices:
+        mi.load_dict({"type": "pbrdf", p.name: choice})
+    with pytest.raises((RuntimeError, ValueError), match=f"parameter '{p.name}'.*{p.choices[-1]}"):
+        mi.load_dict({"type": "pbrdf", p.name: "no_such_choice"})
+
+
+def test_traverse_exposes_the_declared_parameters_with_their_flags():
+    bsdf = mi.load_dict({"type": "pbrdf", "kdd": 0.1, "kid": 0.1})
+    params = mi.traverse(bsdf)
+    exposed = {key.split(".")[0] for key in params.keys()}
+    declared = {p.name for p in schema.PARAMETERS if p.plugin and p.differentiable}
+    assert exposed == declared
+    for p in schema.PARAMETERS:
+        if p.name in exposed:
+            key = next(k for k in params.keys() if k.split(".")[0] == p.name)
+            flags = params.flags(key)
+            assert bool(flags & mi.ParamFlags.Discontinuous) == p.discontinuous, p.name
+            assert not (flags & mi.ParamFlags.NonDifferentiable), p.name
+    # an absent lobe's parameters are not exposed
+    names = {key.split(".")[0] for key in mi.traverse(mi.load_dict({"type": "pbrdf"})).keys()}
+    assert names == {"eta", "k", *schema.LOBES["specular"]}
+
+
+def test_lobes_follow_the_schema():
+    bsdf = mi.load_dict({"type": "pbrdf", "kdd": 0.1, "kid": 0.1})
+    assert [lobe.name for lobe in bsdf.lobes] == list(schema.LOBES)
+    assert bsdf.component_count() == len(schema.LOBES)
+
+
+def test_reference_record_has_one_field_per_parameter():
+    from dataclasses import fields
+
+    from mitsuba_pbrdf.reference import PBRDFParams
+
+    record = PBRDFParams()
+    assert [f.name for f in fields(record)] == list(schema.names(reference=True))
+    for p in schema.PARAMETERS:
+        if p.reference:
+            assert getattr(record, p.name) == p.default
+    for p in VALUED:
+        if p.reference and p.name not in ("eta", "k"):
+            with pytest.raises(ValueError, match=p.name):
+                PBRDFParams(**{p.name: -1.0}).validate()
+
+
+def test_command_options_are_the_schemas():
+    from mitsuba_pbrdf.cli import build_parser
+
+    parser = build_parser()
+    subparsers = next(a for a in parser._actions if a.dest == "command").choices
+    for command in ("plot", "export"):
+        options = {a.dest: a for a in subparsers[command]._actions}
+        for p in schema.PARAMETERS:
+            if p.cli:
+                assert p.name in options, (command, p.name)
+                assert options[p.name].option_strings == [p.option]
+                if p.kind not in ("material",):
+                    assert options[p.name].default == p.default, (command, p.name)
+                if p.kind == "choice":
+                    assert tuple(options[p.name].choices) == p.choices
+            else:
+                assert p.name not in options
+    fit_options = {a.dest for a in subparsers["fit"]._actions}
+    assert set(schema.names(kind="choice", cli=True)) <= fit_options
+
+
+def test_fit_layout_is_the_schemas():
+    from mitsuba_pbrdf.fitting import layout
+
+    fitted = [p for p in schema.PARAMETERS if p.fit is not None]
+    assert set(layout.SHARED + layout.PER_WAVELENGTH) == {p.fit.name or p.name for p in fitted}
+    for p in fitted:
+        name = p.fit.name or p.name
+        assert layout.BOUNDS[name] == (p.fit.lower, p.fit.upper)
+        assert p.fit.lower <= layout.DEFAULTS[name] <= p.fit.upper
+        assert layout.PLUGIN_NAMES[name] == p.name
+    assert layout.TWO_COMPONENT_FIXED == ("kdd", "sigma_dd")
+
+
+ADD_ONE = r"""
+import dataclasses, sys
+from mitsuba_pbrdf import schema
+extra = schema.Parameter("zeta", "float", 0.25, "A parameter declared only in the schema.",
+                         positive=True, differentiable=True, cli=True)
+schema.PARAMETERS = schema.PARAMETERS + (extra,)
+schema._BY_NAME["zeta"] = extra
+from mitsuba_pbrdf.reference import PBRDFParams
+from mitsuba_pbrdf.cli import build_parser
+p = PBRDFParams()
+print("record", p.zeta)
+try:
+    PBRDFParams(zeta=-1.0).validate()
+except ValueError as e:
+    print("record-check", e)
+args = build_parser().parse_args(["plot", "--zeta", "0.5"])
+print("cli", args.zeta)
+import mitsuba_pbrdf
+mitsuba_pbrdf.use_variant("llvm_ad_rgb")
+import mitsuba as mi
+bsdf = mi.load_dict({"type": "pbrdf", "zeta": 0.7})
+print("plugin", bsdf.zeta)
+try:
+    mi.load_dict({"type": "pbrdf", "zeta": -1.0})
+except (RuntimeError, ValueError) as e:     # Mitsuba wraps the plugin's ValueError
+    print("plugin-check", str(e).strip().splitlines()[-1])
+print("table", "`zeta`" in schema.markdown_table())
+"""
+
+
+def test_a_parameter_added_to_the_schema_reaches_every_consumer():
+    """The proof that one declaration is enough: a parameter added to the
+    schema alone (no physics) is in the reference's record and checked there,
+    is a command-line option, is read and checked by the plugin, and is in
+    the docs' table."""
+    result = subprocess.run([sys.executable, "-c", ADD_ONE], capture_output=True, text=True,
+                            cwd=ROOT, timeout=300)
+    assert result.returncode == 0, result.stderr
+    lines = dict(line.split(" ", 1) for line in result.stdout.splitlines())
+    assert lines["record"] == "0.25"
+    assert "zeta" in lines["record-check"]
+    assert lines["cli"] == "0.5"
+    assert "0.7" in lines["plugin"]
+    assert "'zeta'" in lines["plugin-check"]
+    assert lines["table"] == "True"
+
+
+def test_min_sigma_is_mitsubas_alpha_floor():
+    assert np.isclose(np.sqrt(2.0) * schema.MIN_SIGMA, 1e-4)
+    assert schema.parameter("sigma").floor == schema.parameter("sigma_dd").floor == schema.MIN_SIGMA
