@@ -46,8 +46,9 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-__all__ = ["ANGLES", "ELEMENTS", "OBSERVABLES", "LAYOUTS", "MeasurementError", "Measurements",
-           "read_measurements", "read_table", "check_measurements", "write_measurements"]
+__all__ = ["ANGLES", "ELEMENTS", "OBSERVABLES", "MeasurementError", "Measurements",
+           "read_goniometer", "read_table", "number_cell", "check_measurements",
+           "write_measurements"]
 
 ANGLES = ("theta_i", "phi_i", "theta_r", "phi_r")
 ELEMENTS = tuple(f"m{i}{j}" for i in range(4) for j in range(4))
@@ -96,7 +97,7 @@ class Measurements:
         return int(sum(np.isfinite(v).sum() for v in self.observed.values()))
 
 
-def _number(text, path, row, column, required):
+def number_cell(text, path, row, column, required):
     text = (text or "").strip()
     if text == "":
         if required:
@@ -112,12 +113,6 @@ def _number(text, path, row, column, required):
     if math.isinf(value):
         raise MeasurementError(f"{path}: line {row}: column {column!r} is infinite")
     return value
-
-
-#: The file layouts :func:`read_measurements` reads: ``goniometer`` (this
-#: module's CSV) and ``nist`` (NIST's published Mueller-matrix BRDF layout,
-#: :mod:`.nist_layout`); ``auto`` tells them apart by the header.
-LAYOUTS = ("auto", "goniometer", "nist")
 
 
 def read_table(path, what):
@@ -164,24 +159,9 @@ def read_table(path, what):
     return header_line, header, rows()
 
 
-def read_measurements(path, layout="auto") -> Measurements:
-    """Read and check a measurement file: the goniometer CSV of the module
-    docstring, or NIST's Mueller-matrix BRDF layout (:mod:`.nist_layout`).
-    ``layout="auto"`` recognises the layout from the header; ``"goniometer"``
-    or ``"nist"`` force one."""
-    from . import nist_layout
-
-    if layout not in LAYOUTS:
-        raise MeasurementError(f"layout must be one of {', '.join(LAYOUTS)}, not {layout!r}")
-    _, header, rows = read_table(
-        path, f"{', '.join(ANGLES)}, wavelength, m00 ... (or NIST's lambda, thetai, phi, "
-              "thetar, phir, f_r11 ...)")
-    if layout == "nist" or (layout == "auto" and nist_layout.is_nist_header(header)):
-        return nist_layout.read_nist(os.fspath(path), header, rows)
-    return _read_goniometer(os.fspath(path), header, rows)
-
-
-def _read_goniometer(path, header, reader) -> Measurements:
+def read_goniometer(path, header, reader) -> Measurements:
+    """The measurements of a goniometer CSV file (this module's layout) from
+    :func:`read_table`'s header and rows."""
     required = list(ANGLES) + ["wavelength"]
     missing = [c for c in required if c not in header]
     if missing:
@@ -205,15 +185,15 @@ def _read_goniometer(path, header, reader) -> Measurements:
     for row_number, row in reader:
         cells = dict(zip(header, row))
         for c in required:
-            columns[c].append(_number(cells[c], path, row_number, c, True))
-        values = {c: _number(cells[c], path, row_number, c, False) for c in quantities}
+            columns[c].append(number_cell(cells[c], path, row_number, c, True))
+        values = {c: number_cell(cells[c], path, row_number, c, False) for c in quantities}
         if all(math.isnan(v) for v in values.values()):
             raise MeasurementError(f"{path}: line {row_number}: no measured value "
                                    f"({', '.join(quantities)} all empty)")
         for c in quantities:
             columns[c].append(values[c])
         for c in errors:
-            v = _number(cells[c], path, row_number, c, False)
+            v = number_cell(cells[c], path, row_number, c, False)
             if math.isnan(v) and not math.isnan(values[c[:-4]]):
                 raise MeasurementError(f"{path}: line {row_number}: {c!r} is empty but "
                                        f"{c[:-4]!r} is given")

@@ -47,7 +47,7 @@ import re
 
 import numpy as np
 
-from .measurements import MeasurementError, Measurements, _number, check_measurements
+from .measurements import MeasurementError, Measurements, check_measurements, number_cell
 
 __all__ = ["NIST_ANGLES", "is_nist_header", "read_nist", "nist_to_project"]
 
@@ -138,8 +138,8 @@ def read_nist(path, header, rows) -> Measurements:
     ignored = [c for c in header if c not in index]
     angles, values, numbers = [], [], []
     for line, cells in rows:
-        a = [_number(cells[index[c]], path, line, c, True) for c in names]
-        v = {ij: _number(cells[index[c]], path, line, c, False) for ij, c in elements.items()}
+        a = [number_cell(cells[index[c]], path, line, c, True) for c in names]
+        v = {ij: number_cell(cells[index[c]], path, line, c, False) for ij, c in elements.items()}
         if math.isnan(v[(0, 0)]):
             if all(math.isnan(x) for x in v.values()):
                 raise MeasurementError(f"{path}: line {line}: no measured value (every "
