@@ -217,6 +217,17 @@ TABLE = [
     ("export: --bands with --wavelengths", ["export", "--bands", "400:700:10", "--wavelengths",
                                             "450,500,550,600,650", "--out", "{tmp}/h.pbsdf"], 2,
      "give --wavelengths (the 5 bands measured_polarized renders) or --bands", "{tmp}/h.pbsdf"),
+    # pbrdf batch --slurm: checked before Slurm is asked (the rows that need a running
+    # Slurm, Ctrl-C among them, are in tests/test_batch_slurm.py)
+    ("batch: --slurm, malformed walltime", ["batch", "{sweep}", "--slurm", "--walltime", "2h"],
+     2, "--walltime '2h' is not a Slurm time", "{tmp}/out/manifest.csv"),
+    ("batch: --slurm, walltime under a minute", ["batch", "{sweep}", "--slurm", "--walltime",
+                                                 "0:30"], 2,
+     "--walltime: '0:30' is too short", "{tmp}/out/manifest.csv"),
+    ("batch: --slurm, no cores", ["batch", "{sweep}", "--slurm", "--cores", "0"], 2,
+     "--cores: must be a positive integer, got 0", "{tmp}/out/manifest.csv"),
+    ("batch: a Slurm option without --slurm", ["batch", "{sweep}", "--partition", "debug"], 2,
+     "--partition is a Slurm option: add --slurm", "{tmp}/out/manifest.csv"),
 ]
 
 
@@ -254,7 +265,10 @@ def files(tmp_path):
 
     plain = write_exr(tmp_path / "plain.exr", {"Y": np.ones((4, 4), np.float32)})
     y_exr = write_stokes_exr(tmp_path / "y.exr", np.ones((4, 4, 4), np.float32) * [1, 0, 0, 0])
-    return dict(tmp=str(tmp_path), scene=str(scene), exr=good, plain_exr=plain, y_exr=y_exr,
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(f'scene = "{scene}"\nout = "out"\n')
+    return dict(tmp=str(tmp_path), scene=str(scene), sweep=str(sweep), exr=good, plain_exr=plain,
+                y_exr=y_exr,
                 **nist_files(tmp_path),
                 odd_exr=stokes_exr(tmp_path / "odd.exr", h=13),
                 nan_exr=stokes_exr(tmp_path / "nan.exr", set_nan),
