@@ -2,7 +2,7 @@
 run whole (cluster start included, as a user runs ``pbrdf batch``) on 2
 local worker processes and on 2 Slurm worker jobs of 1 core, interleaved,
 medians. Slurm is the single-node Slurm of the tests
-(``tests/single_node_slurm.py``, started and stopped here; needs root and
+(``proof/single_node_slurm.py``, started and stopped here; needs root and
 ``.ci/install-slurm.sh``), or the one ``SLURM_CONF`` names with ``--running``.
 Writes the section ``## On Slurm`` of ``batch.md`` (default: next to this
 script; the rest of the file, written by batch_throughput.py, is kept) and
@@ -31,7 +31,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-sys.path[:0] = [str(ROOT), str(HERE), str(ROOT / "tests")]
+sys.path[:0] = [str(ROOT), str(HERE)]
 
 from batch_throughput import write_sweep  # noqa: E402
 
@@ -82,7 +82,7 @@ def main(argv=None) -> int:
 
     node = None
     if not args.running:
-        from single_node_slurm import SingleNodeSlurm, missing
+        from proof.single_node_slurm import SingleNodeSlurm, missing
 
         why = missing()
         if why:

@@ -32,7 +32,7 @@ from mitsuba_pbrdf.batch.slurm_options import (SlurmError, SlurmOptions, format_
 from mitsuba_pbrdf.batch.sweep import SweepError, load_sweep
 from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.stokes.exr import read_stokes_exr
-from single_node_slurm import SingleNodeSlurm, missing
+from proof.single_node_slurm import SingleNodeSlurm, missing
 
 ROOT = Path(__file__).resolve().parents[1]
 SPHERE = ROOT / "scenes" / "gallery" / "sphere.xml"
@@ -396,7 +396,7 @@ def test_a_start_stops_the_daemons_a_previous_run_left(slurm):
     """What a test run killed before its teardown leaves (daemons still
     running, their pid files in STATE) is stopped by the next start: the old
     daemons are gone, new ones answer. Runs last: it restarts the fixture's Slurm."""
-    from single_node_slurm import DAEMONS, _ours
+    from proof.single_node_slurm import DAEMONS, _ours
 
     def pids():
         return {d: int(Path(slurm.state, f"{d}.pid").read_text().split()[0]) for d in DAEMONS}
