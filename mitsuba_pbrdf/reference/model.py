@@ -46,6 +46,8 @@ def _anisotropic_DG(angles, g, sigma_u, sigma_v, shadowing, distribution):
 def _widths(sigma, sigma_u, sigma_v):
     """``(sigma_u, sigma_v)`` where either is given (the other defaults to
     sigma), else None: the lobe is isotropic."""
+    if sigma is None and (sigma_u is None or sigma_v is None):
+        raise ValueError("give sigma, or both of its refinements (sigma_u and sigma_v)")
     if sigma_u is None and sigma_v is None:
         return None
     return (sigma if sigma_u is None else sigma_u), (sigma if sigma_v is None else sigma_v)
@@ -126,7 +128,7 @@ def ideal_diffuse(theta_i, theta_r):
     return np.where((cos_i > 0) & (cos_r > 0), 1.0 / np.pi, 0.0)
 
 
-def pbrdf(theta_i, phi_i, theta_r, phi_r, n, k, sigma, ks=1.0, kdd=0.0, sigma_dd=0.5,
+def pbrdf(theta_i, phi_i, theta_r, phi_r, n, k, sigma=None, ks=1.0, kdd=0.0, sigma_dd=0.5,
           kid=0.0, shadowing="vgroove", dd_distribution="beckmann", distribution="beckmann",
           sigma_u=None, sigma_v=None, sigma_dd_u=None, sigma_dd_v=None):
     """The full pBRDF (paper Eq. 2, 5, 6), a float64 array (..., 4, 4) in 1/sr::
@@ -138,7 +140,8 @@ def pbrdf(theta_i, phi_i, theta_r, phi_r, n, k, sigma, ks=1.0, kdd=0.0, sigma_dd
     a Stokes vector of the incident light (frame ``s_in``) to get the reflected
     Stokes vector (frame ``s_out``) per unit irradiance, paper Eq. 6.
     ``distribution``: the specular lobe's (``dd_distribution``: the directional
-    diffuse lobe's); ``sigma_u``... : anisotropic widths (:func:`specular`).
+    diffuse lobe's); ``sigma_u``... : anisotropic widths (:func:`specular`);
+    ``sigma`` may be left out where ``sigma_u`` and ``sigma_v`` are given.
     """
     _check_kinds(shadowing, dd_distribution)
     _check_kinds(shadowing, distribution)
