@@ -175,6 +175,16 @@ TABLE = [
      "cannot write /proc/x.png", None),
     ("fit: unwritable --json, before fitting", ["fit", CSV, "--json", "/sys/x.json"], 2,
      "cannot write /sys/x.json", None),
+    ("plot: negative --sigma-u", ["plot", "--sigma-u", "-1", "--out", "{tmp}/p.png"], 2,
+     "sigma_u must be > 0", "{tmp}/p.png"),
+    ("plot: NaN --sigma-v", ["plot", "--sigma-v", "nan", "--out", "{tmp}/p.png"], 2,
+     "sigma_v must be > 0", "{tmp}/p.png"),
+    ("plot: NaN --phi-i", ["plot", "--sigma-u", "0.3", "--phi-i", "nan", "--out", "{tmp}/p.png"],
+     2, "--phi-i must be in [-360, 360] degrees", "{tmp}/p.png"),
+    ("fit: sigma_u in an isotropic fit", ["fit", CSV, "--init", "sigma_u=0.2"], 2,
+     "sigma_u is fitted only in an anisotropic fit", None),
+    ("fit: negative sigma_v", ["fit", CSV, "--anisotropic", "--fix", "sigma_v=-0.1"], 2,
+     "--fix: sigma_v=-0.1 is outside the allowed range", None),
 ]
 
 

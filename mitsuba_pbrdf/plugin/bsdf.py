@@ -19,6 +19,13 @@ Mueller matrix of Fresnel reflection on a facet of index n + ik rotated from the
 facet's s/p frame into Mitsuba's implicit Stokes bases, and D0 the ideal
 depolarizer. In unpolarized variants only the intensity (M00) is computed.
 
+Anisotropy: ``sigma_u``/``sigma_v`` (``sigma_dd_u``/``sigma_dd_v``) are the
+RMS slopes along the shading frame's s axis (``dp_du``) and t axis, each
+defaulting to ``sigma`` (``sigma_dd``); where neither is given the lobe is
+isotropic and ``traverse`` exposes ``sigma``, else the lobe is anisotropic and
+``traverse`` exposes ``sigma_u`` and ``sigma_v`` instead (the schema's
+``refines`` relation). ``distribution`` is the specular lobe's Beckmann or GGX.
+
 The surface is one-sided: directions below the horizon give zero. A lobe whose
 weight is exactly zero at load time is dropped entirely (not evaluated, not
 sampled, not in the flags, not traversed); give it a small non-zero weight to
