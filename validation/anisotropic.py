@@ -12,7 +12,8 @@ range of pdf_pbrdf / pdf_roughconductor, and after multiplying
 roughconductor's Beckmann pdf by G1_exact / G1_mitsuba (with the projected
 width) the worst relative pdf difference. Chi-square rows: Mitsuba's
 ChiSquareTest through the suite's polarized adapter (tests/conftest.py), 1e6
-samples, the p-value for several incident directions.
+samples, the pdf integrated with 32 x 32 sub-samples per cell (IRES), the
+p-value for several incident directions.
 """
 
 import argparse
@@ -21,6 +22,7 @@ import os
 import sys
 import time
 
+import drjit as dr
 import mitsuba as mi
 import numpy as np
 
@@ -28,10 +30,56 @@ import mitsuba_pbrdf
 from mitsuba_pbrdf import frames, reference
 
 mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), os.pardir, "tests"))
-from conftest import as_numpy, chi2_sampling_test, make_si, to_vector  # noqa: E402
 
 WAVELENGTHS = (450.0, 520.0, 600.0, 690.0)
+#: Family-wise significance as the test suite's chi-square tests.
+SIGNIFICANCE, TEST_COUNT = 0.01, 19
+
+
+def make_si(wi):
+    si = dr.zeros(mi.SurfaceInteraction3f, len(wi))
+    si.wi = mi.Vector3f(*np.asarray(wi, np.float32).T)
+    si.wavelengths = mi.UnpolarizedSpectrum(*WAVELENGTHS)
+    return si
+
+
+def to_vector(w):
+    return mi.Vector3f(*np.asarray(w, np.float32).T)
+
+
+def as_numpy(value):
+    """Lanes first; Mueller matrices as (n, wavelengths, 4, 4)."""
+    a = np.array(value, dtype=np.float64)
+    return a.transpose(3, 2, 0, 1) if a.ndim == 4 else np.moveaxis(a, -1, 0)
+
+
+def chi2_sampling_test(config, wi, sample_count, res=101, ires=8):
+    """Mitsuba's ChiSquareTest of ``sample`` against ``pdf`` in a polarized
+    variant: Mitsuba's BSDFAdapter cannot reduce a Mueller weight, so a
+    sample counts here unless its weight's M00 is 0 at every wavelength (the
+    suite's adapter, tests/conftest.py, does the same)."""
+    bsdf, ctx = mi.load_dict(config), mi.BSDFContext()
+
+    def interaction(n):
+        si = dr.zeros(mi.SurfaceInteraction3f, n)
+        si.wi = mi.Vector3f(*[float(x) for x in wi])
+        si.wavelengths = mi.UnpolarizedSpectrum(*WAVELENGTHS)
+        return si
+
+    def sample_func(sample):
+        bs, weight = bsdf.sample(ctx, interaction(dr.width(sample)), sample[0],
+                                 mi.Point2f(sample[1], sample[2]))
+        keep = dr.any(mi.unpolarized_spectrum(weight) != 0)
+        return bs.wo, dr.select(keep, mi.Float(1.0), mi.Float(0.0))
+
+    def pdf_func(wo):
+        return bsdf.pdf(ctx, interaction(dr.width(wo)), wo)
+
+    test = mi.chi2.ChiSquareTest(domain=mi.chi2.SphericalDomain(), sample_func=sample_func,
+                                 pdf_func=pdf_func, sample_dim=3, sample_count=sample_count,
+                                 res=res, ires=ires)
+    test.passed = test.run(significance_level=SIGNIFICANCE, test_count=TEST_COUNT, quiet=True)
+    return test
 ALPHAS = ((0.05, 0.5), (0.6, 0.06), (0.3, 0.2), (0.02, 0.2), (1.0, 0.1))
 CHI2 = {
     "Al, Beckmann, sigma_u/sigma_v = 10 (0.5, 0.05), vgroove":
@@ -44,6 +92,11 @@ CHI2 = {
          "sigma_dd_u": 0.2, "sigma_dd_v": 0.8, "kid": 0.1},
 }
 DIRECTIONS = ((30.0, 20.0), (60.0, 70.0), (80.0, 135.0))
+#: Sub-samples per cell side when the test integrates the pdf: Mitsuba's
+#: default 8 is too coarse for lobes 0.07 wide seen at 80 degrees (the
+#: isotropic sigma = 0.05 lobe fails there too, p = 0 at 1e6 samples, and
+#: passes at 32: the pdf table's integration error, not the sampler).
+IRES = 32
 
 
 def g1_ratio(wi, alpha_u, alpha_v):
@@ -87,7 +140,7 @@ def chi2_rows(samples):
         for theta, phi in DIRECTIONS:
             t, p = math.radians(theta), math.radians(phi)
             wi = (math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t))
-            test = chi2_sampling_test(config, wi, samples)
+            test = chi2_sampling_test(config, wi, samples, ires=IRES)
             rows.append((name, theta, phi, test.p_value, test.passed))
     return rows
 
@@ -105,8 +158,12 @@ def markdown(rc_rows, chi_rows, pairs, samples, seconds):
     lines += [f"| {d} | {u:g} | {v:g} | {w:.1e} | {lo:.5f} – {hi:.5f} | {e:.1e} |"
               for d, u, v, w, lo, hi, e in rc_rows]
     lines += ["", "## Chi-square test of sampling (Mitsuba's ChiSquareTest, polarized adapter)",
-              "", f"{samples} samples; significance 1 % over the suite's family "
-              "(tests/conftest.py).", "",
+              "", f"{samples} samples, pdf integrated with {IRES} x {IRES} points per cell; "
+              "significance 1 % over the suite's family (tests/conftest.py). With Mitsuba's "
+              "default 8 x 8 the 80-degree rows fail, as does the isotropic sigma = 0.05 lobe "
+              "there (p = 0; p = 0.03 at 32 x 32): the integration of narrow grazing lobes, "
+              "not the sampler (the pdf integrates to the share of samples kept, 0.98262 "
+              "against 0.98262, at 80 degrees).", "",
               "| configuration | theta_i | phi_i | p-value | passed |", "|---|---|---|---|---|"]
     lines += [f"| {n} | {t:g} | {p:g} | {pv:.3g} | {ok} |" for n, t, p, pv, ok in chi_rows]
     return "\n".join(lines) + "\n"
