@@ -28,7 +28,11 @@ apt_install() {
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "$@" >/dev/null
 }
 
-if ! ls /usr/lib/*-linux-gnu/libLLVM-19.so* /usr/lib/llvm-19/lib/libLLVM*.so* >/dev/null 2>&1; then
+have_llvm19() {   # (ls of both globs fails when either is missing: test each)
+    compgen -G "/usr/lib/*-linux-gnu/libLLVM-19.so*" >/dev/null ||
+        compgen -G "/usr/lib/llvm-19/lib/libLLVM*.so*" >/dev/null
+}
+if ! have_llvm19; then
     echo "install.sh: installing Debian's libllvm19" >&2
     apt_install libllvm19
 fi

@@ -1,13 +1,31 @@
 """Shared test set-up: the suite's default variant, and fixtures that switch
 variants (``mitsuba_pbrdf.use_variant`` sets one and registers the plugin)."""
 
+import os
+
 import drjit as dr
 import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf import use_variant
+import mitsuba_pbrdf
+from mitsuba_pbrdf import registry
 
+#: PBRDF_TEST_BACKEND=cuda runs the suite on a GPU: every llvm_* variant a test
+#: asks for through mitsuba_pbrdf.use_variant becomes its cuda_* twin
+#: (benchmarks/device_check.sh).
+BACKEND = os.environ.get("PBRDF_TEST_BACKEND", "llvm")
+if BACKEND not in ("llvm", "cuda"):
+    raise pytest.UsageError(f"PBRDF_TEST_BACKEND must be llvm or cuda, got {BACKEND!r}")
+if BACKEND == "cuda":
+    _use_variant = registry.use_variant
+
+    def _on_backend(name):
+        return _use_variant(name.replace("llvm_", "cuda_", 1))
+
+    mitsuba_pbrdf.use_variant = registry.use_variant = _on_backend
+
+use_variant = mitsuba_pbrdf.use_variant
 use_variant("llvm_ad_spectral_polarized")
 
 #: Wavelengths (nm) used for spectral evaluations in tests.

@@ -16,7 +16,7 @@ from conftest import WAVELENGTHS, as_numpy, chi2_sampling_test, hemisphere_pairs
 from mitsuba_pbrdf import frames as mf
 from mitsuba_pbrdf import reference as ref
 from mitsuba_pbrdf import use_variant
-from mitsuba_pbrdf.checks.bad_input import NAN, bitmap
+from proof.bad_input import NAN, bitmap
 
 SQRT2 = math.sqrt(2.0)
 MODES = [mi.TransportMode.Radiance, mi.TransportMode.Importance]

@@ -50,6 +50,8 @@ BUDGET = 4 * 1024**3
 MAX_ONE_PASS = 6 * 1024**3
 #: forward mode is run up to this many samples per pixel
 MAX_FORWARD_SPP = 64
+#: the variant of the study (--variant, e.g. cuda_ad_spectral_polarized on a GPU)
+VARIANT = "llvm_ad_spectral_polarized"
 
 
 def child(config):
@@ -59,7 +61,7 @@ def child(config):
     import numpy as np
 
     import mitsuba_pbrdf
-    mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
+    mitsuba_pbrdf.use_variant(config.get("variant", VARIANT))
     from mitsuba_pbrdf import inverse
 
     size, spp = config["size"], config["spp"]
@@ -170,6 +172,8 @@ def main(argv=None):
     args.add_argument("--sizes", help="image sizes to run (comma-separated; default 128,256,512)")
     args.add_argument("--spps", help="samples per pixel to run (comma-separated; default "
                       "16,64,256)")
+    args.add_argument("--variant", default=VARIANT,
+                      help=f"Mitsuba variant (default {VARIANT}; cuda_ad_spectral_polarized on a GPU)")
     args = args.parse_args(argv)
     if args.child:
         child(json.loads(args.child))
@@ -195,7 +199,10 @@ def main(argv=None):
         if key not in cache and args.methods and method not in args.methods.split(","):
             continue
         if key not in cache:
-            cache[key] = run({"size": size, "spp": spp, "method": method, "passes": passes})
+            config = {"size": size, "spp": spp, "method": method, "passes": passes}
+            if args.variant != VARIANT:
+                config["variant"] = args.variant
+            cache[key] = run(config)
             if args.cache:
                 with open(args.cache, "w") as f:
                     json.dump({json.dumps(list(k)): v for k, v in cache.items()}, f)
@@ -213,8 +220,10 @@ def write(args, rows, missing=()):
              "",
              f"`python validation/inverse_memory.py{' --quick' if args.quick else ''}` (this "
              "file). Sphere scene of `mitsuba_pbrdf.inverse.sphere_scene`, `path` with max_depth "
-             "4 inside `stokes`, `llvm_ad_spectral_polarized`, 2 CPU cores shared with other "
-             "work (times are indicative; the ratios are taken within one process), gradient of a "
+             f"4 inside `stokes`, `{args.variant}`, "
+             + ("2 CPU cores shared with other work (times are indicative; the ratios are taken "
+                "within one process), " if args.variant.startswith("llvm") else "")
+             + "gradient of a "
              "squared-error loss on S0, S1, S2 with respect to 7 BSDF parameters.",
              "",
              "* peak RSS: the whole process (Python, LLVM, scene); RSS / primal process: against "
