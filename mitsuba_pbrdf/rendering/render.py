@@ -44,6 +44,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..registry import use_variant
+from ..shading import warn_unpolarized_wrappers
 from ..variant import default_variant
 from .mitsuba_errors import SceneLoadError, interrupted, scene_load_errors
 from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
@@ -268,6 +269,7 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
         scene = load_band_scene(scene_path, params, response)
     t1 = time.perf_counter()
     check_loaded_scene(scene, scene_path, params, spp)
+    warn_unpolarized_wrappers(scene)
 
     sensor = scene.sensors()[0]
     total_spp = int(spp if spp is not None else sensor.sampler().sample_count())
