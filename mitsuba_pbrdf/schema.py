@@ -28,7 +28,8 @@ from dataclasses import dataclass
 from typing import Optional, Tuple
 
 __all__ = ["Parameter", "Fit", "PARAMETERS", "MIN_SIGMA", "LOBES", "DEFAULTS", "SHADOWING",
-           "REFERENCE_SHADOWING", "DD_DISTRIBUTIONS", "SAMPLING", "parameter", "names",
+           "REFERENCE_SHADOWING", "DD_DISTRIBUTIONS", "DISTRIBUTIONS", "SAMPLING",
+           "REFINEMENTS", "ANISOTROPIC_WIDTHS", "exposed_widths", "parameter", "names",
            "markdown_table", "rst_table"]
 
 #: Smallest accepted RMS slope (``sigma``, ``sigma_dd``): Mitsuba's microfacet
@@ -59,8 +60,14 @@ class Parameter:
     name). ``lower``/``positive``: the value must be >= ``lower`` (> 0 where
     ``positive``); ``floor``: the smallest value the plugin takes (Mitsuba's
     limit). ``lobe``/``role``: the lobe it weights (``"weight"``) or shapes
-    (``"width"``). ``plugin``/``reference``/``cli``: whether the plugin, the
-    reference evaluator, the model options of the commands take it.
+    (``"width"``; ``"width_u"``/``"width_v"``: its width along the shading
+    frame's s and t axes). ``refines``: the parameter it refines (``sigma_u``
+    and ``sigma_v`` refine ``sigma``): it defaults to that parameter's value,
+    and where any refinement of a parameter is given, the refinements replace
+    it (in ``traverse``, in fits); where none is, the parameter stands alone
+    and the refinements are None. ``plugin``/``reference``/``cli``: whether
+    the plugin, the reference evaluator, the model options of the commands
+    take it.
     """
 
     name: str
@@ -76,6 +83,7 @@ class Parameter:
     discontinuous: bool = False
     lobe: Optional[str] = None
     role: Optional[str] = None
+    refines: Optional[str] = None
     fit: Optional[Fit] = None
     plugin: bool = True
     reference: bool = True
@@ -123,6 +131,24 @@ PARAMETERS: Tuple[Parameter, ...] = (
               positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
               lobe="specular", role="width", fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3),
               unit="dimensionless (slope)", typical="0.02 polished – 0.5 rough"),
+    Parameter("sigma_u", "float", None,
+              "RMS slope of the specular lobe along the shading frame's s axis (dp_du); "
+              "alpha_u = sqrt(2) sigma_u. Giving sigma_u or sigma_v makes the lobe anisotropic.",
+              positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
+              lobe="specular", role="width_u", refines="sigma",
+              fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3), default_doc="sigma",
+              unit="dimensionless (slope)", typical="brushed metal: sigma_u / sigma_v 2–10"),
+    Parameter("sigma_v", "float", None,
+              "RMS slope of the specular lobe along the shading frame's t axis "
+              "(n x dp_du); alpha_v = sqrt(2) sigma_v.",
+              positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
+              lobe="specular", role="width_v", refines="sigma",
+              fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3), default_doc="sigma",
+              unit="dimensionless (slope)", typical="as sigma_u"),
+    Parameter("distribution", "choice", "beckmann",
+              "Normal distribution of the specular lobe: beckmann (the paper's Gaussian "
+              "slopes) or ggx (Trowbridge-Reitz), both of width alpha = sqrt(2) sigma.",
+              choices=("beckmann", "ggx"), lobe="specular", unit="–"),
     Parameter("ks", "spectrum", 1.0, "Weight k_s of the specular (polarizing) lobe (paper Eq. 2).",
               lower=0.0, differentiable=True, lobe="specular", role="weight",
               fit=Fit(1.0, 0.0, 20.0), typical="0–1"),
@@ -136,6 +162,17 @@ PARAMETERS: Tuple[Parameter, ...] = (
               lobe="directional_diffuse", role="width",
               fit=Fit(0.5, 1e-3, 5.0, scale_floor=1e-3), unit="dimensionless (slope)",
               typical="wider than sigma"),
+    Parameter("sigma_dd_u", "float", None,
+              "RMS slope of the directional diffuse lobe along the s axis; giving sigma_dd_u "
+              "or sigma_dd_v makes that lobe anisotropic.",
+              positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
+              lobe="directional_diffuse", role="width_u", refines="sigma_dd",
+              default_doc="sigma_dd", unit="dimensionless (slope)", typical="as sigma_dd"),
+    Parameter("sigma_dd_v", "float", None,
+              "RMS slope of the directional diffuse lobe along the t axis.",
+              positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
+              lobe="directional_diffuse", role="width_v", refines="sigma_dd",
+              default_doc="sigma_dd", unit="dimensionless (slope)", typical="as sigma_dd"),
     Parameter("kid", "spectrum", 0.0,
               "Weight k_id of the ideal (Lambertian, depolarized) diffuse lobe (paper Eq. 2).",
               lower=0.0, differentiable=True, lobe="ideal_diffuse", role="weight",
@@ -176,6 +213,31 @@ LOBES = {
     for lobe in dict.fromkeys(p.lobe for p in PARAMETERS if p.lobe)
 }
 
+#: The refinements of each refined parameter, in table order:
+#: ``{"sigma": ("sigma_u", "sigma_v"), "sigma_dd": ("sigma_dd_u", "sigma_dd_v")}``.
+REFINEMENTS = {
+    base: tuple(p.name for p in PARAMETERS if p.refines == base)
+    for base in dict.fromkeys(p.refines for p in PARAMETERS if p.refines)
+}
+
+#: Lobes with anisotropic widths: ``lobe -> (width_u, width_v)`` parameter names.
+ANISOTROPIC_WIDTHS = {
+    lobe: tuple(next(p.name for p in PARAMETERS if p.lobe == lobe and p.role == role)
+                for role in ("width_u", "width_v"))
+    for lobe in LOBES
+    if any(p.lobe == lobe and p.role == "width_u" for p in PARAMETERS)
+}
+
+
+def exposed_widths(lobe: str, anisotropic: bool) -> Tuple[str, ...]:
+    """The width parameters lobe *lobe* exposes: its ``width`` alone, or where
+    it is *anisotropic* its ``width_u`` and ``width_v`` (empty: no width)."""
+    if anisotropic:
+        return ANISOTROPIC_WIDTHS[lobe]
+    width = LOBES[lobe][1]
+    return (width,) if width else ()
+
+
 #: Default values by name (eta and k: None, meaning "from the material").
 DEFAULTS = {p.name: p.default for p in PARAMETERS}
 
@@ -184,6 +246,7 @@ SHADOWING = parameter("shadowing").choices
 #: Priest-Germer model, unbounded at grazing; for validation plots only).
 REFERENCE_SHADOWING = SHADOWING + parameter("shadowing").reference_choices
 DD_DISTRIBUTIONS = parameter("dd_distribution").choices
+DISTRIBUTIONS = parameter("distribution").choices
 SAMPLING = parameter("sampling").choices
 
 _KIND_DOC = {"spectrum": "spectrum or texture", "float": "float or texture",
@@ -193,10 +256,14 @@ _KIND_DOC = {"spectrum": "spectrum or texture", "float": "float or texture",
 def _flags(p: Parameter) -> str:
     if not p.differentiable:
         return "--"
-    return "exposed, differentiable" + (", discontinuous" if p.discontinuous else "")
+    exposed = ("exposed where the lobe is anisotropic" if p.refines else
+               "exposed where the lobe is isotropic" if p.name in REFINEMENTS else "exposed")
+    return exposed + ", differentiable" + (", discontinuous" if p.discontinuous else "")
 
 
 def _default(p: Parameter) -> str:
+    if p.refines:
+        return f"``{p.default_doc}``"
     return p.default_doc if p.default_doc else f"``{p.default}``" if p.kind in (
         "choice", "material") else f"{p.default:g}"
 

@@ -34,6 +34,7 @@ NOT_STUDIES = ("common", "run_all")
 #: Command-line arguments per study: (full run, ``--quick`` run).
 ARGUMENTS = {
     "accuracy": (["--pairs", "100000"], ["--pairs", "10000"]),
+    "anisotropic": ([], ["--pairs", "2000", "--samples", "100000"]),
     "fit_pbsdf": ([], ["--quick"]),
     "fit_ptfe": ([], ["--quick"]),
     "fit_synthetic": ([], ["--quick"]),

@@ -89,9 +89,11 @@ def run(args) -> int:
         models = ("three", "two") if args.model == "both" else (args.model,)
         results = fit_models(data, models, backend=args.backend, shadowing=args.shadowing,
                              dd_distribution=args.dd_distribution, material=args.material,
+                             distribution=args.distribution,
                              init=init, fix=fix, starts=args.starts,
                              rel_uncertainty=args.rel_uncertainty,
-                             abs_uncertainty=args.abs_uncertainty)
+                             abs_uncertainty=args.abs_uncertainty,
+                             anisotropic=args.anisotropic)
     except ValueError as e:
         raise CliError(one_line(e)) from e
     if table is not None:
@@ -141,6 +143,10 @@ def add_parser(subparsers):
     p.add_argument("--init", default="", help="starting values, e.g. sigma=0.1,n=1.2")
     p.add_argument("--fix", default="", help="fixed values, e.g. n=1.2,k=7 or kid=0")
     add_model_arguments(p, kinds=("choice",))
+    p.add_argument("--anisotropic", action="store_true",
+                   help="fit sigma_u and sigma_v (the RMS slopes along the surface's x and y "
+                        "axes, azimuth 0 and 90 deg) instead of sigma; the report says whether "
+                        "the measurements resolve them")
     p.add_argument("--starts", type=int, default=3, help="number of starting points (default 3)")
     p.add_argument("--rel-uncertainty", type=float, default=0.05,
                    help="assumed relative uncertainty of each value (default 0.05)")

@@ -14,6 +14,8 @@ def _help(p) -> str:
     bound = f"; {p.bound_doc.replace('``', '')}" if p.bound_doc and p.kind != "choice" else ""
     if p.kind == "material":
         return f"{p.doc} (default: {p.default})"
+    if p.refines:
+        return f"{p.doc} (default: {p.refines}{bound})"
     if p.default is None:
         return f"{p.doc} Give eta and k together; constant over wavelength{bound}."
     return f"{p.doc} (default: {p.default}{bound})"

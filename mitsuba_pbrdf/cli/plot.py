@@ -15,7 +15,9 @@ def run(args) -> int:
     check_outputs(("--out", args.out))
     try:
         params.validate()
-        path = save_pbrdf_plot(args.out, params, args.theta_i, wavelengths)
+        if not (-360.0 <= args.phi_i <= 360.0):
+            raise ValueError(f"--phi-i must be in [-360, 360] degrees, got {args.phi_i:g}")
+        path = save_pbrdf_plot(args.out, params, args.theta_i, wavelengths, phi_i=args.phi_i)
     except ValueError as e:
         raise CliError(one_line(e)) from e
     print(f"wrote {path} ({params.label()}, θi = {args.theta_i:g}°; "
@@ -32,6 +34,10 @@ def add_parser(subparsers):
     add_model_arguments(p)
     p.add_argument("--theta-i", type=float, default=45.0,
                    help="incidence angle in degrees, in [0, 90) (default: 45)")
+    p.add_argument("--phi-i", type=float, default=0.0,
+                   help="azimuth of the light in degrees from the surface's s axis (dp_du): "
+                        "it matters for anisotropic surfaces (--sigma-u != --sigma-v), which "
+                        "also get maps with the light turned by 90 degrees (default: 0)")
     p.add_argument("--wavelengths", default="550,450,650",
                    help="wavelengths in nm; the first is used for single-wavelength panels "
                         "(default: 550,450,650)")

@@ -23,6 +23,9 @@ Pictures (PNG, palette-quantized to stay small enough to commit):
 * ``stokes_sheet.png``: every Stokes panel of ``scenes/default.xml`` (what
   ``pbrdf view --panels all`` draws).
 * ``pbrdf_plot.png``: the model's lobes and DoP (what ``pbrdf plot`` draws).
+* ``brushed.png``: brushed aluminium (``scenes/gallery/brushed.xml``): a
+  lathe-turned disc and an axially brushed cylinder, isotropic beside
+  anisotropic (Beckmann and GGX); intensity, DoLP and AoLP.
 
 The Stokes EXRs go to ``out/gallery/`` (not committed). Each render is also
 one command of its own, e.g. ``pbrdf render scenes/gallery/sphere.xml -D
@@ -63,6 +66,8 @@ __all__ = [
     "render_polcam",
     "render_stokes_sheet",
     "render_pbrdf_plot",
+    "render_brushed",
+    "BRUSHED",
     "run_gallery",
     "studio_envmap",
     "write_studio_envmap",
@@ -76,12 +81,19 @@ ROUGHNESS = (
     ("σ = 0.08 (default)", dict(sigma=0.08, kdd=0.05, kid=0.01)),
     ("rough, σ = 0.25, kdd = 0.3", dict(sigma=0.25, kdd=0.3, sigma_dd=0.6, kid=0.03)),
 )
+#: Columns of ``brushed.png``: label and ``-D`` parameters of brushed.xml.
+BRUSHED = (
+    ("isotropic, σ = 0.1", dict(sigma_u=0.1, sigma_v=0.1)),
+    ("brushed, σu = 0.3, σv = 0.03", dict(sigma_u=0.3, sigma_v=0.03)),
+    ("brushed, GGX", dict(sigma_u=0.3, sigma_v=0.03, distribution="ggx")),
+)
 #: Polarizer angles of ``polarizer.png`` (degrees, counter-clockwise in the picture).
 POLARIZER_ANGLES = (0, 45, 90, 135)
 #: Everything ``run_gallery`` makes, in order.
-GALLERY_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet", "plot")
+GALLERY_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet", "plot",
+                 "brushed")
 #: The items that render scenes (the others need neither scenes nor a variant).
-RENDERED_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet")
+RENDERED_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet", "brushed")
 
 #: Colour quantization of committed PNGs (see pictures.panels.save_png).
 _PNG_COLOURS = 256
@@ -347,6 +359,17 @@ def render_roughness(settings: _Settings) -> str:
     return save_png(fig, settings.out / "roughness.png", dpi=100, colors=_PNG_COLOURS)
 
 
+def render_brushed(settings: _Settings) -> str:
+    """``brushed.png``: brushed.xml with each of :data:`BRUSHED`."""
+    columns = [(label, _render(settings, "brushed.xml", f"brushed{k}", **params))
+               for k, (label, params) in enumerate(BRUSHED)]
+    fig = montage_figure(columns, dolp_max=0.15, min_dolp=0.01,
+                         title="Brushed aluminium: a lathe-turned disc (σu radial) and a "
+                         "cylinder brushed along its axis (σu around it)\n"
+                         f"scenes/gallery/brushed.xml, {_subtitle(columns[0][1])}")
+    return save_png(fig, settings.out / "brushed.png", dpi=100, colors=_PNG_COLOURS)
+
+
 def render_polarizer_images(settings: _Settings, **params):
     """The four filtered renders and the clear one. With the same seed they
     trace the same paths (the filter changes no direction, Russian roulette is
@@ -455,5 +478,7 @@ def run_gallery(out="gallery", scenes_dir=None, exr_dir="out/gallery", spp=None,
             result[item] = render_stokes_sheet(settings)
         elif item == "plot":
             result[item] = render_pbrdf_plot(settings)
+        elif item == "brushed":
+            result[item] = render_brushed(settings)
         log(f"wrote {result[item]} ({os.path.getsize(result[item]) // 1024} KiB)")
     return result

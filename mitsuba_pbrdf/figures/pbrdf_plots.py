@@ -20,6 +20,12 @@ above, projected on the disk (x, y) = sin θr (−cos φr, sin φr), oriented li
 the in-plane plots: the light is at (−sin θi, 0) on the left, the mirror
 direction at (sin θi, 0) on the right.
 
+Anisotropic surfaces (``sigma_u`` ≠ ``sigma_v``): the light's azimuth φi
+(``phi_i``, degrees from the surface's s axis ``dp_du``) turns the plane of
+incidence; every panel is drawn in the turned frame (light on the left) and
+the maps mark the s axis with an arrow. The figure then adds a row of maps
+with the light turned by 90°, so both axes of the stretched lobe show.
+
 Exactly at the normal (θr = 0) the global s/p frame switches to the surface's
 x-axis (the reference's convention), a 90° jump of the Stokes frame that flips
 the signs of m22, m23, ...; the grids here avoid that single direction.
@@ -50,6 +56,7 @@ __all__ = [
     "plot_in_plane_elements",
     "plot_in_plane_dop",
     "plot_hemisphere",
+    "is_anisotropic",
     "pbrdf_figure",
     "save_pbrdf_plot",
     "DEFAULT_WAVELENGTHS",
@@ -73,33 +80,34 @@ class InPlane:
 
 def in_plane(params: PBRDFParams, theta_i: float,
              wavelengths: Sequence[float] = DEFAULT_WAVELENGTHS,
-             n_angles: int = 720) -> InPlane:
-    """Evaluate in the plane of incidence for θi = *theta_i* degrees, at
-    *n_angles* signed reflection angles in (−90°, 90°) (module docstring;
-    an even count leaves out θr = 0)."""
+             n_angles: int = 720, phi_i: float = 0.0) -> InPlane:
+    """Evaluate in the plane of incidence for θi = *theta_i* degrees (light at
+    azimuth *phi_i* degrees), at *n_angles* signed reflection angles in
+    (−90°, 90°) (module docstring; an even count leaves out θr = 0)."""
     params.validate()
     check_theta_i(theta_i)
     limit = 89.75
     angles = np.linspace(-limit, limit, n_angles)
     theta_r = np.radians(np.abs(angles))
-    phi_r = np.where(angles >= 0, np.pi, 0.0)
+    phi = math.radians(phi_i)
+    phi_r = np.where(angles >= 0, np.pi, 0.0) + phi
     ti = np.full_like(theta_r, math.radians(theta_i))
     wl = np.asarray(wavelengths, dtype=np.float64)
-    M = params.evaluate(ti, 0.0, theta_r, phi_r, wl)
+    M = params.evaluate(ti, phi, theta_r, phi_r, wl)
     lobes = {}
     for lobe, weight in (("specular", params.ks), ("directional_diffuse", params.kdd),
                          ("ideal_diffuse", params.kid)):
         if weight:
-            lobes[lobe] = params.evaluate(ti, 0.0, theta_r, phi_r, wl, lobe)[..., 0, 0]
+            lobes[lobe] = params.evaluate(ti, phi, theta_r, phi_r, wl, lobe)[..., 0, 0]
     return InPlane(float(theta_i), angles, wl, M, lobes)
 
 
 def hemisphere(params: PBRDFParams, theta_i: float, wavelength: float = 550.0,
-               resolution: int = 200):
+               resolution: int = 200, phi_i: float = 0.0):
     """Evaluate over the reflected hemisphere on a *resolution*² grid of the
     projected disk (module docstring; an even resolution leaves out the
-    normal); returns ``(x, y, M)`` with M (res, res, 4, 4) (NaN outside the
-    disk)."""
+    normal), the light at azimuth *phi_i* degrees, the disk turned with it;
+    returns ``(x, y, M)`` with M (res, res, 4, 4) (NaN outside the disk)."""
     params.validate()
     check_theta_i(theta_i)
     x = np.linspace(-1.0, 1.0, resolution)
@@ -107,8 +115,9 @@ def hemisphere(params: PBRDFParams, theta_i: float, wavelength: float = 550.0,
     r = np.hypot(X, Y)
     inside = r < 0.9995
     theta_r = np.arcsin(np.clip(r, 0.0, 0.9995))
-    phi_r = np.arctan2(Y, -X)
-    M = params.evaluate(np.full_like(theta_r, math.radians(theta_i)), 0.0, theta_r, phi_r,
+    phi = math.radians(phi_i)
+    phi_r = np.arctan2(Y, -X) + phi
+    M = params.evaluate(np.full_like(theta_r, math.radians(theta_i)), phi, theta_r, phi_r,
                         [wavelength])[..., 0, :, :]
     M = np.where(inside[..., None, None], M, np.nan)
     return X, Y, M
@@ -240,14 +249,23 @@ def _axes_in_plane(ax, ylabel, title):
     ax.grid(alpha=0.3)
 
 
+def is_anisotropic(params: PBRDFParams) -> bool:
+    """Whether any lobe of *params* has different widths along s and t."""
+    pairs = ((params.sigma, params.sigma_u, params.sigma_v),
+             (params.sigma_dd, params.sigma_dd_u, params.sigma_dd_v))
+    return any((base if u is None else u) != (base if v is None else v) for base, u, v in pairs)
+
+
 def plot_hemisphere(ax, params: PBRDFParams, theta_i: float, quantity: str = "m00",
-                    wavelength: float = 550.0, resolution: int = 200):
+                    wavelength: float = 550.0, resolution: int = 200, phi_i: float = 0.0):
     """Map of ``m00`` (log colour scale, 1/sr) or ``dop`` over the reflected
     hemisphere (projected disk, seen from above); the light's direction is
-    marked with a star, the mirror direction with a cross."""
+    marked with a star, the mirror direction with a cross; for an anisotropic
+    surface, an arrow shows the surface's s axis (the light at azimuth
+    *phi_i* degrees from it)."""
     from matplotlib.colors import LogNorm
 
-    X, Y, M = hemisphere(params, theta_i, wavelength, resolution)
+    X, Y, M = hemisphere(params, theta_i, wavelength, resolution, phi_i)
     if quantity == "m00":
         values = M[..., 0, 0]
         positive = values[np.isfinite(values) & (values > 0)]
@@ -278,6 +296,12 @@ def plot_hemisphere(ax, params: PBRDFParams, theta_i: float, quantity: str = "m0
     ax.set_ylim(-1.02, 1.02)
     ax.set_xticks([])
     ax.set_yticks([])
+    if is_anisotropic(params):     # azimuth 0 is drawn at (-cos phi_i, -sin phi_i)
+        c, s_ = math.cos(math.radians(phi_i)), math.sin(math.radians(phi_i))
+        ax.annotate("s (dp_du)", xy=(-0.95 * c, -0.95 * s_), xytext=(-0.45 * c, -0.45 * s_),
+                    color="w", fontsize=7, ha="center", va="center",
+                    arrowprops=dict(arrowstyle="->", color="w", lw=1.0))
+        title += f", φi = {phi_i:g}°"
     ax.set_title(f"{title} ({wavelength:g} nm)", fontsize=9)
     cb = ax.figure.colorbar(im, ax=ax, fraction=0.046, pad=0.03)
     cb.set_label(label, fontsize=8)
@@ -290,11 +314,13 @@ def plot_hemisphere(ax, params: PBRDFParams, theta_i: float, quantity: str = "m0
 
 def pbrdf_figure(params: PBRDFParams, theta_i: float,
                  wavelengths: Sequence[float] = DEFAULT_WAVELENGTHS,
-                 title: Optional[str] = None, resolution: int = 200):
+                 title: Optional[str] = None, resolution: int = 200, phi_i: float = 0.0):
     """The composite plot sheet (2 × 3 panels; matplotlib Figure drawn with
     Agg): polar lobe, M00, normalized Mueller elements and DoP in the plane of
     incidence, M00 and DoP maps over the hemisphere. The first wavelength is
-    the one used for single-wavelength panels."""
+    the one used for single-wavelength panels. The light lies at azimuth
+    *phi_i* degrees; an anisotropic surface gets a third row: the M00 and DoP
+    maps with the light turned by 90°."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -303,20 +329,32 @@ def pbrdf_figure(params: PBRDFParams, theta_i: float,
     wavelengths = [float(w) for w in wavelengths]
     if not wavelengths:
         raise ValueError("give at least one wavelength")
-    data = in_plane(params, theta_i, wavelengths)
-    fig = Figure(figsize=(15, 9.2), layout="constrained")
+    data = in_plane(params, theta_i, wavelengths, phi_i=phi_i)
+    anisotropic = is_anisotropic(params)
+    fig = Figure(figsize=(15, 13.8 if anisotropic else 9.2), layout="constrained")
     FigureCanvasAgg(fig)
-    grid = fig.add_gridspec(2, 3)
+    grid = fig.add_gridspec(3 if anisotropic else 2, 3)
     plot_polar_lobe(fig.add_subplot(grid[0, 0], projection="polar"), data)
     plot_in_plane_m00(fig.add_subplot(grid[0, 1]), data)
     plot_in_plane_elements(fig.add_subplot(grid[0, 2]), data)
     plot_in_plane_dop(fig.add_subplot(grid[1, 0]), data)
     plot_hemisphere(fig.add_subplot(grid[1, 1]), params, theta_i, "m00", wavelengths[0],
-                    resolution)
+                    resolution, phi_i)
     plot_hemisphere(fig.add_subplot(grid[1, 2]), params, theta_i, "dop", wavelengths[0],
-                    resolution)
+                    resolution, phi_i)
+    if anisotropic:
+        plot_hemisphere(fig.add_subplot(grid[2, 1]), params, theta_i, "m00", wavelengths[0],
+                        resolution, phi_i + 90.0)
+        plot_hemisphere(fig.add_subplot(grid[2, 2]), params, theta_i, "dop", wavelengths[0],
+                        resolution, phi_i + 90.0)
+        note = fig.add_subplot(grid[2, 0])
+        note.axis("off")
+        note.text(0.02, 0.5, "Anisotropic surface: the maps on the right turn\nthe light by "
+                  "90° about the normal.\nArrows: the surface's s axis (dp_du),\nalong which "
+                  "the RMS slope is sigma_u.", fontsize=10, va="center")
     if title is None:
-        title = (f"pBRDF: {params.label()}; θi = {theta_i:g}° "
+        title = (f"pBRDF: {params.label()}; θi = {theta_i:g}°"
+                 + (f", φi = {phi_i:g}°" if phi_i else "") + " "
                  "(NumPy float64 reference evaluator)")
     fig.suptitle(title, fontsize=11)
     return fig
@@ -325,12 +363,12 @@ def pbrdf_figure(params: PBRDFParams, theta_i: float,
 def save_pbrdf_plot(path, params: PBRDFParams, theta_i: float,
                     wavelengths: Sequence[float] = DEFAULT_WAVELENGTHS,
                     title: Optional[str] = None, dpi: int = 110,
-                    colors: Optional[int] = None) -> str:
+                    colors: Optional[int] = None, phi_i: float = 0.0) -> str:
     """Write :func:`pbrdf_figure` as a PNG; returns the path. *colors* as for
     :func:`mitsuba_pbrdf.pictures.panels.save_png`."""
     from ..pictures.panels import save_png
 
-    fig = pbrdf_figure(params, theta_i, wavelengths, title)
+    fig = pbrdf_figure(params, theta_i, wavelengths, title, phi_i=phi_i)
     return save_png(fig, os.fspath(path), dpi=dpi, colors=colors)
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .layout import DEFAULTS, PER_WAVELENGTH, PLUGIN_NAMES, SHARED
+from .layout import DEFAULTS, PER_WAVELENGTH, PLUGIN_NAMES
 from .observables import model_observables
 
 __all__ = ["weights", "ReferenceResiduals", "DrJitResiduals", "BACKENDS"]
@@ -38,13 +38,15 @@ def weights(data, rel, abs_):
 class ReferenceResiduals:
     """The float64 reference evaluator; no Jacobian (scipy takes finite differences)."""
 
-    def __init__(self, data, layout, shadowing, dd):
+    def __init__(self, data, layout, shadowing, dd, distribution="beckmann"):
         self.data, self.layout, self.shadowing, self.dd = data, layout, shadowing, dd
+        self.distribution = distribution
         self.count = 0
 
     def observables(self, x):
         self.count += 1
-        return model_observables(self.data, self.layout.unpack(x), self.shadowing, self.dd)
+        return model_observables(self.data, self.layout.unpack(x), self.shadowing, self.dd,
+                                 distribution=self.distribution)
 
 
 class DrJitResiduals:
@@ -52,7 +54,7 @@ class DrJitResiduals:
     bitmaps looked up with nearest filtering at each measurement's texel, so
     one BSDF serves every wavelength; derivatives by forward mode."""
 
-    def __init__(self, data, layout, shadowing, dd):
+    def __init__(self, data, layout, shadowing, dd, distribution="beckmann"):
         import drjit as dr
         import mitsuba as mi
 
@@ -69,10 +71,11 @@ class DrJitResiduals:
                             "data": self._texels(a)}
         # weights load as non-zero so that every lobe of the model exists
         shared = {name: (0.0 if name in layout.fixed and v[name] == 0 else DEFAULTS[name])
-                  for name in SHARED}     # a weight fixed at 0 drops its lobe
+                  for name in layout.shared}     # a weight fixed at 0 drops its lobe
         self.bsdf = mi.load_dict({
             "type": "pbrdf", "eta": bitmap(v["n"]), "k": bitmap(np.maximum(v["k"], 1e-3)),
-            **shared, "shadowing": shadowing, "dd_distribution": dd})
+            **shared, "shadowing": shadowing, "dd_distribution": dd,
+            "distribution": distribution})
         self.params = mi.traverse(self.bsdf)
         ti, pi_, tr, pr = data.radians()
         d = lambda t, p: np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
@@ -95,7 +98,7 @@ class DrJitResiduals:
         p = self.params
         for name in PER_WAVELENGTH:
             p[PLUGIN_NAMES[name] + ".data"] = self._texels(values[name])
-        for name in SHARED:
+        for name in self.layout.shared:
             key = name + ".value"
             if key in p:
                 p[key] = float(values[name])

@@ -50,20 +50,22 @@ def parameter_scales(names, x):
     return np.array([max(v, SCALE_FLOORS.get(b, weight_floor)) for b, v in zip(base, x)])
 
 
-def analyze(J, names, x, chi2_scale=1.0):
+def analyze(J, names, x, chi2_scale=1.0, with_covariance=False):
     """``(sd, undetermined, groups)`` for a weighted Jacobian ``J`` (residuals x
     parameters) at ``x``: standard uncertainties (``inf`` for undetermined
     parameters), the undetermined parameters' names, and the groups (lists of
     names) of parameters that move together in undetermined directions.
     ``chi2_scale``: the reduced chi-square when the uncertainties are assumed
-    (then scaled to the fit), else 1."""
+    (then scaled to the fit), else 1. ``with_covariance``: also return the
+    covariance matrix of the determined directions (parameters' units)."""
     names = list(names)
     J = np.asarray(J, dtype=np.float64)
     scales = parameter_scales(names, x)
     if not names:
-        return np.zeros(0), [], []
+        return (np.zeros(0), [], []) + ((np.zeros((0, 0)),) if with_covariance else ())
     if not np.all(np.isfinite(J)):
-        return np.full(len(names), np.inf), names, [names]
+        return (np.full(len(names), np.inf), names, [names]) + (
+            (np.full((len(names),) * 2, np.inf),) if with_covariance else ())
     Jn = J * scales[None, :]
     _, s, Vt = np.linalg.svd(Jn, full_matrices=False)
     s = np.concatenate([s, np.zeros(len(names) - s.size)])       # fewer residuals than parameters
@@ -85,4 +87,7 @@ def analyze(J, names, x, chi2_scale=1.0):
     cov = (Vt[strong].T / s[strong] ** 2) @ Vt[strong] * chi2_scale
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * scales
     sd[[names.index(n) for n in undetermined]] = np.inf
-    return sd, undetermined, [sorted(g, key=names.index) for g in groups]
+    groups = [sorted(g, key=names.index) for g in groups]
+    if with_covariance:
+        return sd, undetermined, groups, cov * scales[:, None] * scales[None, :]
+    return sd, undetermined, groups

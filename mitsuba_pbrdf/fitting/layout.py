@@ -1,5 +1,11 @@
 """The fitted parameters: names, defaults, bounds, and their layout as the
-solver's vector (n and k per wavelength, the other parameters shared)."""
+solver's vector (n and k per wavelength, the other parameters shared).
+
+A refined parameter (``sigma``, refined by ``sigma_u`` and ``sigma_v``:
+:data:`mitsuba_pbrdf.schema.REFINEMENTS`) is fitted alone, or, in an
+anisotropic fit, replaced by its fitted refinements, which start from its
+value; a value given for it (``--init sigma=0.2``, ``--fix sigma=0.2``) then
+sets both, as in the plugin."""
 
 from __future__ import annotations
 
@@ -9,7 +15,7 @@ import numpy as np
 
 from .. import schema
 
-__all__ = ["PER_WAVELENGTH", "SHARED", "DEFAULTS", "BOUNDS", "SCALE_FLOORS", "PLUGIN_NAMES", "MODELS",
+__all__ = ["PER_WAVELENGTH", "SHARED", "ANISOTROPIC", "shared_names", "DEFAULTS", "BOUNDS", "SCALE_FLOORS", "PLUGIN_NAMES", "MODELS",
            "TWO_COMPONENT_FIXED", "parse_assignments", "ParameterLayout"]
 
 _FITTED = [p for p in schema.PARAMETERS if p.fit is not None]
@@ -24,6 +30,20 @@ BOUNDS = {p.fit.name or p.name: (p.fit.lower, p.fit.upper) for p in _FITTED}
 SCALE_FLOORS = {p.fit.name or p.name: p.fit.scale_floor for p in _FITTED if p.fit.scale_floor}
 #: The plugin's (and the reference's) name of each fitted parameter: eta for n.
 PLUGIN_NAMES = {p.fit.name or p.name: p.name for p in _FITTED}
+#: Refined parameter -> its fitted refinements (``{"sigma": ("sigma_u", "sigma_v")}``).
+ANISOTROPIC = {base: refs for base, refs in schema.REFINEMENTS.items()
+               if base in SHARED and all(r in SHARED for r in refs)}
+
+
+def shared_names(anisotropic=False):
+    """The shared parameters of a fit: each refined parameter, or where
+    *anisotropic* its refinements instead."""
+    dropped = {r for refs in ANISOTROPIC.values() for r in refs}
+    if anisotropic:
+        dropped = set(ANISOTROPIC)
+    return tuple(p for p in SHARED if p not in dropped)
+
+
 MODELS = {"three": "three-component (specular + directional diffuse + ideal diffuse)",
           "two": "two-component (specular + ideal diffuse, kdd = 0)"}
 #: What the two-component model fixes: the directional diffuse lobe's parameters (kdd = 0).
@@ -61,11 +81,17 @@ def parse_assignments(text, what):
 class ParameterLayout:
     """Maps the free parameters to a vector and back."""
 
-    def __init__(self, wavelengths, model, init, fix):
+    def __init__(self, wavelengths, model, init, fix, anisotropic=False):
         self.wavelengths = np.asarray(wavelengths, dtype=np.float64)
+        self.anisotropic = bool(anisotropic)
+        self.shared = shared_names(self.anisotropic)
         W = len(self.wavelengths)
         self.values = {p: np.full(W, DEFAULTS[p]) for p in PER_WAVELENGTH}
-        self.values.update({p: float(DEFAULTS[p]) for p in SHARED})
+        self.values.update({p: float(DEFAULTS[p]) for p in self.shared})
+        for base, refs in ANISOTROPIC.items():       # refinements start from their base
+            if self.anisotropic:
+                self.values.update({r: float(DEFAULTS[base]) for r in refs})
+        init, fix = (self._refined(source) for source in (init, fix))
         self.fixed = set()
         if model == "two":
             self.values[TWO_COMPONENT_FIXED[0]] = 0.0       # the lobe's weight
@@ -98,7 +124,23 @@ class ParameterLayout:
                         self.fixed.add(name)
         self.free = [f"{p}@{j}" for p in PER_WAVELENGTH for j in range(W)
                      if f"{p}@{j}" not in self.fixed]
-        self.free += [p for p in SHARED if p not in self.fixed]
+        self.free += [p for p in self.shared if p not in self.fixed]
+
+    def _refined(self, assignments):
+        """*assignments* with a refined parameter's value given to each of its
+        refinements in an anisotropic fit; a refinement named in an isotropic
+        fit is an error."""
+        out = {}
+        for key, v in assignments.items():
+            if key in ANISOTROPIC and self.anisotropic:
+                out.update({r: v for r in ANISOTROPIC[key]})
+                continue
+            base = next((b for b, refs in ANISOTROPIC.items() if key in refs), None)
+            if base and not self.anisotropic:
+                raise ValueError(f"{key} is fitted only in an anisotropic fit (anisotropic=True, "
+                                 f"pbrdf fit --anisotropic); an isotropic fit has {base}")
+            out[key] = v
+        return out
 
     def label(self, name):
         p, _, j = name.partition("@")
@@ -119,7 +161,7 @@ class ParameterLayout:
 
     def unpack(self, x):
         values = {p: self.values[p].copy() for p in PER_WAVELENGTH}
-        values.update({p: self.values[p] for p in SHARED})
+        values.update({p: self.values[p] for p in self.shared})
         for name, v in zip(self.free, x):
             p, _, j = name.partition("@")
             if j:

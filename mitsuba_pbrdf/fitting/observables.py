@@ -34,45 +34,49 @@ def _observables_from_mueller(M, names):
 
 
 def model_observables(data: Measurements, values: Dict, shadowing="vgroove",
-                      dd_distribution="beckmann", names=None):
+                      dd_distribution="beckmann", names=None, distribution="beckmann"):
     """The model's value of each observed quantity (or ``names``) at every
     measurement, with the float64 reference. ``values``: ``n``, ``k`` (one per
-    distinct wavelength, or scalars) and the shared parameters."""
+    distinct wavelength, or scalars) and the shared parameters (those of
+    :data:`.layout.SHARED` it holds: ``sigma``, or ``sigma_u`` and ``sigma_v``)."""
     names = list(data.observed) if names is None else list(names)
     n = np.broadcast_to(values["n"], data.wavelengths.shape)
     k = np.broadcast_to(values["k"], data.wavelengths.shape)
     M = ref.pbrdf(*data.radians(), _per_point(data, n), _per_point(data, k),
-                  shadowing=shadowing, dd_distribution=dd_distribution,
-                  **{name: values[name] for name in SHARED})
+                  shadowing=shadowing, dd_distribution=dd_distribution, distribution=distribution,
+                  **{name: values[name] for name in SHARED if name in values})
     return _observables_from_mueller(M, names)
 
 
 def synthetic_measurements(values, theta_i=(20.0, 45.0, 70.0), theta_r=None, wavelengths=(633.0,),
                            quantities=("m00", "dolp"), noise=0.02, noise_floor=1e-4, seed=0,
-                           shadowing="vgroove", dd_distribution="beckmann", out_of_plane=True):
+                           shadowing="vgroove", dd_distribution="beckmann", out_of_plane=True,
+                           phi_i=(0.0,), distribution="beckmann"):
     """Measurements of the model with parameters ``values`` (see
     :func:`model_observables`) on a goniometer grid (in plane, detector from
     -80 to 80 deg in 2-deg steps, plus an out-of-plane ring at 30 and 90 deg
     azimuth), with Gaussian noise of standard deviation ``noise * |value| +
-    noise_floor * max|column|`` (given as the uncertainty)."""
+    noise_floor * max|column|`` (given as the uncertainty). ``phi_i``: the light's
+    azimuths (deg; the grid turns with it), several to resolve anisotropy."""
     rng = np.random.default_rng(seed)
     theta_r = np.arange(-80.0, 80.1, 2.0) if theta_r is None else np.asarray(theta_r, float)
     rows = []
     for wl in wavelengths:
-        for ti in theta_i:
-            for tr in theta_r:
-                rows.append((ti, 0.0, abs(tr), 180.0 if tr >= 0 else 0.0, wl))
-            if out_of_plane:
-                for tr in (20.0, 40.0, 60.0):
-                    for dphi in (150.0, 120.0, 90.0):
-                        rows.append((ti, 0.0, tr, dphi, wl))
+        for pi_ in phi_i:
+            for ti in theta_i:
+                for tr in theta_r:
+                    rows.append((ti, pi_, abs(tr), pi_ + (180.0 if tr >= 0 else 0.0), wl))
+                if out_of_plane:
+                    for tr in (20.0, 40.0, 60.0):
+                        for dphi in (150.0, 120.0, 90.0):
+                            rows.append((ti, pi_, tr, pi_ + dphi, wl))
     a = np.array(rows)
     data = Measurements(a[:, 0], a[:, 1], a[:, 2], a[:, 3], a[:, 4], {}, {}, "<synthetic>")
     wl = data.wavelengths
     vals = dict(values)
     if "material" in vals:
         vals["n"], vals["k"] = ref.conductor_ior(vals.pop("material"), wl)
-    clean = model_observables(data, vals, shadowing, dd_distribution, quantities)
+    clean = model_observables(data, vals, shadowing, dd_distribution, quantities, distribution)
     for q, y in clean.items():
         u = noise * np.abs(y) + noise_floor * np.abs(y).max()
         obs = y + rng.normal(size=y.shape) * u

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..measured.measurements import Measurements
 from .backends import weights
-from .layout import MODELS, SHARED, TWO_COMPONENT_FIXED
+from .layout import ANISOTROPIC, MODELS, SHARED, TWO_COMPONENT_FIXED
 from .observables import model_observables
 from .solver import FitResult
 
@@ -46,7 +46,8 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
         lines.append(f"ignored columns: {', '.join(data.ignored_columns)}")
     for name, r in results.items():
         lines += ["", f"## {MODELS[r.model]}",
-                  f"backend {r.backend}, shadowing {r.shadowing}, directional diffuse "
+                  f"backend {r.backend}, shadowing {r.shadowing}, specular {r.distribution}"
+                  f"{' (anisotropic)' if r.anisotropic else ''}, directional diffuse "
                   f"{r.dd_distribution}; {r.evaluations} model evaluations, {r.seconds:.2f} s; "
                   f"{'converged' if r.success else 'NOT converged'} ({r.message})"]
         header = "| parameter | fitted | " + ("true |" if truth else "")
@@ -59,10 +60,12 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
                     t = f" {tv:.5g} |"
                 lines.append(f"| {p} ({w:g} nm) | {_fmt(r.values[p][j], r.errors[p][j])} |{t}")
         for p in SHARED:
-            if r.model == "two" and p in TWO_COMPONENT_FIXED:
+            if p not in r.values or (r.model == "two" and p in TWO_COMPONENT_FIXED):
                 continue
             t = f" {truth[p]:.5g} |" if truth else ""
             lines.append(f"| {p} | {_fmt(r.values[p], r.errors[p])} |{t}")
+        for base, (difference, sd) in r.anisotropy.items():
+            lines.append("\n" + anisotropy_line(base, difference, sd))
         if r.undetermined:
             lines.append("\n" + undetermined_warning(r))
         if r.at_bound:
@@ -83,6 +86,20 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
                      for q in data.observed]
             lines.append(f"| {r.model}-component | {r.reduced_chi2:.3g} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def anisotropy_line(base, difference, sd):
+    """What an anisotropic fit says of the split of *base* into its
+    refinements: their difference with its standard uncertainty, and whether
+    the data resolve it (more than 3 standard uncertainties from 0)."""
+    u, v = ANISOTROPIC[base]
+    if not np.isfinite(sd):
+        return (f"anisotropy: {u} - {v} = {difference:.4g}, undetermined: the measurements' "
+                f"azimuths do not resolve {u} and {v}")
+    verdict = ("resolved: the surface is anisotropic" if abs(difference) > 3 * sd else
+               "not resolved: consistent with an isotropic surface")
+    return (f"anisotropy: {u} - {v} = {difference:.4g} +/- {sd:.2g} "
+            f"({abs(difference) / sd:.1f} standard uncertainties), {verdict}")
 
 
 def _series(data):
@@ -138,7 +155,8 @@ def plot_fit(data: Measurements, results: Dict[str, FitResult], path, title=None
             ax.errorbar(x[ok], y[ok], yerr=unc_full[q][rows][ok], fmt="o", ms=3,
                         color=colors(g % 10), label=f"data {label}", alpha=0.8)
             for m, r in results.items():
-                fit = model_observables(data, r.values, r.shadowing, r.dd_distribution, [q])[q][rows]
+                fit = model_observables(data, r.values, r.shadowing, r.dd_distribution, [q],
+                                        r.distribution)[q][rows]
                 ax.plot(x, fit, styles.get(r.model, "-"), color=colors(g % 10), lw=1.2,
                         label=f"{r.model}-component" if g == 0 else None)
         ax.set_xlabel("detector angle theta_r (deg, + = specular side)")
@@ -152,7 +170,8 @@ def plot_fit(data: Measurements, results: Dict[str, FitResult], path, title=None
         rows = next(g[1] for g in groups if not g[3])
         for m, r in results.items():
             for q in quantities:
-                fit = model_observables(data, r.values, r.shadowing, r.dd_distribution, [q])[q][rows]
+                fit = model_observables(data, r.values, r.shadowing, r.dd_distribution, [q],
+                                        r.distribution)[q][rows]
                 y = data.observed[q][rows]
                 scale = np.nanmax(np.abs(y)) or 1.0
                 ax.plot(y / scale, fit / scale, "o" if r.model == "three" else "x", ms=3,

@@ -40,7 +40,7 @@ from .. import reference as ref
 from ..measured.measurements import Measurements
 from .backends import BACKENDS, weights
 from .identifiability import analyze
-from .layout import MODELS, SCALE_FLOORS, SHARED, ParameterLayout, parse_assignments
+from .layout import ANISOTROPIC, MODELS, SCALE_FLOORS, ParameterLayout, parse_assignments
 from .observables import model_observables
 
 __all__ = ["FitResult", "fit_model", "fit_models"]
@@ -75,6 +75,11 @@ class FitResult:
     undetermined: List[str] = field(default_factory=list)   # labels, e.g. "n(633 nm)"
     correlated: List[List[str]] = field(default_factory=list)  # groups moving together
     fixed: List[str] = field(default_factory=list)
+    anisotropic: bool = False
+    distribution: str = "beckmann"        # the specular lobe's
+    #: anisotropic fits: refined parameter -> (difference of its refinements,
+    #: its standard uncertainty; inf where the data leave it undetermined)
+    anisotropy: Dict = field(default_factory=dict)
 
     @property
     def reduced_chi2(self):
@@ -99,12 +104,16 @@ class FitResult:
                 "message": self.message, "at_bound": self.at_bound,
                 "undetermined": self.undetermined, "correlated": self.correlated,
                 "fixed": self.fixed,
-                "shadowing": self.shadowing, "dd_distribution": self.dd_distribution}
+                "shadowing": self.shadowing, "dd_distribution": self.dd_distribution,
+                "anisotropic": self.anisotropic, "distribution": self.distribution,
+                "anisotropy": {base: {"difference": d, "uncertainty": conv(float(sd))}
+                               for base, (d, sd) in self.anisotropy.items()}}
 
 
 def fit_model(data: Measurements, model="three", backend="reference", shadowing="vgroove",
               dd_distribution="beckmann", material=None, init=None, fix=None, starts=3,
-              rel_uncertainty=0.05, abs_uncertainty=0.005, seed=0) -> FitResult:
+              rel_uncertainty=0.05, abs_uncertainty=0.005, seed=0,
+              anisotropic=False, distribution="beckmann") -> FitResult:
     """Least-squares fit of one model (``"three"`` or ``"two"``) to ``data``.
 
     ``init`` / ``fix``: {name: value} (``n``, ``k``, ``n@<nm>``, ``k@<nm>``,
@@ -112,7 +121,9 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     ``material``: starting n, k from Mitsuba's tabulated spectra. ``starts``:
     the fit runs from the initial values and from ``starts - 1`` random
     perturbations of them (sigma and n, k by up to x2), keeping the lowest
-    chi-square.
+    chi-square. ``anisotropic``: fit ``sigma_u`` and ``sigma_v`` instead of
+    ``sigma`` (:mod:`.layout`); the result's ``anisotropy`` gives their
+    difference and its uncertainty (measurements must resolve azimuths).
     """
     from scipy.optimize import least_squares
 
@@ -138,13 +149,13 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
             raise ValueError(f"material {material!r}: {e}") from None
         init = dict({f"n@{w:g}": v for w, v in zip(wavelengths, n0)},
                     **{f"k@{w:g}": v for w, v in zip(wavelengths, k0)}, **init)
-    layout = ParameterLayout(wavelengths, model, init, fix)
+    layout = ParameterLayout(wavelengths, model, init, fix, anisotropic)
     names, obs, unc, index = weights(data, rel_uncertainty, abs_uncertainty)
     n_obs = sum(len(o) for o in obs)
     if n_obs <= len(layout.free):
         raise ValueError(f"{n_obs} measured values cannot determine {len(layout.free)} "
                          f"free parameters")
-    evaluator = BACKENDS[backend](data, layout, shadowing, dd_distribution)
+    evaluator = BACKENDS[backend](data, layout, shadowing, dd_distribution, distribution)
 
     def residuals(x):
         model_values = evaluator.observables(x)
@@ -184,9 +195,10 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     # are larger, never down (a fit to exact data does not make the data exact)
     chi2_scale = (max(chi2 / max(dof, 1), 1.0) if any(q not in data.uncertainty for q in names)
                   else 1.0)
-    sd, undetermined, groups = analyze(best.jac, layout.free, best.x, chi2_scale)
+    sd, undetermined, groups, cov = analyze(best.jac, layout.free, best.x, chi2_scale,
+                                            with_covariance=True)
     errors = {"n": np.full(len(wavelengths), np.nan), "k": np.full(len(wavelengths), np.nan)}
-    errors.update({p: math.nan for p in SHARED})
+    errors.update({p: math.nan for p in layout.shared})
     for name, s in zip(layout.free, sd):
         p, _, j = name.partition("@")
         if j:
@@ -196,7 +208,16 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     at_bound = [layout.label(n) for n, x, a, b in zip(layout.free, best.x, lo, hi)
                 if x <= a * (1 + 1e-6) + 1e-12 or x >= b * (1 - 1e-6)]
 
-    final = model_observables(data, values, shadowing, dd_distribution)
+    anisotropy = {}
+    for base, (u, v) in ANISOTROPIC.items():
+        if anisotropic and u in layout.free and v in layout.free:
+            i, j = layout.free.index(u), layout.free.index(v)
+            var = cov[i, i] + cov[j, j] - 2 * cov[i, j]
+            split = (math.inf if u in undetermined or v in undetermined
+                     else math.sqrt(max(float(var), 0.0)))
+            anisotropy[base] = (values[u] - values[v], split)
+
+    final = model_observables(data, values, shadowing, dd_distribution, distribution=distribution)
     resid, rms, rel = {}, {}, {}
     for q, y in data.observed.items():
         r = final[q] - y
@@ -212,11 +233,12 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
                      [layout.label(n) for n in layout.free], at_bound, shadowing, dd_distribution,
                      [layout.label(n) for n in undetermined],
                      [[layout.label(n) for n in g] for g in groups],
-                     [layout.label(n) for n in _all_names(len(wavelengths)) if n not in layout.free])
+                     [layout.label(n) for n in _all_names(len(wavelengths), layout.shared)
+                      if n not in layout.free], bool(anisotropic), distribution, anisotropy)
 
 
-def _all_names(W):
-    return [f"{p}@{j}" for p in ("n", "k") for j in range(W)] + list(SHARED)
+def _all_names(W, shared):
+    return [f"{p}@{j}" for p in ("n", "k") for j in range(W)] + list(shared)
 
 
 def fit_models(data: Measurements, models=("three", "two"), **options) -> Dict[str, FitResult]:

@@ -34,7 +34,8 @@ def _model(r, wavelength_index, theta_i, phi_i, theta_r, phi_r):
     return ref.pbrdf(*(np.radians(a) for a in (theta_i, phi_i, theta_r, phi_r)),
                      v["n"][wavelength_index], v["k"][wavelength_index],
                      shadowing=r.shadowing, dd_distribution=r.dd_distribution,
-                     **{name: v[name] for name in SHARED})
+                     distribution=r.distribution,
+                     **{name: v[name] for name in SHARED if name in v})
 
 
 def plot_table_fit(table: PbsdfTable, results, path, title=None):

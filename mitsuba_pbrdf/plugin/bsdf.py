@@ -19,6 +19,13 @@ Mueller matrix of Fresnel reflection on a facet of index n + ik rotated from the
 facet's s/p frame into Mitsuba's implicit Stokes bases, and D0 the ideal
 depolarizer. In unpolarized variants only the intensity (M00) is computed.
 
+Anisotropy: ``sigma_u``/``sigma_v`` (``sigma_dd_u``/``sigma_dd_v``) are the
+RMS slopes along the shading frame's s axis (``dp_du``) and t axis, each
+defaulting to ``sigma`` (``sigma_dd``); where neither is given the lobe is
+isotropic and ``traverse`` exposes ``sigma``, else the lobe is anisotropic and
+``traverse`` exposes ``sigma_u`` and ``sigma_v`` instead (the schema's
+``refines`` relation). ``distribution`` is the specular lobe's Beckmann or GGX.
+
 The surface is one-sided: directions below the horizon give zero. A lobe whose
 weight is exactly zero at load time is dropped entirely (not evaluated, not
 sampled, not in the flags, not traversed); give it a small non-zero weight to
@@ -90,7 +97,9 @@ class PolarizedBRDF(mi.BSDF):
         super().__init__(props)
         self.material, self.eta, self.k = _read_ior(props)
         for p in schema.PARAMETERS:       # every other parameter, read and checked
-            if p.plugin and p.kind in ("float", "spectrum") and p.name not in ("eta", "k"):
+            if p.plugin and p.refines:
+                setattr(self, p.name, self._refinement(props, p))
+            elif p.plugin and p.kind in ("float", "spectrum") and p.name not in ("eta", "k"):
                 setattr(self, p.name, params.declared(props, p))
             elif p.plugin and p.kind == "choice":
                 setattr(self, p.name, params.choice(props, p.name, p.choices, p.default))
@@ -100,6 +109,21 @@ class PolarizedBRDF(mi.BSDF):
         for flags in self.m_components:
             self.m_flags = self.m_flags | flags
 
+    def _refinement(self, props, p):
+        """A refinement (``sigma_u``) as given, else the refined parameter's
+        texture (``sigma``) where any of its refinements is given, else None
+        (the lobe is isotropic)."""
+        if p.name in props:
+            return params.declared(props, p)
+        if any(name in props for name in schema.REFINEMENTS[p.refines]):
+            return getattr(self, p.refines)
+        return None
+
+    def _anisotropic(self, lobe):
+        """Whether lobe *lobe* was given anisotropic widths."""
+        return (lobe in schema.ANISOTROPIC_WIDTHS
+                and getattr(self, schema.ANISOTROPIC_WIDTHS[lobe][0]) is not None)
+
     def _build_lobes(self):
         """One record per lobe whose weight is not exactly zero, in component
         order (:data:`schema.LOBES`): specular, directional diffuse, ideal
@@ -107,22 +131,25 @@ class PolarizedBRDF(mi.BSDF):
         lobes = []
         for name, (weight, width) in schema.LOBES.items():
             if not params.is_constant_zero(getattr(self, weight)):
-                lobes.append(self._lobe(name, getattr(self, weight),
-                                        getattr(self, width) if width else None, len(lobes)))
+                widths = [getattr(self, w) for w in
+                          schema.exposed_widths(name, self._anisotropic(name))]
+                lobes.append(self._lobe(name, getattr(self, weight), widths, len(lobes)))
         return lobes
 
-    def _lobe(self, name, weight, width, index):
-        """The record of lobe *name*: the polarizing Beckmann specular lobe, the
-        depolarized directional diffuse lobe, the Lambertian lobe."""
+    def _lobe(self, name, weight, widths, index):
+        """The record of lobe *name*: the polarizing specular lobe, the
+        depolarized directional diffuse lobe (each with one width, or two:
+        anisotropic), the Lambertian lobe."""
         glossy, diffuse = mi.BSDFFlags.GlossyReflection, mi.BSDFFlags.DiffuseReflection
+        types = {"beckmann": mi.MicrofacetType.Beckmann, "ggx": mi.MicrofacetType.GGX}
+        width_v = widths[1] if len(widths) == 2 else None
         if name == "specular":
-            return MicrofacetLobe(name, weight, width, mi.MicrofacetType.Beckmann,
-                                  self.shadowing, glossy, index, polarizing=True)
+            return MicrofacetLobe(name, weight, widths[0], types[self.distribution],
+                                  self.shadowing, glossy, index, polarizing=True, width_v=width_v)
         if name == "directional_diffuse":
-            dd_type = {"beckmann": mi.MicrofacetType.Beckmann,
-                       "ggx": mi.MicrofacetType.GGX}[self.dd_distribution]
-            return MicrofacetLobe(name, weight, width, dd_type, self.shadowing, glossy, index,
-                                  polarizing=False)
+            return MicrofacetLobe(name, weight, widths[0], types[self.dd_distribution],
+                                  self.shadowing, glossy, index, polarizing=False,
+                                  width_v=width_v)
         return LambertianLobe(name, weight, diffuse, index)
 
     # -------------------------------------------------------------- traversal
@@ -130,8 +157,10 @@ class PolarizedBRDF(mi.BSDF):
     def _parameter_table(self):
         """name -> (texture, flags, positive, minimum) of every exposed
         parameter: the index, then each present lobe's weight and width."""
-        exposed = ["eta", "k"] + [name for lobe in self.lobes
-                                  for name in schema.LOBES[lobe.name] if name]
+        exposed = ["eta", "k"]
+        for lobe in self.lobes:
+            exposed += [schema.LOBES[lobe.name][0],
+                        *schema.exposed_widths(lobe.name, self._anisotropic(lobe.name))]
         table = {}
         for name in exposed:
             p = schema.parameter(name)

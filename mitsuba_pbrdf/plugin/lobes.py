@@ -5,7 +5,9 @@ A lobe is a weight texture times a normalized shape. Two shapes exist:
 
 * :class:`MicrofacetLobe`: ``D(h) G / (4 cos_i cos_o)`` with a Beckmann or GGX
   distribution of width ``alpha = sqrt(2) * sigma`` (``width`` is the RMS
-  slope sigma), sampled through its visible normals. The specular lobe
+  slope sigma; an anisotropic lobe has ``width`` = sigma_u along the shading
+  frame's s axis and ``width_v`` = sigma_v along its t axis), sampled through
+  its visible normals. The specular lobe
   (``polarizing``: its weight multiplies the facet's Fresnel Mueller matrix)
   and the directional diffuse lobe (depolarized) are of this shape.
 * :class:`LambertianLobe`: ``1 / pi``, cosine-sampled, depolarized: the ideal
@@ -57,7 +59,7 @@ class HalfVector:
 @dataclass(frozen=True)
 class MicrofacetLobe:
     """A microfacet lobe: ``weight`` (texture), ``width`` (RMS slope sigma,
-    float texture), ``distribution`` (``mi.MicrofacetType``), ``shadowing``
+    float texture; sigma_u where ``width_v``, sigma_v, is given: anisotropic), ``distribution`` (``mi.MicrofacetType``), ``shadowing``
     (``"vgroove"`` or ``"smith"``), ``flags`` (its lobe type, ``GlossyReflection``), ``index``
     (component index), ``polarizing`` (Fresnel Mueller matrix or depolarizer)."""
 
@@ -69,11 +71,16 @@ class MicrofacetLobe:
     flags: object
     index: int
     polarizing: bool
+    width_v: object = None
 
     def microfacets(self, si, active):
-        """Mitsuba's distribution of this lobe at ``si`` (visible-normal sampling)."""
-        return mi.MicrofacetDistribution(self.distribution, _SQRT2 * self.width.eval_1(si, active),
-                                         True)
+        """Mitsuba's distribution of this lobe at ``si`` (visible-normal sampling),
+        alpha_u along the shading frame's s axis, alpha_v along t."""
+        alpha_u = _SQRT2 * self.width.eval_1(si, active)
+        if self.width_v is None:
+            return mi.MicrofacetDistribution(self.distribution, alpha_u, True)
+        return mi.MicrofacetDistribution(self.distribution, alpha_u,
+                                         _SQRT2 * self.width_v.eval_1(si, active), True)
 
     def sample_direction(self, si, sample2, active):
         """A direction drawn from the visible normals seen from ``si.wi``."""

@@ -10,8 +10,9 @@ import mitsuba as mi
 
 
 def smith_g1(distribution, v):
-    """Mitsuba's Smith G1 of direction ``v`` (isotropic: it depends on v only),
-    without the facet-side test, which the callers apply symmetrically."""
+    """Mitsuba's Smith G1 of direction ``v`` (anisotropic: through the
+    roughness projected on v's azimuth), without the facet-side test, which
+    the callers apply symmetrically."""
     return distribution.smith_g1(v, mi.Vector3f(0.0, 0.0, 1.0))
 
 
@@ -23,15 +24,24 @@ def visible_g1(distribution, wi):
     exact in Mitsuba already. The facet-side test (cos beta > 0) is the caller's.
 
     Beckmann: G1 = 1 / (1 + Lambda(a)), Lambda = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi)),
-    a = 1 / (alpha tan(theta)).
+    a = 1 / (alpha tan(theta)). Anisotropic: alpha is the roughness projected on
+    wi's azimuth phi, alpha(phi)^2 = cos^2(phi) alpha_u^2 + sin^2(phi) alpha_v^2,
+    so a = cos(theta) / sqrt(x^2 alpha_u^2 + y^2 alpha_v^2) for wi = (x, y, cos).
     """
     if distribution.type() != mi.MicrofacetType.Beckmann:
         return smith_g1(distribution, wi)
     cos = mi.Frame3f.cos_theta(wi)
-    tan = dr.safe_sqrt(1.0 - cos * cos) / cos
-    a = dr.rcp(distribution.alpha() * tan)
+    if distribution.is_anisotropic():
+        projected = dr.sqrt(dr.square(wi.x * distribution.alpha_u())
+                            + dr.square(wi.y * distribution.alpha_v()))
+        a = cos / projected
+        normal = projected == 0
+    else:
+        tan = dr.safe_sqrt(1.0 - cos * cos) / cos
+        a = dr.rcp(distribution.alpha() * tan)
+        normal = tan == 0
     lam = 0.5 * (dr.erf(a) - 1.0) + dr.exp(-a * a) / (2.0 * a * math.sqrt(math.pi))
-    return dr.select(cos > 0, dr.select(tan == 0, 1.0, dr.rcp(1.0 + lam)), 0.0)
+    return dr.select(cos > 0, dr.select(normal, 1.0, dr.rcp(1.0 + lam)), 0.0)
 
 
 def shadowing_g(kind, distribution, wi, wo, cos_h, cos_beta):
@@ -44,7 +54,9 @@ def shadowing_g(kind, distribution, wi, wo, cos_h, cos_beta):
       dot product (wi.h and wo.h differ by (|wi|^2 - |wo|^2) / |wi + wo|); the
       side test is the symmetric cos(beta) > 0 that the caller applies.
     * V-groove (Torrance-Sparrow / Blinn, the paper's):
-      min(1, 2 cos_h cos_o / cos_b, 2 cos_h cos_i / cos_b).
+      min(1, 2 cos_h cos_o / cos_b, 2 cos_h cos_i / cos_b). It depends on
+      the facet normal h alone, not on the distribution's widths, so it is
+      the same for isotropic and anisotropic lobes (docs/model.md).
     """
     if kind == "smith":
         return smith_g1(distribution, wi) * smith_g1(distribution, wo)

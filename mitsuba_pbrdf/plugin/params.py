@@ -65,7 +65,8 @@ def texture(props, name, default, *, spectral, positive=False, minimum=None):
                 raise ValueError(_RGB_ABOVE_ONE.format(
                     name=name, colour=", ".join(f"{c:g}" for c in colour)))
     try:
-        tex = props.get_unbounded_texture(name, default) if spectral else props.get_texture(name, default)
+        get = props.get_unbounded_texture if spectral else props.get_texture
+        tex = get(name) if default is None else get(name, default)
     except RuntimeError as error:  # e.g. an inline spectrum Mitsuba refuses
         reason = str(error).strip().splitlines()[-1]
         raise ValueError(f"pbrdf: parameter '{name}' is invalid: {reason}") from None

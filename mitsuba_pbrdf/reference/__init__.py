@@ -92,7 +92,8 @@ model's parameters with its checks).
 
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..schema import REFERENCE_SHADOWING as SHADOWING_KINDS
-from . import fresnel, geometry, materials, microfacet, model  # noqa: F401 (submodules)
+from . import anisotropic, fresnel, geometry, materials, microfacet, model  # noqa: F401 (submodules)
+from .anisotropic import anisotropic_D, projected_alpha, slope_density, smith_G1_anisotropic
 from .fresnel import fresnel_amplitudes, fresnel_mueller, jones_to_mueller, rotator
 from .geometry import rotation_angles
 from .materials import available_materials, conductor_ior

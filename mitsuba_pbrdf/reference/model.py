@@ -7,6 +7,7 @@ import numpy as np
 
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..schema import REFERENCE_SHADOWING as SHADOWING_KINDS
+from .anisotropic import anisotropic_D, half_vector_slopes, smith_G1_anisotropic
 from .fresnel import _jones_rotator, fresnel_amplitudes, jones_to_mueller
 from .geometry import _geometry, _rotation_angles
 from .microfacet import beckmann_D, ggx_D, shadowing_G
@@ -23,24 +24,63 @@ def _above(g):
     return (g["cos_i"] > 0) & (g["cos_r"] > 0)
 
 
-def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove"):
+def _anisotropic_DG(angles, g, sigma_u, sigma_v, shadowing, distribution):
+    """``(D, G)`` of an anisotropic lobe (:mod:`.anisotropic`): D from the
+    slope density of the half vector, Smith G1 with the width projected on
+    each direction's azimuth, V-groove G from theta_h alone (as isotropic)."""
+    alpha_u = np.sqrt(2.0) * np.asarray(sigma_u, dtype=np.float64)
+    alpha_v = np.sqrt(2.0) * np.asarray(sigma_v, dtype=np.float64)
+    p, q = half_vector_slopes(*angles)
+    D = anisotropic_D(g["cos_h"], p, q, alpha_u, alpha_v, distribution)
+    theta_i, theta_r = np.arccos(g["cos_i"]), np.arccos(g["cos_r"])
+    if shadowing == "smith":
+        G = (smith_G1_anisotropic(angles[0], angles[1], alpha_u, alpha_v, distribution)
+             * smith_G1_anisotropic(angles[2], angles[3], alpha_u, alpha_v, distribution))
+        G = np.where((g["cos_b"] > 0) & _above(g), G, 0.0)
+    else:
+        G = shadowing_G(theta_i, theta_r, g["cos_h"], g["cos_b"], alpha_u, shadowing,
+                        distribution)
+    return D, G
+
+
+def _widths(sigma, sigma_u, sigma_v):
+    """``(sigma_u, sigma_v)`` where either is given (the other defaults to
+    sigma), else None: the lobe is isotropic."""
+    if sigma is None and (sigma_u is None or sigma_v is None):
+        raise ValueError("give sigma, or both of its refinements (sigma_u and sigma_v)")
+    if sigma_u is None and sigma_v is None:
+        return None
+    return (sigma if sigma_u is None else sigma_u), (sigma if sigma_v is None else sigma_v)
+
+
+def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove",
+             distribution="beckmann", sigma_u=None, sigma_v=None):
     """Specular Mueller BRDF ``fs`` (..., 4, 4) in the global s/p frames (paper Eq. 4-5):
 
         f_jk = D(h) G M_jk / (4 cos ti cos tr),   D = Beckmann with alpha = sqrt(2) sigma
 
     ``M`` is the facet's Fresnel Mueller matrix rotated into the global frames.
-    For ``shadowing="smith"`` G is the Beckmann Smith G of the same alpha.
+    For ``shadowing="smith"`` G is the Smith G of the same distribution and
+    alpha. ``distribution="ggx"``: GGX of the same alpha. ``sigma_u``/``sigma_v``
+    (either; the other defaults to sigma): anisotropic slopes along the
+    surface's x and y axes (azimuth 0 and pi/2).
     """
-    _check_kinds(shadowing, "beckmann")
+    _check_kinds(shadowing, distribution)
     g = _geometry(theta_i, phi_i, theta_r, phi_r)
-    shape = np.broadcast_shapes(g["cos_i"].shape, np.shape(n), np.shape(k), np.shape(sigma))
+    widths = _widths(sigma, sigma_u, sigma_v)
+    shape = np.broadcast_shapes(g["cos_i"].shape, np.shape(n), np.shape(k), np.shape(sigma),
+                                *(np.shape(w) for w in widths or ()))
     above = np.broadcast_to(_above(g), shape)
-    alpha = np.sqrt(2.0) * np.asarray(sigma, dtype=np.float64)
 
-    # Paper Eq. 3-4: p(alpha)/cos(alpha) is the Beckmann D of the half vector
-    D = beckmann_D(g["cos_h"], alpha)
-    G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
-                    alpha, shadowing, "beckmann")
+    if widths is not None:
+        D, G = _anisotropic_DG((theta_i, phi_i, theta_r, phi_r), g, *widths, shadowing,
+                               distribution)
+    else:
+        alpha = np.sqrt(2.0) * np.asarray(sigma, dtype=np.float64)
+        # Paper Eq. 3-4: p(alpha)/cos(alpha) is the Beckmann D of the half vector
+        D = (beckmann_D if distribution == "beckmann" else ggx_D)(g["cos_h"], alpha)
+        G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
+                        alpha, shadowing, distribution)
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = D * G / (4.0 * g["cos_i"] * g["cos_r"])
     scale = np.where(above, np.broadcast_to(scale, shape), 0.0)
@@ -60,16 +100,22 @@ def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove"):
 
 
 def directional_diffuse(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing="vgroove",
-                        distribution="beckmann"):
+                        distribution="beckmann", sigma_dd_u=None, sigma_dd_v=None):
     """Directional diffuse BRDF ``fdd = Ddd(h) G / (4 cos ti cos tr)`` (1/sr, a
     scalar: this lobe is depolarized). ``Ddd`` has width ``alpha_dd = sqrt(2) sigma_dd``
-    and is Beckmann or GGX; for ``shadowing="smith"`` G uses that distribution and width."""
+    and is Beckmann or GGX; for ``shadowing="smith"`` G uses that distribution and width.
+    ``sigma_dd_u``/``sigma_dd_v``: anisotropic, as :func:`specular`."""
     _check_kinds(shadowing, distribution)
     g = _geometry(theta_i, phi_i, theta_r, phi_r)
-    alpha_dd = np.sqrt(2.0) * np.asarray(sigma_dd, dtype=np.float64)
-    D = (beckmann_D if distribution == "beckmann" else ggx_D)(g["cos_h"], alpha_dd)
-    G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
-                    alpha_dd, shadowing, distribution)
+    widths = _widths(sigma_dd, sigma_dd_u, sigma_dd_v)
+    if widths is not None:
+        D, G = _anisotropic_DG((theta_i, phi_i, theta_r, phi_r), g, *widths, shadowing,
+                               distribution)
+    else:
+        alpha_dd = np.sqrt(2.0) * np.asarray(sigma_dd, dtype=np.float64)
+        D = (beckmann_D if distribution == "beckmann" else ggx_D)(g["cos_h"], alpha_dd)
+        G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
+                        alpha_dd, shadowing, distribution)
     with np.errstate(divide="ignore", invalid="ignore"):
         f = D * G / (4.0 * g["cos_i"] * g["cos_r"])
     return np.where(_above(g), f, 0.0)
@@ -82,8 +128,9 @@ def ideal_diffuse(theta_i, theta_r):
     return np.where((cos_i > 0) & (cos_r > 0), 1.0 / np.pi, 0.0)
 
 
-def pbrdf(theta_i, phi_i, theta_r, phi_r, n, k, sigma, ks=1.0, kdd=0.0, sigma_dd=0.5,
-          kid=0.0, shadowing="vgroove", dd_distribution="beckmann"):
+def pbrdf(theta_i, phi_i, theta_r, phi_r, n, k, sigma=None, ks=1.0, kdd=0.0, sigma_dd=0.5,
+          kid=0.0, shadowing="vgroove", dd_distribution="beckmann", distribution="beckmann",
+          sigma_u=None, sigma_v=None, sigma_dd_u=None, sigma_dd_v=None):
     """The full pBRDF (paper Eq. 2, 5, 6), a float64 array (..., 4, 4) in 1/sr::
 
         F = ks Fs + [kdd fdd + kid / pi] D0
@@ -92,10 +139,16 @@ def pbrdf(theta_i, phi_i, theta_r, phi_r, n, k, sigma, ks=1.0, kdd=0.0, sigma_dd
     ``n, k, ks`` of shape (w,) for w wavelengths give (m, w, 4, 4)). Apply it to
     a Stokes vector of the incident light (frame ``s_in``) to get the reflected
     Stokes vector (frame ``s_out``) per unit irradiance, paper Eq. 6.
+    ``distribution``: the specular lobe's (``dd_distribution``: the directional
+    diffuse lobe's); ``sigma_u``... : anisotropic widths (:func:`specular`);
+    ``sigma`` may be left out where ``sigma_u`` and ``sigma_v`` are given.
     """
     _check_kinds(shadowing, dd_distribution)
-    Fs = specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing)
-    fdd = directional_diffuse(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing, dd_distribution)
+    _check_kinds(shadowing, distribution)
+    Fs = specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing, distribution,
+                  sigma_u, sigma_v)
+    fdd = directional_diffuse(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing, dd_distribution,
+                              sigma_dd_u, sigma_dd_v)
     fid = ideal_diffuse(theta_i, theta_r)
     ks = np.asarray(ks, dtype=np.float64)
     depolarized = np.asarray(kdd, dtype=np.float64) * fdd + np.asarray(kid, dtype=np.float64) * fid

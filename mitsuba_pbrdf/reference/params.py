@@ -51,7 +51,12 @@ class _ParamsMethods:
     def label(self) -> str:
         """A one-line description for titles."""
         what = f"n={self.eta:g}, k={self.k:g}" if self.eta is not None else self.material
-        parts = [what, f"σ={self.sigma:g}", f"ks={self.ks:g}"]
+        sigma = f"σ={self.sigma:g}"
+        if self.sigma_u is not None or self.sigma_v is not None:
+            u = self.sigma if self.sigma_u is None else self.sigma_u
+            v = self.sigma if self.sigma_v is None else self.sigma_v
+            sigma = f"σu={u:g}, σv={v:g}"
+        parts = [what, sigma + (", GGX" if self.distribution == "ggx" else ""), f"ks={self.ks:g}"]
         if self.kdd:
             parts.append(f"kdd={self.kdd:g} (σdd={self.sigma_dd:g}, {self.dd_distribution})")
         if self.kid:
@@ -75,10 +80,12 @@ class _ParamsMethods:
             weights.update(ks=0.0, kdd=0.0)
         elif lobe != "all":
             raise ValueError(f"unknown lobe {lobe!r}")
+        # every other parameter the model function takes, by its schema name
+        shape = {p.name: getattr(self, p.name) for p in PARAMETERS
+                 if p.reference and p.name not in ("material", "eta", "k", "sigma", "ks", "kdd",
+                                                    "kid")}
         with np.errstate(invalid="ignore", divide="ignore"):
-            return pbrdf(*angles, n, k, self.sigma, sigma_dd=self.sigma_dd,
-                                   shadowing=self.shadowing,
-                                   dd_distribution=self.dd_distribution, **weights)
+            return pbrdf(*angles, n, k, self.sigma, **shape, **weights)
 
 
 #: Parameters of the model, as the plugin takes them: one field per parameter
