@@ -10,7 +10,9 @@ Mueller matrix in polarized variants.
 ``frame_si`` is the perturbed frame P written in the unperturbed shading frame
 S (``si.wi``, ``wo`` are S-local); ``frame_world`` is P in world space (the
 nested BSDF's ``si.sh_frame``). Plain functions: ``mi.*`` is looked up when
-called, so this module serves every variant.
+called, so this module serves every variant. (The wrappers' eval, pdf, eval_pdf
+and sample are one-line calls of these in each class: nanobind refuses a
+Python mix-in base beside ``mi.BSDF``, "invalid number of bases".)
 """
 
 import drjit as dr
