@@ -10,6 +10,7 @@ import pytest
 
 import mitsuba_pbrdf
 from mitsuba_pbrdf import registry
+from proof import polarized_chi2
 
 #: PBRDF_TEST_BACKEND=cuda runs the suite on a GPU: every llvm_* variant a test
 #: asks for through mitsuba_pbrdf.use_variant becomes its cuda_* twin
@@ -95,35 +96,11 @@ CHI2_TESTS = 19  # tests/test_bsdf.py: 5 configurations x 3 angles; tests/test_s
 def chi2_sampling_test(config, wi, sample_count, res=101, ires=8):
     """Mitsuba's chi-square test of ``bsdf.sample`` against ``bsdf.pdf`` for the
     ``pbrdf`` ``config`` at the local direction ``wi``, in the suite's polarized
-    spectral variant at the test wavelengths. Mitsuba's ``chi2.BSDFAdapter``
-    tests ``weight == 0`` on the whole (unpolarized) spectrum, which fails on
-    Mueller matrices: here a sample counts unless its weight's M00 is 0 at every
-    wavelength (M00 = 0 implies M = 0 for a physical Mueller matrix), as
-    Mitsuba's adapter drops zero-weight samples. Returns the ChiSquareTest after
-    ``run`` with the suite's family-wise correction; ``.passed`` holds the result."""
-    bsdf = mi.load_dict(config)
-    ctx = mi.BSDFContext()
-
-    def interaction(n):
-        si = dr.zeros(mi.SurfaceInteraction3f, n)
-        si.wi = mi.Vector3f(*[float(x) for x in wi])
-        si.wavelengths = mi.UnpolarizedSpectrum(*WAVELENGTHS)
-        return si
-
-    def sample_func(sample):
-        bs, weight = bsdf.sample(ctx, interaction(dr.width(sample)), sample[0],
-                                 mi.Point2f(sample[1], sample[2]))
-        keep = dr.any(mi.unpolarized_spectrum(weight) != 0)
-        return bs.wo, dr.select(keep, mi.Float(1.0), mi.Float(0.0))
-
-    def pdf_func(wo):
-        return bsdf.pdf(ctx, interaction(dr.width(wo)), wo)
-
-    test = mi.chi2.ChiSquareTest(domain=mi.chi2.SphericalDomain(), sample_func=sample_func,
-                                 pdf_func=pdf_func, sample_dim=3, sample_count=sample_count,
-                                 res=res, ires=ires)
-    test.passed = test.run(significance_level=CHI2_SIGNIFICANCE, test_count=CHI2_TESTS, quiet=True)
-    return test
+    spectral variant at the test wavelengths, through the polarized adapter of
+    :mod:`proof.polarized_chi2`, with the suite's family-wise correction;
+    ``.passed`` holds the result."""
+    return polarized_chi2.chi2_sampling_test(config, wi, sample_count, WAVELENGTHS,
+                                             CHI2_SIGNIFICANCE, CHI2_TESTS, res, ires)
 
 
 def as_numpy(value):

@@ -26,8 +26,12 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-import mitsuba_pbrdf
-from mitsuba_pbrdf import frames, reference
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if ROOT not in sys.path:          # python validation/anisotropic.py from anywhere
+    sys.path.insert(0, ROOT)
+
+import mitsuba_pbrdf  # noqa: E402
+from mitsuba_pbrdf import frames, reference  # noqa: E402
 
 mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
 
@@ -54,32 +58,11 @@ def as_numpy(value):
 
 
 def chi2_sampling_test(config, wi, sample_count, res=101, ires=8):
-    """Mitsuba's ChiSquareTest of ``sample`` against ``pdf`` in a polarized
-    variant: Mitsuba's BSDFAdapter cannot reduce a Mueller weight, so a
-    sample counts here unless its weight's M00 is 0 at every wavelength (the
-    suite's adapter, tests/conftest.py, does the same)."""
-    bsdf, ctx = mi.load_dict(config), mi.BSDFContext()
+    """Mitsuba's ChiSquareTest of ``sample`` against ``pdf`` through the
+    polarized adapter of :mod:`proof.polarized_chi2` (the suite's too)."""
+    from proof.polarized_chi2 import chi2_sampling_test as test
 
-    def interaction(n):
-        si = dr.zeros(mi.SurfaceInteraction3f, n)
-        si.wi = mi.Vector3f(*[float(x) for x in wi])
-        si.wavelengths = mi.UnpolarizedSpectrum(*WAVELENGTHS)
-        return si
-
-    def sample_func(sample):
-        bs, weight = bsdf.sample(ctx, interaction(dr.width(sample)), sample[0],
-                                 mi.Point2f(sample[1], sample[2]))
-        keep = dr.any(mi.unpolarized_spectrum(weight) != 0)
-        return bs.wo, dr.select(keep, mi.Float(1.0), mi.Float(0.0))
-
-    def pdf_func(wo):
-        return bsdf.pdf(ctx, interaction(dr.width(wo)), wo)
-
-    test = mi.chi2.ChiSquareTest(domain=mi.chi2.SphericalDomain(), sample_func=sample_func,
-                                 pdf_func=pdf_func, sample_dim=3, sample_count=sample_count,
-                                 res=res, ires=ires)
-    test.passed = test.run(significance_level=SIGNIFICANCE, test_count=TEST_COUNT, quiet=True)
-    return test
+    return test(config, wi, sample_count, WAVELENGTHS, SIGNIFICANCE, TEST_COUNT, res, ires)
 ALPHAS = ((0.05, 0.5), (0.6, 0.06), (0.3, 0.2), (0.02, 0.2), (1.0, 0.1))
 CHI2 = {
     "Al, Beckmann, sigma_u/sigma_v = 10 (0.5, 0.05), vgroove":
