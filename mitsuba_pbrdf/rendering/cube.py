@@ -1,0 +1,160 @@
+"""Stokes cubes (``pbrdf render --bands``): S0..S3 in many narrow wavelength
+bands from one render, one scene load and one set of kernels.
+
+Mitsuba's ``stokes`` integrator writes R, G, B only (and its ``specfilm``
+does not work inside ``stokes``), so the cube has its own render loop, in
+Dr.Jit, over the scene's integrator *inside* ``stokes`` (``path``, ``direct``
+or ``volpath``; the scene file is loaded with that integrator in place of
+``stokes``):
+
+1. a sample per (pixel, spp) at a uniform position in its pixel (each sample
+   counts for its own pixel only: a box filter, whatever the film's rfilter);
+2. its 4 wavelengths drawn uniformly over the union of the bands (length L nm),
+   stratified: lane j uses (u + j/4) mod 1, so each lane is uniform on its own;
+3. the Stokes vector (column 0 of the integrator's Mueller-matrix result)
+   rotated into the camera frame as ``stokes`` does
+   (:func:`mitsuba_pbrdf.integrators.film.camera_stokes`);
+4. each lane's Stokes vector scatter-added into the band that contains its
+   wavelength, weighted by L / (4 W_b spp), W_b the band's width.
+
+The expectation of band b is then (1/W_b) ∫_b S(λ) dλ, the band average of the
+Stokes vector: what ``pbrdf render --wavelength c:W_b`` gives for that band
+(:mod:`mitsuba_pbrdf.rendering.narrowband`). Each band gets on average
+spp * 4 W_b / L wavelength samples per pixel. Units: those of the scene's
+radiance (the band average of the spectral radiance); frames: the camera's
+(reference axis ray.d x the sensor's up vector).
+
+The sensor's camera weight is taken as 1 (pinhole perspective, orthographic
+and thin-lens cameras); scenes with a spectral response (``srf``) or a
+``specfilm`` are refused.
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..stokes.image import StokesImage
+from .bands import SpectralBands
+from .mitsuba_errors import scene_load_errors
+
+__all__ = ["scene_without_stokes", "load_cube_scene", "cube_pass", "cube_image"]
+
+
+def scene_without_stokes(scene_path) -> str:
+    """The scene file's XML with its ``stokes`` integrator replaced by the
+    integrator nested in it. :class:`ParameterError` (``bands``) if the scene
+    has no ``stokes`` integrator of its own, a sensor ``srf`` or a ``specfilm``."""
+    path = os.fspath(scene_path)
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as e:
+        raise ValueError(f"{path}: not readable XML ({e})") from None
+    children = list(root)
+    integrators = [c for c in children if c.tag == "integrator"]
+    if not integrators or integrators[0].get("type") != "stokes":
+        raise ParameterError("bands", f"{path} needs its own <integrator type=\"stokes\"> "
+                             "around path, direct or volpath")
+    stokes = integrators[0]
+    nested = [c for c in stokes if c.tag == "integrator"]
+    if len(nested) != 1:
+        raise ParameterError("bands", f"the stokes integrator of {path} must nest one integrator")
+    for sensor in root.findall("sensor"):
+        if any(child.get("name") == "srf" for child in sensor):
+            raise ParameterError("bands", f"the sensor of {path} has a spectral response (srf); "
+                                 "the bands replace it")
+        if any(child.tag == "film" and child.get("type") == "specfilm" for child in sensor):
+            raise ParameterError("bands", "the scene's film is a specfilm; use hdrfilm")
+    position = children.index(stokes)
+    root.remove(stokes)
+    root.insert(position, nested[0])
+    return ET.tostring(root, encoding="unicode")
+
+
+def load_cube_scene(scene_path, params):
+    """``mi.load_string`` of :func:`scene_without_stokes`, resolving relative
+    paths from the scene's folder as ``mi.load_file`` does."""
+    import mitsuba as mi
+
+    text = scene_without_stokes(scene_path)
+    resolver = mi.file_resolver()
+    saved = [resolver[i] for i in range(len(resolver))]
+    resolver.prepend(os.path.dirname(os.path.abspath(os.fspath(scene_path))))
+    try:
+        with scene_load_errors():
+            return mi.load_string(text, **{str(k): str(v) for k, v in (params or {}).items()})
+    finally:
+        resolver.clear()
+        for p in saved:
+            resolver.append(p)
+
+
+def _band_of(t, cum_high, n_bands):
+    """Index of the band holding offset *t* (nm into the union of the bands)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    return dr.binary_search(0, n_bands - 1, lambda i: dr.gather(mi.Float, cum_high, i) <= t)
+
+
+def cube_pass(scene, bands: SpectralBands, spp: int, seed: int) -> np.ndarray:
+    """One pass of *spp* samples per pixel: the band-averaged Stokes cube,
+    float64 array (H, W, 4, n_bands), camera frame (see the module docstring)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from ..integrators.film import camera_stokes
+
+    sensor = scene.sensors()[0]
+    film = sensor.film()
+    width, height = (int(v) for v in film.crop_size())
+    offset = mi.Vector2f(film.crop_offset())
+    n_bands, total = len(bands.edges), bands.total_width
+    widths = bands.widths
+    cum_high = mi.Float(np.cumsum(widths).astype(np.float32))
+    cum_low = mi.Float((np.cumsum(widths) - widths).astype(np.float32))
+    lows = mi.Float(bands.lows.astype(np.float32))
+    # L / (4 W_b spp): each lane's weight in its band
+    scale = mi.Float((total / (4.0 * widths * spp)).astype(np.float32))
+
+    n = width * height * spp
+    sampler = sensor.sampler().clone()
+    sampler.set_sample_count(spp)
+    sampler.set_samples_per_wavefront(spp)
+    sampler.seed(seed, n)
+    idx = dr.arange(mi.UInt32, n)
+    pixel = idx // spp
+    pos = mi.Vector2f(mi.Float(pixel % width), mi.Float(pixel // width)) + sampler.next_2d()
+    time = sensor.shutter_open() + sensor.shutter_open_time() * sampler.next_1d()
+    ray, _ = sensor.sample_ray(time, 0.5, (pos + offset) / mi.Vector2f(film.size()),
+                               sampler.next_2d())
+    u = sampler.next_1d()
+    lanes, band_index = [], []
+    for j in range(4):  # the 4 wavelength lanes of a spectral variant (fixed, not data)
+        shifted = u + j / 4.0
+        t = (shifted - dr.floor(shifted)) * total
+        b = _band_of(t, cum_high, n_bands)
+        band_index.append(b)
+        lanes.append(dr.gather(mi.Float, lows, b) + (t - dr.gather(mi.Float, cum_low, b)))
+    ray.wavelengths = mi.UnpolarizedSpectrum(*lanes)
+    spec, _, _ = scene.integrator().sample(scene, sampler, ray, None, True)
+    stokes = camera_stokes(sensor, ray, [spec[i][0] for i in range(4)])
+
+    cube = dr.zeros(mi.Float, width * height * n_bands * 4)
+    for j in range(4):
+        weight = dr.gather(mi.Float, scale, band_index[j])
+        base = (pixel * n_bands + band_index[j]) * 4
+        for i in range(4):
+            dr.scatter_reduce(dr.ReduceOp.Add, cube, stokes[i][j] * weight, base + i)
+    array = np.array(cube, dtype=np.float64).reshape(height, width, n_bands, 4)
+    return np.moveaxis(array, 3, 2)
+
+
+def cube_image(stokes: np.ndarray, bands: SpectralBands, metadata=None) -> StokesImage:
+    """The cube as a :class:`StokesImage`: one band per wavelength band,
+    named after its centre, the band edges in ``metadata['band_edges_nm']``."""
+    metadata = dict(metadata or {}, band_edges_nm=bands.header(), spectral_cube="1")
+    return StokesImage(stokes.astype(np.float32), bands.names, None, metadata)
