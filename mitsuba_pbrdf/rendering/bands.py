@@ -62,7 +62,7 @@ class SpectralBands:
 
     @property
     def total_width(self) -> float:
-        """Length (nm) of the union of the bands, the wavelengths sampled over."""
+        """Length (nm) of the union of the bands."""
         return float(self.widths.sum())
 
     def header(self) -> str:

@@ -9,18 +9,21 @@ or ``volpath``; the scene file is loaded with that integrator in place of
 
 1. a sample per (pixel, spp) at a uniform position in its pixel (each sample
    counts for its own pixel only: a box filter, whatever the film's rfilter);
-2. its 4 wavelengths drawn uniformly over the union of the bands (length L nm),
-   stratified: lane j uses (u + j/4) mod 1, so each lane is uniform on its own;
+2. its 4 wavelengths drawn over the union of the bands, each band with
+   probability 1/B (B bands) and uniformly within it, so that every band gets
+   the same share of the samples however narrow it is (pdf 1 / (B W_b) at a
+   wavelength of band b, W_b its width in nm); stratified: lane j uses
+   t = (u + j/4) mod 1, band floor(B t), so each lane has that pdf on its own;
 3. the Stokes vector (column 0 of the integrator's Mueller-matrix result)
    rotated into the camera frame as ``stokes`` does
    (:func:`mitsuba_pbrdf.integrators.film.camera_stokes`);
 4. each lane's Stokes vector scatter-added into the band that contains its
-   wavelength, weighted by L / (4 W_b spp), W_b the band's width.
+   wavelength, weighted by 1 / (pdf W_b 4 spp) = B / (4 spp).
 
 The expectation of band b is then (1/W_b) ∫_b S(λ) dλ, the band average of the
 Stokes vector: what ``pbrdf render --wavelength c:W_b`` gives for that band
 (:mod:`mitsuba_pbrdf.rendering.narrowband`). Each band gets on average
-spp * 4 W_b / L wavelength samples per pixel. Units: those of the scene's
+4 spp / B wavelength samples per pixel. Units: those of the scene's
 radiance (the band average of the spectral radiance); frames: the camera's
 (reference axis ray.d x the sensor's up vector).
 
@@ -92,14 +95,6 @@ def load_cube_scene(scene_path, params):
             resolver.append(p)
 
 
-def _band_of(t, cum_high, n_bands):
-    """Index of the band holding offset *t* (nm into the union of the bands)."""
-    import drjit as dr
-    import mitsuba as mi
-
-    return dr.binary_search(0, n_bands - 1, lambda i: dr.gather(mi.Float, cum_high, i) <= t)
-
-
 def cube_pass(scene, bands: SpectralBands, spp: int, seed: int) -> np.ndarray:
     """One pass of *spp* samples per pixel: the band-averaged Stokes cube,
     float64 array (H, W, 4, n_bands), camera frame (see the module docstring)."""
@@ -112,13 +107,10 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int) -> np.ndarray:
     film = sensor.film()
     width, height = (int(v) for v in film.crop_size())
     offset = mi.Vector2f(film.crop_offset())
-    n_bands, total = len(bands.edges), bands.total_width
-    widths = bands.widths
-    cum_high = mi.Float(np.cumsum(widths).astype(np.float32))
-    cum_low = mi.Float((np.cumsum(widths) - widths).astype(np.float32))
+    n_bands = len(bands.edges)
     lows = mi.Float(bands.lows.astype(np.float32))
-    # L / (4 W_b spp): each lane's weight in its band
-    scale = mi.Float((total / (4.0 * widths * spp)).astype(np.float32))
+    widths = mi.Float(bands.widths.astype(np.float32))
+    weight = n_bands / (4.0 * spp)  # each lane's weight in its band
 
     n = width * height * spp
     sampler = sensor.sampler().clone()
@@ -135,17 +127,17 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int) -> np.ndarray:
     lanes, band_index = [], []
     for j in range(4):  # the 4 wavelength lanes of a spectral variant (fixed, not data)
         shifted = u + j / 4.0
-        t = (shifted - dr.floor(shifted)) * total
-        b = _band_of(t, cum_high, n_bands)
+        t = (shifted - dr.floor(shifted)) * n_bands
+        b = dr.minimum(mi.UInt32(t), n_bands - 1)
         band_index.append(b)
-        lanes.append(dr.gather(mi.Float, lows, b) + (t - dr.gather(mi.Float, cum_low, b)))
+        within = dr.clip(t - mi.Float(b), 0.0, 1.0)
+        lanes.append(dr.fma(within, dr.gather(mi.Float, widths, b), dr.gather(mi.Float, lows, b)))
     ray.wavelengths = mi.UnpolarizedSpectrum(*lanes)
     spec, _, _ = scene.integrator().sample(scene, sampler, ray, None, True)
     stokes = camera_stokes(sensor, ray, [spec[i][0] for i in range(4)])
 
     cube = dr.zeros(mi.Float, width * height * n_bands * 4)
     for j in range(4):
-        weight = dr.gather(mi.Float, scale, band_index[j])
         base = (pixel * n_bands + band_index[j]) * 4
         for i in range(4):
             dr.scatter_reduce(dr.ReduceOp.Add, cube, stokes[i][j] * weight, base + i)
