@@ -58,6 +58,16 @@ def test_check_render_refuses_bands_in_a_non_spectral_variant_and_with_a_wavelen
     with pytest.raises(ParameterError, match="not both"):
         check_render(SCENE, variant=VARIANT, bands=BANDS, wavelength="600")
     assert check_render(SCENE, variant=VARIANT, bands=BANDS).bands.names[0] == "610nm"
+    with pytest.raises(ParameterError, match="40 bands need at least 10 samples per pixel"):
+        check_render(SCENE, variant=VARIANT, bands="450:650:5", spp=9)
+
+
+def test_band_counts_are_even():
+    """Every band gets the same number of wavelengths per pixel, to one."""
+    from mitsuba_pbrdf.rendering.cube import band_counts
+
+    assert list(band_counts(10, 16)) == [7, 7, 7, 7, 6, 6, 6, 6, 6, 6]
+    assert band_counts(64, 16).min() == 1 and band_counts(3, 3).sum() == 12
 
 
 def test_scene_without_a_stokes_integrator_is_refused(tmp_path):
@@ -72,10 +82,11 @@ def test_scene_without_a_stokes_integrator_is_refused(tmp_path):
         scene_without_stokes(tmp_path / "plain.xml")
 
 
-def cube_passes(**options):
-    """PASSES independent single-pass renders, shape (PASSES, H, W, 4, bands)."""
-    return np.stack([render_scene(SCENE, spp=SPP, seed=11 + i, params=params(), passes=1,
-                                  variant=VARIANT, **options).stokes
+def cube_passes(passes=1, **options):
+    """PASSES independent renders (each in *passes* passes), shape
+    (PASSES, H, W, 4, bands)."""
+    return np.stack([render_scene(SCENE, spp=SPP, seed=11 + 100 * i, params=params(),
+                                  passes=passes, variant=VARIANT, **options).stokes
                      for i in range(PASSES)]).astype(np.float64)
 
 
@@ -95,9 +106,10 @@ def test_cube_matches_the_reference_band_by_band():
     that band plus 2e-3 of S0 (the reference's 8 x 8 footprint quadrature,
     float32). The bands differ from one another by far more than that (checked
     against the neighbouring bands' references), so the test sees which band
-    is which."""
+    is which. Each render is split into 2 passes, so the bands' wavelength
+    counts run on across passes."""
     use_variant(VARIANT)
-    passes = cube_passes(bands=BANDS)
+    passes = cube_passes(passes=2, bands=BANDS)
     mean = passes.mean(axis=0)
     assert np.all(np.isfinite(mean))
     pooled = pooled_stderr(passes, mean)

@@ -7,6 +7,7 @@ Cartesian product defines the jobs of ``pbrdf batch`` (docs/batch.md).
     spp = 16
     seed = 0
     out = "renders"                   # relative to the sweep file
+    bands = "450:650:20"              # optional: a Stokes cube per job (pbrdf render --bands)
     outputs = ["stokes", "aov"]       # optional; default ["stokes"]; also "polcam"
     [polcam]                          # optional, with "polcam": the camera (pbrdf polcam)
     sensor = "colour"
@@ -60,7 +61,7 @@ POLCAM_KEYS = ("sensor", "band", "exposure", "full_well", "read_noise", "bits")
 MANIFEST_NAME = "manifest.csv"
 #: Manifest columns that are not parameters (a parameter may not take these names).
 FIXED_COLUMNS = ("job", "seed", "spp", "status", "seconds", "file", "aov", "polcam", "error")
-_KEYS = ("scene", "spp", "seed", "out", "variant", "outputs", "polcam", "params")
+_KEYS = ("scene", "spp", "seed", "out", "variant", "bands", "outputs", "polcam", "params")
 _NAME_MAX = 120
 
 
@@ -88,6 +89,8 @@ class Sweep:
     spp: Optional[int] = None
     seed: int = 0
     variant: Optional[str] = None
+    #: bands of a Stokes cube per job (:func:`~mitsuba_pbrdf.rendering.bands.parse_bands` syntax)
+    bands: Optional[str] = None
     outputs: Tuple[str, ...] = ("stokes",)
     polcam: Dict[str, object] = field(default_factory=dict)
     param_names: List[str] = field(default_factory=list)
@@ -178,6 +181,21 @@ def _param_values(path, key, values) -> List[str]:
             _fail(path, f"{where}: value {text!r} is listed twice")
         texts.append(text)
     return texts
+
+
+def _bands(path, value, variant: Optional[str]) -> str:
+    """The sweep's ``bands`` (a string in ``pbrdf render --bands`` syntax), checked."""
+    from ..errors import ParameterError
+    from ..rendering.bands import parse_bands, require_spectral_bands
+
+    text = _string(path, "bands", value)
+    try:
+        parse_bands(text)
+        if variant is not None:
+            require_spectral_bands(variant)
+    except ParameterError as e:
+        _fail(path, f"bands: {e.detail}")
+    return text
 
 
 def _check_variant(path, variant: str):
@@ -282,6 +300,7 @@ def load_sweep(path) -> Sweep:
     variant = _string(path, "variant", data["variant"]) if "variant" in data else None
     if variant is not None:
         _check_variant(path, variant)
+    bands = _bands(path, data["bands"], variant) if "bands" in data else None
 
     outputs = data.get("outputs", ["stokes"])
     if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
@@ -323,5 +342,5 @@ def load_sweep(path) -> Sweep:
     varying = [key for key in keys if len(values[key]) > 1]
     names = _job_names(combos, varying, os.path.splitext(os.path.basename(scene))[0])
     jobs = [Job(name=n, params=p, seed=job_seed(seed, p)) for n, p in zip(names, combos)]
-    return Sweep(path=path, scene=scene, out=out, spp=spp, seed=seed, variant=variant,
+    return Sweep(path=path, scene=scene, out=out, spp=spp, seed=seed, variant=variant, bands=bands,
                  outputs=tuple(outputs), polcam=polcam, param_names=keys, jobs=jobs)

@@ -9,21 +9,26 @@ or ``volpath``; the scene file is loaded with that integrator in place of
 
 1. a sample per (pixel, spp) at a uniform position in its pixel (each sample
    counts for its own pixel only: a box filter, whatever the film's rfilter);
-2. its 4 wavelengths drawn over the union of the bands, each band with
-   probability 1/B (B bands) and uniformly within it, so that every band gets
-   the same share of the samples however narrow it is (pdf 1 / (B W_b) at a
-   wavelength of band b, W_b its width in nm); stratified: lane j uses
-   t = (u + j/4) mod 1, band floor(B t), so each lane has that pdf on its own;
+2. its 4 wavelengths drawn one per band in turn: the m-th wavelength of a
+   pixel (m = 4 k + j for its k-th sample, lane j, counted across passes)
+   lies in band m mod B (B bands), uniformly within it (position
+   (u + j/4) mod 1 of the band, u one random number per sample). So every band
+   gets the same number of wavelengths however narrow it is, n_b =
+   #{m < 4 spp : m mod B = b} in every pixel, a fixed count: a random count
+   (bands drawn at random) would add its own Poisson noise, about
+   1/sqrt(4 spp / B) of the band's value even where the spectrum is smooth;
 3. the Stokes vector (column 0 of the integrator's Mueller-matrix result)
    rotated into the camera frame as ``stokes`` does
    (:func:`mitsuba_pbrdf.integrators.film.camera_stokes`);
 4. each lane's Stokes vector scatter-added into the band that contains its
-   wavelength, weighted by 1 / (pdf W_b 4 spp) = B / (4 spp).
+   wavelength, divided by n_b: the band's mean over wavelengths drawn
+   uniformly in it.
 
 The expectation of band b is then (1/W_b) ∫_b S(λ) dλ, the band average of the
 Stokes vector: what ``pbrdf render --wavelength c:W_b`` gives for that band
-(:mod:`mitsuba_pbrdf.rendering.narrowband`). Each band gets on average
-4 spp / B wavelength samples per pixel. Units: those of the scene's
+(:mod:`mitsuba_pbrdf.rendering.narrowband`). Each band gets about
+4 spp / B wavelength samples per pixel; a cube needs 4 spp >= B
+(:func:`band_counts`). Units: those of the scene's
 radiance (the band average of the spectral radiance); frames: the camera's
 (reference axis ray.d x the sensor's up vector).
 
@@ -44,7 +49,8 @@ from ..stokes.image import StokesImage
 from .bands import SpectralBands
 from .mitsuba_errors import scene_load_errors
 
-__all__ = ["scene_without_stokes", "load_cube_scene", "cube_pass", "cube_image"]
+__all__ = ["scene_without_stokes", "load_cube_scene", "band_counts", "check_cube_spp",
+           "cube_pass", "cube_image"]
 
 
 def scene_without_stokes(scene_path) -> str:
@@ -95,9 +101,27 @@ def load_cube_scene(scene_path, params):
             resolver.append(p)
 
 
-def cube_pass(scene, bands: SpectralBands, spp: int, seed: int) -> np.ndarray:
-    """One pass of *spp* samples per pixel: the band-averaged Stokes cube,
-    float64 array (H, W, 4, n_bands), camera frame (see the module docstring)."""
+def band_counts(n_bands: int, total_spp: int) -> np.ndarray:
+    """Wavelengths per pixel in each band of a render of *total_spp* samples
+    per pixel (4 wavelengths each, band m mod B for the m-th)."""
+    return np.bincount(np.arange(4 * total_spp) % n_bands, minlength=n_bands)
+
+
+def check_cube_spp(bands: SpectralBands, total_spp: int):
+    """:class:`ParameterError` (``bands``) unless every band gets a wavelength."""
+    n = len(bands.edges)
+    if 4 * int(total_spp) < n:
+        raise ParameterError("bands", f"{n} bands need at least {-(-n // 4)} samples per pixel "
+                             f"(4 wavelengths each), got {total_spp}")
+
+
+def cube_pass(scene, bands: SpectralBands, spp: int, seed: int, first: int,
+              total_spp: int) -> np.ndarray:
+    """One pass of *spp* samples per pixel, the pixel's samples *first* ..
+    *first* + spp - 1 of *total_spp*: its share of the band-averaged Stokes
+    cube (the pass's sums over the whole render's counts), float64 array
+    (H, W, 4, n_bands), camera frame (see the module docstring). The shares of
+    all passes add up to the cube."""
     import drjit as dr
     import mitsuba as mi
 
@@ -110,7 +134,8 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int) -> np.ndarray:
     n_bands = len(bands.edges)
     lows = mi.Float(bands.lows.astype(np.float32))
     widths = mi.Float(bands.widths.astype(np.float32))
-    weight = n_bands / (4.0 * spp)  # each lane's weight in its band
+    counts = band_counts(n_bands, total_spp)
+    inverse_counts = mi.Float((1.0 / counts).astype(np.float32))
 
     n = width * height * spp
     sampler = sensor.sampler().clone()
@@ -119,6 +144,7 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int) -> np.ndarray:
     sampler.seed(seed, n)
     idx = dr.arange(mi.UInt32, n)
     pixel = idx // spp
+    sample = idx % spp + first  # the sample's index in its pixel, across passes
     pos = mi.Vector2f(mi.Float(pixel % width), mi.Float(pixel // width)) + sampler.next_2d()
     time = sensor.shutter_open() + sensor.shutter_open_time() * sampler.next_1d()
     ray, _ = sensor.sample_ray(time, 0.5, (pos + offset) / mi.Vector2f(film.size()),
@@ -127,10 +153,9 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int) -> np.ndarray:
     lanes, band_index = [], []
     for j in range(4):  # the 4 wavelength lanes of a spectral variant (fixed, not data)
         shifted = u + j / 4.0
-        t = (shifted - dr.floor(shifted)) * n_bands
-        b = dr.minimum(mi.UInt32(t), n_bands - 1)
+        within = shifted - dr.floor(shifted)
+        b = (4 * sample + j) % n_bands
         band_index.append(b)
-        within = dr.clip(t - mi.Float(b), 0.0, 1.0)
         lanes.append(dr.fma(within, dr.gather(mi.Float, widths, b), dr.gather(mi.Float, lows, b)))
     ray.wavelengths = mi.UnpolarizedSpectrum(*lanes)
     spec, _, _ = scene.integrator().sample(scene, sampler, ray, None, True)
@@ -139,6 +164,7 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int) -> np.ndarray:
     cube = dr.zeros(mi.Float, width * height * n_bands * 4)
     for j in range(4):
         base = (pixel * n_bands + band_index[j]) * 4
+        weight = dr.gather(mi.Float, inverse_counts, band_index[j])
         for i in range(4):
             dr.scatter_reduce(dr.ReduceOp.Add, cube, stokes[i][j] * weight, base + i)
     array = np.array(cube, dtype=np.float64).reshape(height, width, n_bands, 4)

@@ -46,7 +46,7 @@ from ..errors import ParameterError
 from ..registry import use_variant
 from ..variant import default_variant
 from .bands import SpectralBands, parse_bands, require_spectral_bands
-from .cube import cube_image, cube_pass, load_cube_scene
+from .cube import check_cube_spp, cube_image, cube_pass, load_cube_scene
 from .mitsuba_errors import SceneLoadError, interrupted, scene_load_errors
 from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
                          parse_wavelength, require_spectral)
@@ -206,6 +206,8 @@ def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] =
                                  "bands, not both")
         cube = parse_bands(bands)
         require_spectral_bands(variant)
+        if spp is not None:
+            check_cube_spp(cube, int(spp))
     return RenderRequest(os.fspath(scene_path), variant, None if spp is None else int(spp),
                          None if passes is None else int(passes), params, band, cube)
 
@@ -293,6 +295,8 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
 
     sensor = scene.sensors()[0]
     total_spp = int(spp if spp is not None else sensor.sampler().sample_count())
+    if request.bands is not None:
+        check_cube_spp(request.bands, total_spp)
     size = sensor.film().crop_size()
     backend = "cuda" if variant.startswith("cuda") else "llvm"
     plan = plan_passes(total_spp, request.passes, pixels=int(size[0]) * int(size[1]),
@@ -306,18 +310,19 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
     try:
         t2 = time.perf_counter()
         history = []
-        accumulated = None
+        accumulated, first = None, 0
         with progress_reporter(total_spp, f"rendering {name} ({len(plan)} passes)", progress,
                                steps=len(plan)) as bar:
             for pass_spp, pass_seed in zip(plan, seeds):
                 try:
                     if request.bands is not None:
-                        array = cube_pass(scene, request.bands, pass_spp, pass_seed)
+                        array = cube_pass(scene, request.bands, pass_spp, pass_seed, first,
+                                          total_spp)
                     else:
                         tensor = mi.render(scene, spp=pass_spp, seed=pass_seed)
                         # reading the result back runs the kernels
-                        array = np.array(tensor, dtype=np.float64)
-                    array *= pass_spp / total_spp
+                        array = np.array(tensor, dtype=np.float64) * (pass_spp / total_spp)
+                    first += pass_spp
                 except RuntimeError as e:
                     if interrupted(e):
                         raise KeyboardInterrupt from e
