@@ -53,7 +53,7 @@ def test_parse_bands():
 
 def test_check_render_refuses_bands_in_a_non_spectral_variant_and_with_a_wavelength():
     with pytest.raises(ParameterError, match="needs a spectral variant") as error:
-        check_render(SCENE, variant="llvm_ad_rgb_polarized", bands=BANDS)
+        check_render(SCENE, variant="llvm_ad_mono_polarized", bands=BANDS)
     assert error.value.parameter == "bands"
     with pytest.raises(ParameterError, match="not both"):
         check_render(SCENE, variant=VARIANT, bands=BANDS, wavelength="600")
