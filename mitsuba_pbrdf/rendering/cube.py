@@ -7,8 +7,11 @@ Dr.Jit, over the scene's integrator *inside* ``stokes`` (``path``, ``direct``
 or ``volpath``; the scene file is loaded with that integrator in place of
 ``stokes``):
 
-1. a sample per (pixel, spp) at a uniform position in its pixel (each sample
-   counts for its own pixel only: a box filter, whatever the film's rfilter);
+1. a sample per (pixel, spp) at a uniform position in its pixel, splatted
+   with the film's reconstruction filter as Mitsuba's film does (weight
+   f(x) f(y) on each pixel of the filter's footprint, pixel values divided by
+   the sum of the weights they received; a box filter splats into the
+   sample's own pixel only);
 2. its 4 wavelengths drawn one per band in turn: the m-th wavelength of a
    pixel (m = 4 k + j for its k-th sample, lane j, counted across passes)
    lies in band m mod B (B bands), uniformly within it (position
@@ -20,9 +23,11 @@ or ``volpath``; the scene file is loaded with that integrator in place of
 3. the Stokes vector (column 0 of the integrator's Mueller-matrix result)
    rotated into the camera frame as ``stokes`` does
    (:func:`mitsuba_pbrdf.integrators.film.camera_stokes`);
-4. each lane's Stokes vector scatter-added into the band that contains its
-   wavelength, divided by n_b: the band's mean over wavelengths drawn
-   uniformly in it.
+4. each lane's Stokes vector, times the filter weight and spp / n_b,
+   scatter-added into the band that contains its wavelength; dividing by the
+   pixel's filter weight gives the band's mean over the wavelengths drawn
+   uniformly in it (with a box filter exactly the sum over the band's n_b
+   wavelengths / n_b).
 
 The expectation of band b is then (1/W_b) ∫_b S(λ) dλ, the band average of the
 Stokes vector: what ``pbrdf render --wavelength c:W_b`` gives for that band
@@ -115,13 +120,23 @@ def check_cube_spp(bands: SpectralBands, total_spp: int):
                              f"(4 wavelengths each), got {total_spp}")
 
 
+def _footprint(rfilter):
+    """Pixel offsets (dx, dy) a sample can reach with *rfilter*; None for a box
+    filter of radius <= 0.5 (the sample's own pixel only)."""
+    radius = float(rfilter.radius())
+    if rfilter.class_name() == "BoxFilter" and radius <= 0.5:
+        return None
+    r = int(np.ceil(radius))
+    return [(dx, dy) for dy in range(-r, r + 1) for dx in range(-r, r + 1)]
+
+
 def cube_pass(scene, bands: SpectralBands, spp: int, seed: int, first: int,
               total_spp: int) -> np.ndarray:
     """One pass of *spp* samples per pixel, the pixel's samples *first* ..
-    *first* + spp - 1 of *total_spp*: its share of the band-averaged Stokes
-    cube (the pass's sums over the whole render's counts), float64 array
-    (H, W, 4, n_bands), camera frame (see the module docstring). The shares of
-    all passes add up to the cube."""
+    *first* + spp - 1 of *total_spp*: its filter-weighted sums, float64 array
+    (H, W, 4 n_bands + 1): the Stokes sums per (component, band) times
+    spp / n_b, then the sum of the filter weights. The passes' arrays add up;
+    :func:`cube_image` divides. Camera frame (see the module docstring)."""
     import drjit as dr
     import mitsuba as mi
 
@@ -130,12 +145,11 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int, first: int,
     sensor = scene.sensors()[0]
     film = sensor.film()
     width, height = (int(v) for v in film.crop_size())
-    offset = mi.Vector2f(film.crop_offset())
     n_bands = len(bands.edges)
     lows = mi.Float(bands.lows.astype(np.float32))
     widths = mi.Float(bands.widths.astype(np.float32))
     counts = band_counts(n_bands, total_spp)
-    inverse_counts = mi.Float((1.0 / counts).astype(np.float32))
+    lane_scale = mi.Float((total_spp / counts).astype(np.float32))
 
     n = width * height * spp
     sampler = sensor.sampler().clone()
@@ -147,8 +161,8 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int, first: int,
     sample = idx % spp + first  # the sample's index in its pixel, across passes
     pos = mi.Vector2f(mi.Float(pixel % width), mi.Float(pixel // width)) + sampler.next_2d()
     time = sensor.shutter_open() + sensor.shutter_open_time() * sampler.next_1d()
-    ray, _ = sensor.sample_ray(time, 0.5, (pos + offset) / mi.Vector2f(film.size()),
-                               sampler.next_2d())
+    # the position within the crop window, as mi.render gives it (the sensor maps the crop)
+    ray, _ = sensor.sample_ray(time, 0.5, pos / mi.Vector2f(width, height), sampler.next_2d())
     u = sampler.next_1d()
     lanes, band_index = [], []
     for j in range(4):  # the 4 wavelength lanes of a spectral variant (fixed, not data)
@@ -162,17 +176,42 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int, first: int,
     stokes = camera_stokes(sensor, ray, [spec[i][0] for i in range(4)])
 
     cube = dr.zeros(mi.Float, width * height * n_bands * 4)
-    for j in range(4):
-        base = (pixel * n_bands + band_index[j]) * 4
-        weight = dr.gather(mi.Float, inverse_counts, band_index[j])
-        for i in range(4):
-            dr.scatter_reduce(dr.ReduceOp.Add, cube, stokes[i][j] * weight, base + i)
-    array = np.array(cube, dtype=np.float64).reshape(height, width, n_bands, 4)
-    return np.moveaxis(array, 3, 2)
+    weights = dr.zeros(mi.Float, width * height)
+    scales = [dr.gather(mi.Float, lane_scale, band_index[j]) for j in range(4)]
+    rfilter = film.rfilter()
+    footprint = _footprint(rfilter)
+    corner = mi.Vector2i(dr.floor(pos))
+    # the filter's footprint: a few pixel offsets (fixed by the filter, not the image)
+    for dx, dy in footprint or [(0, 0)]:
+        if footprint is None:
+            target, weight, ok = pixel, mi.Float(1.0), mi.Bool(True)
+        else:
+            px, py = corner.x + dx, corner.y + dy
+            weight = (rfilter.eval(mi.Float(px) + 0.5 - pos.x)
+                      * rfilter.eval(mi.Float(py) + 0.5 - pos.y))
+            ok = (px >= 0) & (px < width) & (py >= 0) & (py < height) & (weight != 0)
+            target = mi.UInt32(dr.select(ok, py * width + px, 0))
+        dr.scatter_reduce(dr.ReduceOp.Add, weights, weight, target, ok)
+        for j in range(4):
+            base = (target * n_bands + band_index[j]) * 4
+            for i in range(4):
+                dr.scatter_reduce(dr.ReduceOp.Add, cube, stokes[i][j] * (weight * scales[j]),
+                                  base + i, ok)
+    sums = np.array(cube, dtype=np.float64).reshape(height, width, n_bands, 4)
+    sums = np.moveaxis(sums, 3, 2).reshape(height, width, 4 * n_bands)
+    return np.concatenate([sums, np.array(weights, dtype=np.float64).reshape(height, width, 1)],
+                          axis=2)
 
 
 def cube_image(stokes: np.ndarray, bands: SpectralBands, metadata=None) -> StokesImage:
     """The cube as a :class:`StokesImage`: one band per wavelength band,
-    named after its centre, the band edges in ``metadata['band_edges_nm']``."""
+    named after its centre, the band edges in ``metadata['band_edges_nm']``.
+    *stokes* is the cube (H, W, 4, n_bands), or the sum of :func:`cube_pass`'s
+    arrays (H, W, 4 n_bands + 1), divided here by its filter weights."""
+    n = len(bands.edges)
+    if stokes.ndim == 3:
+        weights = stokes[..., -1:]
+        safe = np.where(weights > 0, weights, 1.0)
+        stokes = (stokes[..., :-1] / safe).reshape(stokes.shape[0], stokes.shape[1], 4, n)
     metadata = dict(metadata or {}, band_edges_nm=bands.header(), spectral_cube="1")
     return StokesImage(stokes.astype(np.float32), bands.names, None, metadata)
