@@ -1,7 +1,7 @@
 """The wavelength bands of a Stokes cube (``pbrdf render --bands``): parsing
 and checking the band list, in nm.
 
-Syntax (the list syntax of ``pbrdf export --bands``, with bands instead of
+Syntax (the list syntax of ``pbrdf export``'s bands, with bands instead of
 single wavelengths): comma-separated items, each
 
 * ``START:STOP:STEP``: contiguous bands STEP nm wide from START to STOP
