@@ -191,7 +191,10 @@ def main(argv=None) -> int:
     ]
     text = "\n".join(lines)
     os.makedirs(args.out, exist_ok=True)
-    Path(args.out, "batch.md").write_text(text)
+    target = Path(args.out, "batch.md")
+    if target.exists() and "\n## On Slurm\n" in target.read_text():  # batch_slurm.py's
+        text += "\n## On Slurm\n" + target.read_text().split("\n## On Slurm\n", 1)[1]
+    target.write_text(text)
     print(text)
     return 0
 

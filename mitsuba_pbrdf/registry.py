@@ -40,6 +40,8 @@ log = logging.getLogger(__name__)
 PLUGINS = (
     ("bsdf", "pbrdf", "mitsuba_pbrdf.plugin.bsdf", "PolarizedBRDF"),
     ("integrator", "stokes_prb", "mitsuba_pbrdf.integrators.stokes_prb", "StokesPRBIntegrator"),
+    ("bsdf", "polarized_normalmap", "mitsuba_pbrdf.shading.normalmap", "PolarizedNormalMap"),
+    ("bsdf", "polarized_bumpmap", "mitsuba_pbrdf.shading.bumpmap", "PolarizedBumpMap"),
 )
 
 _modules = {}

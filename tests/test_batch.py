@@ -211,8 +211,11 @@ def test_killed_worker_loses_nothing_and_a_rerun_renders_nothing(tmp_path, clust
     with pytest.raises(ProcessLookupError):
         os.kill(killed["pid"], 0)
 
-    # the killed job was rendered again with its own seed
+    # the killed job was rendered again with its own seed, and the manifest says why
     job = next(j for j in sweep.jobs if killed["key"].startswith(f"pbrdf-{j.name}-"))
+    notes = {r["job"]: r["note"] for r in rows if r["note"]}
+    assert notes[job.name] == f"run again: its worker {killed['worker']} left the cluster"
+    assert len(notes) <= 2  # at a job boundary also the job just sent to the worker
     retried = read_stokes_exr(os.path.join(sweep.out, f"{job.name}.exr"))
     again = render_scene(SPHERE, spp=4, seed=job.seed, params=job.params).stokes
     other = render_scene(SPHERE, spp=4, seed=job.seed + 1, params=job.params).stokes

@@ -30,6 +30,7 @@ from mitsuba_pbrdf.stokes.image import StokesImage
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 DEFAULT = os.path.join(ROOT, "scenes", "default.xml")
 CSV = os.path.join(ROOT, "tests", "data", "fit_example.csv")
+PTFE = os.path.join(ROOT, "tests", "data", "nist_ptfe_subset.csv")
 README = os.path.join(ROOT, "README.md")
 SMALL = ["-D", "width=32", "-D", "height=24", "--spp", "2"]
 
@@ -221,7 +222,72 @@ TABLE = [
      "cannot write /proc/x.png", None),
     ("fit: unwritable --json, before fitting", ["fit", CSV, "--json", "/sys/x.json"], 2,
      "cannot write /sys/x.json", None),
+    ("fit: NIST layout without f_r11", ["fit", "{nist_no_f11}"], 2,
+     "missing column f_r11", None),
+    ("fit: NIST layout, a normalized element above 1", ["fit", "{nist_over_one}"], 2,
+     "line 3: f_r23/f_r11 = -1.5 is above 1 in magnitude", None),
+    ("fit: NIST layout, mixed units (a wavelength in nm among um)", ["fit", "{nist_nm}"], 2,
+     "line 4: lambda = 532 is not a wavelength in µm", None),
+    ("fit: NIST layout, mixed units (normalized and 1/sr elements)",
+     ["fit", "{nist_mixed}"], 2, "mixed units: 'f_r12/f_r11' is normalized by f_r11 but "
+     "'f_r13' is in 1/sr", None),
+    ("fit: --layout nist on a goniometer file", ["fit", CSV, "--layout", "nist"], 2,
+     "missing column(s) lambda, thetai, phi, thetar, phir", None),
+    ("fit: --wavelength not in the file", ["fit", PTFE, "--wavelength", "500"], 2,
+     "no measurement at 500 nm (wavelengths in the file: 532, 633 nm)", None),
+    ("fit: --wavelength not a number", ["fit", PTFE, "--wavelength", "green"], 2,
+     "--wavelength expects comma-separated numbers", None),
+    ("export: --bands range without a step", ["export", "--bands", "400:700",
+                                              "--out", "{tmp}/h.pbsdf"], 2,
+     "--bands: '400:700' must be a whole number of nm or START:STOP:STEP", "{tmp}/h.pbsdf"),
+    ("export: --bands empty item", ["export", "--bands", "450,,500", "--out", "{tmp}/h.pbsdf"],
+     2, "--bands: expected comma-separated wavelengths", "{tmp}/h.pbsdf"),
+    ("export: --bands decreasing", ["export", "--bands", "500,450", "--out", "{tmp}/h.pbsdf"],
+     2, "--bands: wavelengths must be strictly increasing", "{tmp}/h.pbsdf"),
+    ("export: --bands word", ["export", "--bands", "visible", "--out", "{tmp}/h.pbsdf"], 2,
+     "--bands: 'visible' is not a wavelength (nm) or START:STOP:STEP", "{tmp}/h.pbsdf"),
+    ("export: --bands zero step", ["export", "--bands", "400:700:0", "--out", "{tmp}/h.pbsdf"],
+     2, "--bands: '400:700:0' needs STEP > 0", "{tmp}/h.pbsdf"),
+    ("export: --bands fractional nm", ["export", "--bands", "450.5,500",
+                                       "--out", "{tmp}/h.pbsdf"], 2,
+     "--bands: '450.5' must be a whole number of nm", "{tmp}/h.pbsdf"),
+    ("export: --bands beyond uint16", ["export", "--bands", "60000:70000:5000",
+                                       "--out", "{tmp}/h.pbsdf"], 2,
+     "--bands: wavelengths must lie in 1..65535 nm", "{tmp}/h.pbsdf"),
+    ("export: --bands with --wavelengths", ["export", "--bands", "400:700:10", "--wavelengths",
+                                            "450,500,550,600,650", "--out", "{tmp}/h.pbsdf"], 2,
+     "give --wavelengths (the 5 bands measured_polarized renders) or --bands", "{tmp}/h.pbsdf"),
+    # pbrdf batch --slurm: checked before Slurm is asked (the rows that need a running
+    # Slurm, Ctrl-C among them, are in tests/test_batch_slurm.py)
+    ("batch: --slurm, malformed walltime", ["batch", "{sweep}", "--slurm", "--walltime", "2h"],
+     2, "--walltime '2h' is not a Slurm time", "{tmp}/out/manifest.csv"),
+    ("batch: --slurm, walltime under a minute", ["batch", "{sweep}", "--slurm", "--walltime",
+                                                 "0:30"], 2,
+     "--walltime: '0:30' is too short", "{tmp}/out/manifest.csv"),
+    ("batch: --slurm, no cores", ["batch", "{sweep}", "--slurm", "--cores", "0"], 2,
+     "--cores: must be a positive integer, got 0", "{tmp}/out/manifest.csv"),
+    ("batch: a Slurm option without --slurm", ["batch", "{sweep}", "--partition", "debug"], 2,
+     "--partition is a Slurm option: add --slurm", "{tmp}/out/manifest.csv"),
 ]
+
+
+def nist_files(tmp_path):
+    """Files in NIST's layout, each with one fault, from the PTFE subset's
+    header and first rows."""
+    with open(PTFE) as f:
+        header, *rows = f.read().splitlines()[:4]
+    def write(name, head, body):
+        path = tmp_path / f"{name}.csv"
+        path.write_text("\n".join([head] + body) + "\n")
+        return str(path)
+    over = rows[1].split(",")
+    over[header.split(",").index("f_r23/f_r11")] = "-1.5"
+    nm = rows[2].split(",")
+    nm[0] = "532"
+    return dict(nist_no_f11=write("no_f11", header.replace(",f_r11,", ",f_r00,"), rows),
+                nist_over_one=write("over", header, [rows[0], ",".join(over), rows[2]]),
+                nist_nm=write("nm", header, rows[:2] + [",".join(nm)]),
+                nist_mixed=write("mixed", header.replace("f_r13/f_r11", "f_r13"), rows))
 
 
 @pytest.fixture
@@ -239,7 +305,11 @@ def files(tmp_path):
 
     plain = write_exr(tmp_path / "plain.exr", {"Y": np.ones((4, 4), np.float32)})
     y_exr = write_stokes_exr(tmp_path / "y.exr", np.ones((4, 4, 4), np.float32) * [1, 0, 0, 0])
-    return dict(tmp=str(tmp_path), scene=str(scene), exr=good, plain_exr=plain, y_exr=y_exr,
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(f'scene = "{scene}"\nout = "out"\n')
+    return dict(tmp=str(tmp_path), scene=str(scene), sweep=str(sweep), exr=good, plain_exr=plain,
+                y_exr=y_exr,
+                **nist_files(tmp_path),
                 odd_exr=stokes_exr(tmp_path / "odd.exr", h=13),
                 nan_exr=stokes_exr(tmp_path / "nan.exr", set_nan),
                 truncated=str(tmp_path / "truncated.exr"), text=str(tmp_path / "text.exr"))

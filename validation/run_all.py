@@ -35,11 +35,13 @@ NOT_STUDIES = ("common", "run_all")
 ARGUMENTS = {
     "accuracy": (["--pairs", "100000"], ["--pairs", "10000"]),
     "fit_pbsdf": ([], ["--quick"]),
+    "fit_ptfe": ([], ["--quick"]),
     "fit_synthetic": ([], ["--quick"]),
     "furnace": (["--samples", "1048576"], ["--samples", "65536"]),
     "inverse_memory": ([], ["--quick"]),
     "inverse_rendering": ([], ["--size", "32", "--iterations", "40"]),
     "measured_oracle": ([], ["--quick"]),
+    "normal_maps": ([], ["--quick"]),
     # The mutation study's full run is long (a sample of 200 mutants: about
     # 30-60 min on 2 cores, validation/mutation.md); --quick runs 2 mutants.
     "mutation": (["--sample", "200", "--seed", "0", "--label", "after-sample200"],

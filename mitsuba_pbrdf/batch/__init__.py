@@ -8,7 +8,9 @@
 
 :mod:`.sweep` reads and checks sweep files, :mod:`.job` renders one job on a
 worker, :mod:`.manifest` keeps ``out/manifest.csv``, :mod:`.cluster` starts or
-joins a Dask cluster, :mod:`.runner` runs a sweep without losing work. Single
+joins a Dask cluster, :mod:`.slurm` starts the workers as Slurm jobs (settings:
+:mod:`.slurm_options`), :mod:`.lost` tells which jobs lost their worker and why,
+:mod:`.runner` runs a sweep without losing work. Single
 renders live in :mod:`mitsuba_pbrdf.rendering`. Importing this package does not
 import Dask; running a sweep needs it (``pip install 'mitsuba-pbrdf[batch]'``)."""
 

@@ -5,7 +5,8 @@ it), ``seed``, ``spp``, ``status`` (``done``, ``failed`` or ``pending``),
 ``seconds`` (wall clock on the worker), ``file`` (the Stokes EXR, relative to
 the output folder), ``aov`` (the AOV EXR, if asked), ``polcam`` (the polarization-camera files,
 ``;``-separated, if asked), ``error`` (one line, for
-failed jobs).
+failed jobs), ``note`` (one line: why a job was run again, e.g. its worker's
+Slurm job was cancelled or reached its walltime).
 
 Only the process that runs the sweep writes the manifest, always whole and
 atomically (:func:`mitsuba_pbrdf.outputs.atomic_path`), so a reader or an
@@ -30,7 +31,8 @@ STATUSES = ("done", "failed", "pending")
 
 def columns(sweep: Sweep) -> List[str]:
     """The manifest's header for *sweep*."""
-    return ["job", *sweep.param_names, "seed", "spp", "status", "seconds", "file", "aov", "polcam", "error"]
+    return ["job", *sweep.param_names, "seed", "spp", "status", "seconds", "file", "aov", "polcam",
+            "error", "note"]
 
 
 def read_manifest(path) -> Dict[str, Dict[str, str]]:

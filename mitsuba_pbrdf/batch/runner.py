@@ -1,4 +1,5 @@
-"""Running a sweep on Dask without losing work (docs/batch.md).
+"""Running a sweep on Dask (local, an existing scheduler, or Slurm worker
+jobs) without losing work (docs/batch.md).
 
 ::
 
@@ -17,6 +18,10 @@ What :func:`run_sweep` guarantees:
   worker that the nanny restarted or on another one, with the same seed; one
   that kills ``allowed-failures + 1`` workers is recorded as failed
   (:mod:`mitsuba_pbrdf.batch.cluster`);
+* the manifest's ``note`` says why a job ran again (its worker process
+  died; its worker's Slurm job was cancelled or reached its walltime:
+  :mod:`mitsuba_pbrdf.batch.lost`); on Slurm, lost worker jobs are replaced
+  and every worker job is cancelled at the end (:mod:`mitsuba_pbrdf.batch.slurm`);
 * temporary files that a worker killed while writing left behind are
   removed at the end;
 * only this process writes ``manifest.csv``, whole and atomically, after
@@ -27,6 +32,7 @@ What :func:`run_sweep` guarantees:
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 import uuid
@@ -39,6 +45,8 @@ from .sweep import Sweep
 
 __all__ = ["SweepSummary", "run_sweep", "MANIFEST_INTERVAL_S"]
 
+#: Folder of ``out`` for Slurm's logs of the worker jobs (``--slurm``).
+SLURM_LOGS = "slurm-logs"
 #: Least seconds between two manifest rewrites while jobs finish.
 MANIFEST_INTERVAL_S = 2.0
 
@@ -90,6 +98,21 @@ def _lost_worker_error(error: BaseException) -> str:
     return f"{type(error).__name__}: {describe_error(error)}"
 
 
+def _add_notes(sweep: Sweep, rows, client, keys, explain):
+    """Set the ``note`` of each job whose worker left while running it. The
+    note is a record and never fails the sweep: a scheduler or Slurm that
+    no longer answers leaves the notes out."""
+    from .lost import notes
+
+    try:
+        found = notes(client, keys, explain)
+    except Exception:  # noqa: BLE001 - the images and statuses are what matters
+        return
+    jobs = {job.name: job for job in sweep.jobs}
+    for name, note in found.items():
+        rows.setdefault(name, job_row(jobs[name]))["note"] = note
+
+
 def _remove_stale_temporaries(sweep: Sweep):
     """Remove the temporary files of outputs (``.<job>.exr.<random>.tmp.exr``,
     :func:`mitsuba_pbrdf.outputs.atomic_path`) that a worker killed while
@@ -105,19 +128,39 @@ def _remove_stale_temporaries(sweep: Sweep):
                 pass
 
 
+@contextlib.contextmanager
+def _connect(sweep: Sweep, workers, scheduler, slurm, drjit_threads, allowed_failures):
+    """``(client, Dr.Jit threads for jobs, explain)`` on the chosen cluster;
+    *explain* says why workers left (:mod:`mitsuba_pbrdf.batch.lost`)."""
+    from .cluster import connect
+    from .lost import local_explain, remote_explain
+
+    if slurm is not None:
+        from .slurm import connect_slurm
+
+        with connect_slurm(slurm, os.path.join(sweep.out, SLURM_LOGS),
+                           allowed_failures=allowed_failures) as (client, explain):
+            yield client, None, explain  # the workers set their own threads
+        return
+    with connect(workers=workers, scheduler=scheduler, drjit_threads=drjit_threads,
+                 allowed_failures=allowed_failures) as (client, threads):
+        yield client, threads, remote_explain if scheduler else local_explain
+
+
 def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[str] = None,
               drjit_threads: Optional[int] = None, progress="auto",
-              allowed_failures: Optional[int] = None) -> SweepSummary:
+              allowed_failures: Optional[int] = None, slurm=None) -> SweepSummary:
     """Run the jobs of *sweep* that are not finished, on a local Dask cluster
-    of *workers* processes or on the scheduler at *scheduler* (see the module
-    docstring). *drjit_threads*: Dr.Jit threads per worker (local default:
-    the cores shared out). *progress*: as for
+    of *workers* processes, on the scheduler at *scheduler*, or on Slurm
+    worker jobs (*slurm*: a :class:`~mitsuba_pbrdf.batch.slurm_options.SlurmOptions`;
+    see the module docstring). *drjit_threads*: Dr.Jit threads per worker (local default:
+    the cores shared out; Slurm: the job's cores). *progress*: as for
     :func:`~mitsuba_pbrdf.rendering.progress.progress_reporter` (a bar over jobs).
     Returns a :class:`SweepSummary`."""
     from dask.distributed import as_completed
 
     from ..rendering.progress import progress_reporter
-    from .cluster import ALLOWED_FAILURES, connect
+    from .cluster import ALLOWED_FAILURES
 
     start = time.perf_counter()
     summary = SweepSummary(jobs=len(sweep.jobs), manifest=sweep.manifest)
@@ -143,16 +186,18 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
 
     last_save = 0.0
     try:
-        with connect(workers=workers, scheduler=scheduler, drjit_threads=drjit_threads,
-                     allowed_failures=ALLOWED_FAILURES if allowed_failures is None
-                     else allowed_failures) as (client, threads):
+        with _connect(sweep, workers, scheduler, slurm, drjit_threads,
+                      ALLOWED_FAILURES if allowed_failures is None
+                      else allowed_failures) as (client, threads, explain):
             summary.workers = len(client.scheduler_info().get("workers", {}))
             run = f"{uuid.uuid4().hex[:8]}"
             futures = {}
+            keys = {}
             for job in todo:
                 future = client.submit(run_job, _task(sweep, job), threads, pure=False,
                                        key=f"pbrdf-{job.name}-{run}")
                 futures[future] = job
+                keys[future.key] = job.name
             try:
                 with progress_reporter(len(todo), f"batch {os.path.basename(sweep.path)}",
                                        progress, steps=len(todo), unit="jobs") as bar:
@@ -174,6 +219,8 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
                 save()  # before the cluster closes: Ctrl-C there must not lose it
                 for future in futures:
                     future.cancel()
+                _add_notes(sweep, rows, client, keys, explain)
+                save()
     finally:
         save()  # Ctrl-C or any error: what finished is recorded
         _remove_stale_temporaries(sweep)

@@ -60,8 +60,10 @@ OUTPUTS = ("stokes", "aov", "polcam")
 POLCAM_KEYS = ("sensor", "band", "exposure", "full_well", "read_noise", "bits")
 MANIFEST_NAME = "manifest.csv"
 #: Manifest columns that are not parameters (a parameter may not take these names).
-FIXED_COLUMNS = ("job", "seed", "spp", "status", "seconds", "file", "aov", "polcam", "error")
-_KEYS = ("scene", "spp", "seed", "out", "variant", "bands", "outputs", "polcam", "params")
+FIXED_COLUMNS = ("job", "seed", "spp", "status", "seconds", "file", "aov", "polcam", "error",
+                 "note")
+_KEYS = ("scene", "spp", "seed", "out", "variant", "bands", "outputs", "polcam", "params",
+         "slurm")
 _NAME_MAX = 120
 
 
@@ -93,6 +95,8 @@ class Sweep:
     bands: Optional[str] = None
     outputs: Tuple[str, ...] = ("stokes",)
     polcam: Dict[str, object] = field(default_factory=dict)
+    #: the ``[slurm]`` table, checked (:func:`mitsuba_pbrdf.batch.slurm_options.slurm_options`)
+    slurm: Dict[str, object] = field(default_factory=dict)
     param_names: List[str] = field(default_factory=list)
     jobs: List[Job] = field(default_factory=list)
 
@@ -251,6 +255,21 @@ def _polcam_options(path, table, outputs) -> Dict[str, object]:
     return options
 
 
+def _slurm_table(path, table) -> Dict[str, object]:
+    """The ``[slurm]`` table (settings of ``pbrdf batch --slurm``), checked."""
+    from .slurm_options import SlurmError, slurm_options
+
+    if table is None:
+        return {}
+    if not isinstance(table, dict):
+        _fail(path, f"slurm must be a table ([slurm]), got {table!r}")
+    try:
+        slurm_options(table, where=f"{path}: ")
+    except SlurmError as e:
+        raise SweepError(str(e)) from None
+    return dict(table)
+
+
 def _scene_path(path: str, folder: str, scene: str) -> str:
     from ..rendering.scene_files import packaged_scene
 
@@ -314,6 +333,7 @@ def load_sweep(path) -> Sweep:
         _fail(path, "outputs: a name is listed twice")
 
     polcam = _polcam_options(path, data.get("polcam"), outputs)
+    slurm = _slurm_table(path, data.get("slurm"))
 
     table = data.get("params", {})
     if not isinstance(table, dict):
@@ -342,5 +362,6 @@ def load_sweep(path) -> Sweep:
     varying = [key for key in keys if len(values[key]) > 1]
     names = _job_names(combos, varying, os.path.splitext(os.path.basename(scene))[0])
     jobs = [Job(name=n, params=p, seed=job_seed(seed, p)) for n, p in zip(names, combos)]
-    return Sweep(path=path, scene=scene, out=out, spp=spp, seed=seed, variant=variant, bands=bands,
-                 outputs=tuple(outputs), polcam=polcam, param_names=keys, jobs=jobs)
+    return Sweep(path=path, scene=scene, out=out, spp=spp, seed=seed, variant=variant,
+                 bands=bands, outputs=tuple(outputs), polcam=polcam, slurm=slurm,
+                 param_names=keys, jobs=jobs)

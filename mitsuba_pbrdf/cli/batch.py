@@ -4,12 +4,14 @@ The whole sweep is checked before any worker starts (:func:`~mitsuba_pbrdf.batch
 Jobs already finished are skipped; the manifest ``OUT/manifest.csv`` is
 written atomically by this process only. Exit status: 0 when every job is
 done, 2 when some failed (the first failure on one line; the manifest has
-them all), 130 on Ctrl-C (the manifest records what finished)."""
+them all), 130 on Ctrl-C (the manifest records what finished; with
+``--slurm`` the worker jobs it submitted are cancelled)."""
 
 from __future__ import annotations
 
 import sys
 
+from .batch_slurm import slurm_arguments, slurm_settings
 from .common import PROG, CliError, positive_int, progress_options, require_file, show_progress
 
 
@@ -29,9 +31,11 @@ def run(args) -> int:
     except ImportError:
         raise CliError("pbrdf batch needs Dask: pip install 'mitsuba-pbrdf[batch]' "
                        "(or 'dask[distributed]')") from None
+    slurm = slurm_settings(args, sweep)
 
     summary = run_sweep(sweep, workers=args.workers, scheduler=args.scheduler,
-                        drjit_threads=args.drjit_threads, progress=show_progress(args))
+                        drjit_threads=args.drjit_threads, progress=show_progress(args),
+                        slurm=slurm)
     print(f"{PROG} batch: {summary.line()}")
     sys.stdout.flush()
     if summary.failed:
@@ -56,8 +60,13 @@ def add_parser(subparsers):
     where.add_argument("--scheduler", default=None, metavar="ADDRESS",
                        help="run on an existing Dask scheduler (e.g. tcp://node:8786) instead "
                             "of a local cluster")
+    where.add_argument("--slurm", action="store_true",
+                       help="run the workers as Slurm jobs (dask-jobqueue); see the Slurm "
+                            "options below and the sweep file's [slurm] table")
     b.add_argument("--drjit-threads", type=int, default=None, metavar="N",
                    help="Dr.Jit threads per worker (default: local cluster: the cores shared "
-                        "out between the workers; --scheduler: the workers' own setting)")
+                        "out between the workers; --scheduler: the workers' own setting; not "
+                        "with --slurm, where each job's cores decide)")
+    slurm_arguments(b)
     progress_options(b)
     b.set_defaults(func=run)

@@ -12,7 +12,7 @@ import sys
 from typing import Optional, Sequence
 
 from ..outputs import atomic_path, write_json
-from .common import CliError, check_outputs, one_line, positive_int
+from .common import CliError, check_outputs, float_list, one_line, positive_int
 from .model_options import add_model_arguments
 
 
@@ -52,18 +52,28 @@ def _read(args):
     from ..fitting.table_sampling import sample_table
     from ..measured import MeasurementError, read_measurements
     from ..measured.pbsdf import PbsdfError, read_pbsdf
+    from ..measured.selection import select_observables, select_wavelengths
 
     path = args.data
     if not os.path.exists(path):
         raise CliError(f"measurement file not found: {path}")
+    wavelengths = float_list(args.wavelength, "--wavelength") if args.wavelength else None
+    if wavelengths and not all(math.isfinite(w) and w > 0 for w in wavelengths):
+        raise CliError(f"--wavelength takes wavelengths in nm, > 0, got {args.wavelength!r}")
     try:
         if is_pbsdf(path):
+            if args.layout != "auto":
+                raise CliError("--layout applies to CSV files (a .pbsdf table has one layout)")
             table = read_pbsdf(path)
             quantities = args.observables.split(",") if args.observables else None
-            return table, sample_table(table, args.cells, args.max_angle, args.seed, quantities)
+            data = sample_table(table, args.cells, args.max_angle, args.seed, quantities)
+            return table, select_wavelengths(data, wavelengths) if wavelengths else data
+        data = read_measurements(path, layout=args.layout)
+        if wavelengths:
+            data = select_wavelengths(data, wavelengths)
         if args.observables:
-            raise CliError("--observables applies to .pbsdf tables (a CSV file fits its columns)")
-        return None, read_measurements(path)
+            data = select_observables(data, args.observables.split(","))
+        return None, data
     except (MeasurementError, PbsdfError, ValueError) as e:
         raise CliError(one_line(e)) from e
 
@@ -86,7 +96,8 @@ def run(args) -> int:
         raise CliError(one_line(e)) from e
     if table is not None:
         print(f"table: {table.describe()}; fitted {len(data)} cell-wavelength entries "
-              f"({len(data) // max(table.wavelengths.size, 1)} cells, both directions within "
+              f"({len(data) // max(data.wavelengths.size, 1)} cells at "
+              f"{data.wavelengths.size} of its wavelengths, both directions within "
               f"{args.max_angle:g} deg of the normal)")
     print(report(data, results), end="")
     for r in results.values():
@@ -112,9 +123,17 @@ def add_parser(subparsers):
         "fit", help="fit the model to measurements (CSV) or a .pbsdf table",
         description="Fit the three-component pBRDF (and the two-component one) to "
                     "measurements in a CSV file (theta_i, phi_i, theta_r, phi_r (deg), "
-                    "wavelength (nm), m00..m33 and/or dolp, optional <quantity>_err) or to a "
+                    "wavelength (nm), m00..m33 and/or dolp, optional <quantity>_err), to a "
+                    "file in NIST's Mueller BRDF layout (see docs/fitting.md) or to a "
                     ".pbsdf table (KAIST database format; see docs/measured-data.md).")
     p.add_argument("data", metavar="FILE", help="measurements (.csv) or a pBRDF table (.pbsdf)")
+    p.add_argument("--layout", choices=("auto", "goniometer", "nist"), default="auto",
+                   help="CSV layout: goniometer (this project's), nist (NIST's Mueller BRDF "
+                        "files: lambda in um, signed thetai, f_r11 and f_rIJ/f_r11) or auto "
+                        "(told by the header; default)")
+    p.add_argument("--wavelength", default="",
+                   help="fit only the rows at these wavelengths (nm, comma-separated, "
+                        "within 0.5 nm), e.g. 532")
     p.add_argument("--model", choices=("three", "two", "both"), default="both")
     p.add_argument("--backend", choices=("reference", "drjit"), default="reference",
                    help="reference: NumPy float64 with scipy (default); drjit: the plugin")
@@ -127,14 +146,16 @@ def add_parser(subparsers):
                    help="assumed relative uncertainty of each value (default 0.05)")
     p.add_argument("--abs-uncertainty", type=float, default=0.005,
                    help="assumed absolute floor, times the column's largest value (CSV) or "
-                        "the entry's M00 (.pbsdf) (default 0.005)")
+                        "the entry's M00 (.pbsdf, NIST layout) (default 0.005)")
     p.add_argument("--cells", type=int, default=3000,
                    help=".pbsdf: number of table cells to fit (default 3000)")
     p.add_argument("--max-angle", type=float, default=80.0,
                    help=".pbsdf: leave out cells with the light or viewer further than this "
                         "from the normal (degrees, default 80)")
     p.add_argument("--observables", default="",
-                   help=".pbsdf: quantities to fit, e.g. m00,dolp (default: m00..m33)")
+                   help="quantities to fit, e.g. m00,m11,dolp (default: a .pbsdf table's "
+                        "m00..m33, a CSV file's columns; dolp is derived from m00, m10, m20 "
+                        "when the file has no dolp column)")
     p.add_argument("--seed", type=int, default=0, help=".pbsdf: seed of the cell sample")
     p.add_argument("--plot", help="write a PNG of fit versus data")
     p.add_argument("--json", help="write the results as JSON")

@@ -17,6 +17,9 @@ Pictures (PNG, palette-quantized to stay small enough to commit):
 * ``polcam.png``: what a polarization camera records of the copper sphere:
   the four polarizer images and the raw mono and colour sensor frames
   (:mod:`mitsuba_pbrdf.figures.polcam_figure`; ``pbrdf polcam``).
+* ``normalmap.png``: a hammered plate (``scenes/gallery/plate.xml``) with
+  Mitsuba's ``normalmap`` and with ``polarized_normalmap``
+  (its normal map: :mod:`mitsuba_pbrdf.figures.normalmap_plate`).
 * ``stokes_sheet.png``: every Stokes panel of ``scenes/default.xml`` (what
   ``pbrdf view --panels all`` draws).
 * ``pbrdf_plot.png``: the model's lobes and DoP (what ``pbrdf plot`` draws).
@@ -76,9 +79,9 @@ ROUGHNESS = (
 #: Polarizer angles of ``polarizer.png`` (degrees, counter-clockwise in the picture).
 POLARIZER_ANGLES = (0, 45, 90, 135)
 #: Everything ``run_gallery`` makes, in order.
-GALLERY_ITEMS = ("materials", "roughness", "polarizer", "polcam", "sheet", "plot")
+GALLERY_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet", "plot")
 #: The items that render scenes (the others need neither scenes nor a variant).
-RENDERED_ITEMS = ("materials", "roughness", "polarizer", "polcam", "sheet")
+RENDERED_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet")
 
 #: Colour quantization of committed PNGs (see pictures.panels.save_png).
 _PNG_COLOURS = 256
@@ -373,6 +376,20 @@ def render_polarizer(settings: _Settings):
     return save_png(fig, settings.out / "polarizer.png", dpi=100, colors=_PNG_COLOURS), check
 
 
+def render_normalmap_plate(settings: _Settings) -> str:
+    """``normalmap.png``: plate.xml with each wrapper of
+    :data:`~mitsuba_pbrdf.figures.normalmap_plate.WRAPPERS`."""
+    from .normalmap_plate import WRAPPERS, aolp_difference
+
+    images = {w: _render(settings, "plate.xml", f"plate_{w}", wrapper=w) for w, _ in WRAPPERS}
+    worst, median = aolp_difference(images["normalmap"], images["polarized_normalmap"])
+    fig = montage_figure(
+        [(label, images[w]) for w, label in WRAPPERS], dolp_max=0.3,
+        title=f"Hammered plate (plate.xml; {_subtitle(images['normalmap'])}): same intensity\n"
+              f"and DoLP, AoLP off by up to {worst:.0f}° (median {median:.0f}°) where DoLP ≥ 0.02")
+    return save_png(fig, settings.out / "normalmap.png", dpi=100, colors=_PNG_COLOURS)
+
+
 def render_polcam(settings: _Settings) -> str:
     """``polcam.png``: sphere.xml in copper as a polarization camera records it."""
     from .polcam_figure import polcam_figure
@@ -432,6 +449,8 @@ def run_gallery(out="gallery", scenes_dir=None, exr_dir="out/gallery", spp=None,
                 f"{k} {v:.1e}" for k, v in result["polarizer_check"].items()))
         elif item == "polcam":
             result[item] = render_polcam(settings)
+        elif item == "normalmap":
+            result[item] = render_normalmap_plate(settings)
         elif item == "sheet":
             result[item] = render_stokes_sheet(settings)
         elif item == "plot":

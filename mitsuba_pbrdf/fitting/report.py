@@ -116,9 +116,13 @@ def plot_fit(data: Measurements, results: Dict[str, FitResult], path, title=None
     quantities = list(data.observed)
     groups = _series(data)
     has_oop = any(not g[3] for g in groups)
-    ncols = len(quantities) + (1 if has_oop else 0)
-    fig = Figure(figsize=(5.0 * ncols, 4.2))
-    axes = fig.subplots(1, ncols, squeeze=False)[0]
+    panels = len(quantities) + (1 if has_oop else 0)
+    ncols = min(panels, 6)                 # all 16 elements: rows of 6, not one strip
+    nrows = -(-panels // ncols)
+    fig = Figure(figsize=(5.0 * ncols, 4.2 * nrows))
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax in axes[panels:]:
+        ax.set_visible(False)
     names, _, unc, index = weights(data, 0.05, 0.005)
     unc_full = {}
     for q, u, i in zip(names, unc, index):
@@ -144,7 +148,7 @@ def plot_fit(data: Measurements, results: Dict[str, FitResult], path, title=None
         ax.set_title(q)
         ax.legend(fontsize=6)
     if has_oop:
-        ax = axes[-1]
+        ax = axes[panels - 1]
         rows = next(g[1] for g in groups if not g[3])
         for m, r in results.items():
             for q in quantities:

@@ -43,8 +43,11 @@ def plot_table_fit(table: PbsdfTable, results, path, title=None):
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
 
-    j = table.wavelengths.size // 2
-    wavelength = table.wavelengths[j]
+    # the middle of the fitted wavelengths (all the table's, or those chosen):
+    # j indexes the fit's n, k; the table is looked up at that wavelength
+    fitted = next(iter(results.values())).wavelengths
+    j = fitted.size // 2
+    wavelength = float(fitted[j])
     fig = Figure(figsize=(13, 8.5))
     axes = fig.subplots(2, 3)
     colors = matplotlib.colormaps["tab10"]
@@ -71,9 +74,11 @@ def plot_table_fit(table: PbsdfTable, results, path, title=None):
     ax = axes[0, 2]
     for name, r in results.items():
         ax.bar([f"{name}\n{q}" for q in ("m00 rel", "dolp")],
-               [r.relative_rms.get("m00", np.nan), _dolp_rms(r, table, j)], alpha=0.7)
+               [r.relative_rms.get("m00", np.nan), _dolp_rms(r, table, j, wavelength)],
+               alpha=0.7)
     ax.set_title("RMS residual (M00 relative; DoLP absolute)")
-    _hemisphere(axes[1], table, results.get("three") or next(iter(results.values())), j)
+    _hemisphere(axes[1], table, results.get("three") or next(iter(results.values())), j,
+                wavelength)
     if title:
         fig.suptitle(title)
     fig.tight_layout()
@@ -81,23 +86,23 @@ def plot_table_fit(table: PbsdfTable, results, path, title=None):
     return path
 
 
-def _dolp_rms(r, table, j):
+def _dolp_rms(r, table, j, wavelength):
     rng = np.random.default_rng(0)
     ti = rng.uniform(0, 75, 400)
     tr = rng.uniform(0, 75, 400)
     pr = rng.uniform(0, 360, 400)
-    M = lookup(table, _direction(ti, 0.0), _direction(tr, pr), table.wavelengths[j])
+    M = lookup(table, _direction(ti, 0.0), _direction(tr, pr), wavelength)
     F = _model(r, j, ti, 0.0, tr, pr)
     ok = M[:, 0, 0] > 1e-3 * M[:, 0, 0].max()
     return float(np.sqrt(np.mean((ref.dop_unpolarized(M) - ref.dop_unpolarized(F))[ok] ** 2)))
 
 
-def _hemisphere(axes, table, r, j, theta_i=45.0, size=81):
+def _hemisphere(axes, table, r, j, wavelength, theta_i=45.0, size=81):
     x, y = np.meshgrid(np.linspace(-1, 1, size), np.linspace(-1, 1, size))
     inside = x * x + y * y < 0.985
     z = np.sqrt(np.clip(1 - x * x - y * y, 0, 1))
     V = np.stack([x, y, z], -1)
-    M = lookup(table, _direction(theta_i, 180.0), V, table.wavelengths[j])
+    M = lookup(table, _direction(theta_i, 180.0), V, wavelength)
     theta_r = np.degrees(np.arccos(np.clip(z, 0, 1)))
     F = _model(r, j, theta_i, 180.0, theta_r, np.degrees(np.arctan2(y, x)))
     top = max(np.nanmax(M[..., 0, 0][inside]), 1e-12)

@@ -7,10 +7,11 @@ oracle in :mod:`.oracle`). Readers check what they read and name the file,
 line and column (or field) of anything wrong. NumPy only, except
 :mod:`.oracle`, which renders."""
 
+from .layouts import LAYOUTS, read_measurements
 from .measurements import (ANGLES, ELEMENTS, OBSERVABLES, MeasurementError, Measurements,
-                           check_measurements, read_measurements, write_measurements)
+                           check_measurements, write_measurements)
 from .pbsdf import PbsdfError, PbsdfTable, check_renderable, read_pbsdf, write_pbsdf
 
 __all__ = ["ANGLES", "ELEMENTS", "OBSERVABLES", "MeasurementError", "Measurements",
-           "check_measurements", "read_measurements", "write_measurements",
+           "check_measurements", "LAYOUTS", "read_measurements", "write_measurements",
            "PbsdfError", "PbsdfTable", "check_renderable", "read_pbsdf", "write_pbsdf"]

@@ -23,6 +23,7 @@ interpolation error); :data:`KAIST_GRID` is the database's 361 x 91 x 91 grid
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
@@ -32,8 +33,8 @@ from ..reference.params import PBRDFParams
 from .pbsdf import write_pbsdf
 from .rusinkiewicz import angles, directions, global_to_facet
 
-__all__ = ["Grid", "DEFAULT_GRID", "KAIST_GRID", "KAIST_WAVELENGTHS", "parse_grid",
-           "tabulate", "export_pbsdf"]
+__all__ = ["Grid", "DEFAULT_GRID", "KAIST_GRID", "KAIST_WAVELENGTHS", "MAX_BANDS", "parse_grid",
+           "parse_bands", "tabulate", "export_pbsdf"]
 
 #: Cells with the light or the viewer closer to the horizon than this cosine
 #: (0.06 mrad) hold 0, the model's value at and below the horizon.
@@ -41,6 +42,14 @@ HORIZON = 1e-6
 
 #: The KAIST database's five bands (nm).
 KAIST_WAVELENGTHS = (450, 500, 550, 600, 650)
+
+#: The most wavelengths a table may have (a hyperspectral camera's 400-1000 nm
+#: in 1-nm steps is 601).
+MAX_BANDS = 2048
+
+#: Wavelengths evaluated at once by :func:`tabulate` (bounds its float64
+#: intermediates for hyperspectral tables).
+BAND_CHUNK = 8
 
 
 @dataclass(frozen=True)
@@ -92,13 +101,58 @@ def parse_grid(text) -> Grid:
     return Grid(int(m[1]), int(m[2]), int(m[3]), (m[4] or "-square")[1:])
 
 
+def parse_bands(text, what="--bands"):
+    """Wavelengths (whole nm, strictly increasing, 1 to :data:`MAX_BANDS` of
+    them) from comma-separated items, each a wavelength or ``START:STOP:STEP``
+    (STOP included when on the grid), e.g. ``400:700:10`` or ``450,550,650``.
+    ValueError naming ``what`` otherwise."""
+    text = str(text).strip()
+    items = [i.strip() for i in text.split(",")]
+    if not text or any(not i for i in items):
+        raise ValueError(f"{what}: expected comma-separated wavelengths in nm or "
+                         f"START:STOP:STEP, got {text!r}")
+    out = []
+    for item in items:
+        parts = item.split(":")
+        try:
+            numbers = [float(p) for p in parts]
+        except ValueError:
+            raise ValueError(f"{what}: {item!r} is not a wavelength (nm) or "
+                             f"START:STOP:STEP") from None
+        if len(parts) not in (1, 3) or not all(math.isfinite(v) and v == round(v)
+                                               for v in numbers):
+            raise ValueError(f"{what}: {item!r} must be a whole number of nm or "
+                             f"START:STOP:STEP of whole nm")
+        if len(parts) == 1:
+            out.append(int(numbers[0]))
+            continue
+        start, stop, step = (int(v) for v in numbers)
+        if step <= 0 or stop < start:
+            raise ValueError(f"{what}: {item!r} needs STEP > 0 and STOP >= START")
+        if (stop - start) // step + 1 > MAX_BANDS:
+            raise ValueError(f"{what}: {item!r} gives more than {MAX_BANDS} wavelengths")
+        out.extend(range(start, stop + 1, step))
+    if len(out) > MAX_BANDS:
+        raise ValueError(f"{what}: {len(out)} wavelengths; at most {MAX_BANDS}")
+    if any(not 1 <= w <= 65535 for w in out):
+        raise ValueError(f"{what}: wavelengths must lie in 1..65535 nm (stored as uint16), "
+                         f"got {text!r}")
+    if any(b <= a for a, b in zip(out, out[1:])):
+        raise ValueError(f"{what}: wavelengths must be strictly increasing, got {text!r}")
+    return out
+
+
 def tabulate(params: PBRDFParams, phi_d, theta_d, theta_h, wavelengths):
     """The table ``(len(phi_d), len(theta_d), len(theta_h), W, 4, 4)`` (float64)
     of the model at these grid values (radians) and wavelengths (nm)."""
     pd, td, th = np.meshgrid(phi_d, theta_d, theta_h, indexing="ij")
     L, V = directions(pd, td, th)
     ti, pi_, tr, pr = angles(L, V)
-    M = params.evaluate(ti, pi_, tr, pr, np.asarray(wavelengths, dtype=np.float64))
+    wavelengths = np.asarray(wavelengths, dtype=np.float64)
+    # a few wavelengths at a time: a hyperspectral table's float64 intermediates
+    # would otherwise grow with its hundreds of bands
+    M = np.concatenate([params.evaluate(ti, pi_, tr, pr, wavelengths[w:w + BAND_CHUNK])
+                        for w in range(0, len(wavelengths), BAND_CHUNK)], axis=-3)
     # on the horizon (cos 90 deg = 6e-17 in floating point) the model's 1/cos
     # gives up to 1e29: such a node would leak into every lookup near the horizon
     # (fireflies). The model's value at and below the horizon is 0.

@@ -47,7 +47,8 @@ from typing import Dict, List, Optional
 import numpy as np
 
 __all__ = ["ANGLES", "ELEMENTS", "OBSERVABLES", "MeasurementError", "Measurements",
-           "read_measurements", "check_measurements", "write_measurements"]
+           "read_goniometer", "read_table", "number_cell", "check_measurements",
+           "write_measurements"]
 
 ANGLES = ("theta_i", "phi_i", "theta_r", "phi_r")
 ELEMENTS = tuple(f"m{i}{j}" for i in range(4) for j in range(4))
@@ -96,7 +97,7 @@ class Measurements:
         return int(sum(np.isfinite(v).sum() for v in self.observed.values()))
 
 
-def _number(text, path, row, column, required):
+def number_cell(text, path, row, column, required):
     text = (text or "").strip()
     if text == "":
         if required:
@@ -114,8 +115,13 @@ def _number(text, path, row, column, required):
     return value
 
 
-def read_measurements(path) -> Measurements:
-    """Read and check a measurement CSV (format in the module docstring)."""
+def read_table(path, what):
+    """The lines of a CSV file: ``(header line number, header (stripped,
+    lower case), rows)`` where ``rows`` yields ``(line number, cells)``, each
+    row with as many cells as the header and a last row cut short by the end of
+    the file refused (:class:`MeasurementError` naming the line). ``#`` lines
+    and blank lines are skipped but keep their place in the numbering. ``what``
+    says what the header should hold (for the empty-file message)."""
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise MeasurementError(f"{path}: no such file")
@@ -126,15 +132,36 @@ def read_measurements(path) -> Measurements:
     lines = [(number, line) for number, line in enumerate(text.splitlines(), start=1)
              if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
-        raise MeasurementError(f"{path}: empty file (expected a header row: "
-                               f"{', '.join(ANGLES)}, wavelength, m00 ...)")
+        raise MeasurementError(f"{path}: empty file (expected a header row: {what})")
     truncated = not text.endswith(("\n", "\r"))
-    reader = ((number, next(csv.reader([line]), [])) for number, line in lines)
-    header_line, header = next(reader)
-    header = [h.strip().lower() for h in header]
+    header_line = lines[0][0]
+    header = [h.strip().lower() for h in next(csv.reader([lines[0][1]]), [])]
     duplicates = sorted({h for h in header if header.count(h) > 1})
     if duplicates:
         raise MeasurementError(f"{path}: duplicate column(s) {', '.join(duplicates)}")
+    last = lines[-1][0]
+
+    def rows():
+        for row_number, line in lines[1:]:
+            row = next(csv.reader([line]), [])
+            if len(row) != len(header):
+                cut = " (the file ends there without a newline: cut short?)" if (
+                    truncated and row_number == last) else ""
+                raise MeasurementError(f"{path}: line {row_number}: {len(row)} fields, "
+                                       f"the header has {len(header)}{cut}")
+            if truncated and row_number == last:
+                cell = row[-1].strip()
+                if cell and cell[-1] in ".eE+-":
+                    raise MeasurementError(
+                        f"{path}: line {row_number}: column {header[-1]!r} = {cell!r} is cut "
+                        f"short (the file ends there without a newline)")
+            yield row_number, row
+    return header_line, header, rows()
+
+
+def read_goniometer(path, header, reader) -> Measurements:
+    """The measurements of a goniometer CSV file (this module's layout) from
+    :func:`read_table`'s header and rows."""
     required = list(ANGLES) + ["wavelength"]
     missing = [c for c in required if c not in header]
     if missing:
@@ -155,30 +182,18 @@ def read_measurements(path) -> Measurements:
 
     columns = {c: [] for c in required + quantities + errors}
     numbers = []
-    last = lines[-1][0]
     for row_number, row in reader:
-        if len(row) != len(header):
-            cut = " (the file ends there without a newline: cut short?)" if (
-                truncated and row_number == last) else ""
-            raise MeasurementError(f"{path}: line {row_number}: {len(row)} fields, "
-                                   f"the header has {len(header)}{cut}")
-        if truncated and row_number == last:
-            cell = row[-1].strip()
-            if cell and cell[-1] in ".eE+-":
-                raise MeasurementError(
-                    f"{path}: line {row_number}: column {header[-1]!r} = {cell!r} is cut "
-                    f"short (the file ends there without a newline)")
         cells = dict(zip(header, row))
         for c in required:
-            columns[c].append(_number(cells[c], path, row_number, c, True))
-        values = {c: _number(cells[c], path, row_number, c, False) for c in quantities}
+            columns[c].append(number_cell(cells[c], path, row_number, c, True))
+        values = {c: number_cell(cells[c], path, row_number, c, False) for c in quantities}
         if all(math.isnan(v) for v in values.values()):
             raise MeasurementError(f"{path}: line {row_number}: no measured value "
                                    f"({', '.join(quantities)} all empty)")
         for c in quantities:
             columns[c].append(values[c])
         for c in errors:
-            v = _number(cells[c], path, row_number, c, False)
+            v = number_cell(cells[c], path, row_number, c, False)
             if math.isnan(v) and not math.isnan(values[c[:-4]]):
                 raise MeasurementError(f"{path}: line {row_number}: {c!r} is empty but "
                                        f"{c[:-4]!r} is given")

@@ -44,6 +44,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..registry import use_variant
+from ..shading import warn_unpolarized_wrappers
 from ..variant import default_variant
 from .bands import SpectralBands, parse_bands, require_spectral_bands
 from .cube import check_cube_spp, cube_image, cube_pass, load_cube_scene
@@ -292,6 +293,7 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
                  else load_cube_scene(scene_path, params))
     t1 = time.perf_counter()
     check_loaded_scene(scene, scene_path, params, spp)
+    warn_unpolarized_wrappers(scene)
 
     sensor = scene.sensors()[0]
     total_spp = int(spp if spp is not None else sensor.sampler().sample_count())

@@ -1,0 +1,297 @@
+"""A sweep's workers as Slurm jobs (``pbrdf batch --slurm``, docs/batch.md),
+started with dask-jobqueue's ``SLURMCluster``; the scheduler runs in the
+``pbrdf batch`` process.
+
+:func:`connect_slurm` checks before it submits anything: Slurm answers
+(``scontrol``), the partition exists and is up, and ``sbatch --test-only``
+accepts the worker job (cores, memory, walltime, extra directives). Then it
+submits ``jobs`` worker jobs, each one Dask worker process of one thread (one
+render at a time) whose Dr.Jit pool has as many threads as the job has
+cores, and waits until one runs (else a one-line error naming the partition
+and ``squeue``'s reason). A worker job that ends (``scancel``, walltime,
+node failure) is replaced while the sweep runs; its render runs again on
+another worker. On exit (end, error, Ctrl-C) every job it submitted is
+cancelled: ``SLURMCluster.close`` cancels those it knows, then whatever is
+still queued under the sweep's own job name (``pbrdf-<random>``) is
+cancelled by id; no other job is touched.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import os
+import subprocess
+import tempfile
+import threading
+import time
+import uuid
+from typing import Dict, List, Optional
+
+from .cluster import ALLOWED_FAILURES, WorkerSetup
+from .slurm_options import SlurmError, SlurmOptions, format_walltime
+
+__all__ = ["connect_slurm", "slurm_cluster_class", "SlurmWorkerSetup", "check_partition", "job_states",
+           "REPLACE_INTERVAL_S"]
+
+#: Seconds between two checks that the cluster still has its worker jobs.
+REPLACE_INTERVAL_S = 2.0
+#: Seconds to wait at exit for the worker jobs to leave Slurm's queue.
+LEAVE_TIMEOUT_S = 20.0
+#: Worker events (topic of Dask's event log) that map a worker to its Slurm job.
+EVENT_TOPIC = "pbrdf-slurm-worker"
+
+
+def slurm_cluster_class():
+    """dask-jobqueue's ``SLURMCluster``; SlurmError naming the ``cluster``
+    extra when it is not installed. dask-jobqueue 0.9 replaces the process's
+    SIGINT handler when imported (``sys.exit``: Ctrl-C would end the sweep
+    with status 0 and no record); the handler is put back."""
+    import signal
+
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.getsignal(signal.SIGINT) if main else None
+    try:
+        from dask_jobqueue import SLURMCluster
+    except ImportError:
+        raise SlurmError("--slurm needs dask-jobqueue: pip install 'mitsuba-pbrdf[cluster]' "
+                         "(the 'cluster' extra)") from None
+    finally:
+        if main and previous is not None:
+            signal.signal(signal.SIGINT, previous)
+    return SLURMCluster
+
+
+def _slurm(*argv: str, timeout: float = 30.0) -> subprocess.CompletedProcess:
+    """Run a Slurm client command; SlurmError when it cannot run at all."""
+    try:
+        return subprocess.run(list(argv), capture_output=True, text=True, timeout=timeout,
+                              stdin=subprocess.DEVNULL)
+    except FileNotFoundError:
+        raise SlurmError(f"Slurm is not reachable: no '{argv[0]}' command here (run on a login "
+                         "node of the cluster, or load its Slurm module)") from None
+    except subprocess.TimeoutExpired:
+        raise SlurmError(f"Slurm is not reachable: '{' '.join(argv)}' did not answer within "
+                         f"{timeout:.0f} s") from None
+
+
+def _first_line(done: subprocess.CompletedProcess) -> str:
+    text = (done.stderr or done.stdout or "").strip()
+    return text.splitlines()[0].strip() if text else f"exit status {done.returncode}"
+
+
+def _fields(line: str) -> Dict[str, str]:
+    """``Key=Value`` pairs of a one-line ``scontrol show ... -o`` record."""
+    out = {}
+    for item in line.split():
+        key, _, value = item.partition("=")
+        out[key] = value
+    return out
+
+
+def check_partition(partition: Optional[str]) -> str:
+    """The partition the workers go to (*partition*, or Slurm's default):
+    SlurmError when Slurm does not answer, or the partition is unknown or not up."""
+    done = _slurm("scontrol", "show", "partition", "-o")
+    if done.returncode != 0:
+        raise SlurmError(f"Slurm is not reachable: scontrol: {_first_line(done)}")
+    partitions = {f.get("PartitionName"): f for f in map(_fields, done.stdout.splitlines())
+                  if f.get("PartitionName")}
+    if partition is None:
+        default = [name for name, f in partitions.items() if f.get("Default") == "YES"]
+        if not default:
+            raise SlurmError(f"this Slurm has no default partition; choose one with --partition "
+                             f"({', '.join(partitions) or 'none defined'})")
+        partition = default[0]
+    if partition not in partitions:
+        raise SlurmError(f"--partition {partition!r}: no such Slurm partition; this cluster has "
+                         f"{', '.join(partitions) or 'none'}")
+    state = partitions[partition].get("State", "UP")
+    if state != "UP":
+        raise SlurmError(f"--partition {partition!r} is {state}: it starts no job")
+    return partition
+
+
+def job_states(ids: List[str]) -> Dict[str, Dict[str, str]]:
+    """``{job id: scontrol's fields}`` (JobState, Reason, TimeLimit...) of the
+    jobs Slurm still knows (finished ones for ``MinJobAge`` seconds)."""
+    out = {}
+    for job_id in ids:
+        done = _slurm("scontrol", "show", "job", "-o", str(job_id))
+        if done.returncode == 0 and done.stdout.strip():
+            out[str(job_id)] = _fields(done.stdout.splitlines()[0])
+    return out
+
+
+def _queued(job_name: str) -> List[List[str]]:
+    """``[id, state, reason]`` of this user's queued jobs named *job_name*."""
+    done = _slurm("squeue", "-h", "-u", str(os.getuid()), "-n", job_name, "-o", "%i|%T|%r")
+    if done.returncode != 0:
+        return []
+    return [line.split("|", 2) for line in done.stdout.splitlines() if line.strip()]
+
+
+def _cancel_leftovers(job_name: str, timeout: float = LEAVE_TIMEOUT_S):
+    """Cancel this user's jobs named *job_name* that are still queued, and
+    wait (at most *timeout* s) until they have left the queue, completing
+    ones included."""
+    deadline = time.monotonic() + timeout
+    while True:
+        queued = _queued(job_name)
+        if not queued or time.monotonic() > deadline:
+            return
+        ids = [job_id for job_id, state, _ in queued if state != "COMPLETING"]
+        if ids:
+            _slurm("scancel", *ids)
+        time.sleep(0.25)
+
+
+class SlurmWorkerSetup(WorkerSetup):
+    """Worker set-up in a Slurm job: Dr.Jit gets the job's cores
+    (``SLURM_CPUS_ON_NODE``, else *cores*; at least 2), and the worker reports
+    its Slurm job id to the scheduler's event log (:data:`EVENT_TOPIC`)."""
+
+    name = "pbrdf-slurm-worker-setup"
+
+    def __init__(self, cores: int):
+        super().__init__(drjit_threads=cores)
+        self.cores = cores
+
+    def setup(self, worker):
+        try:
+            self.drjit_threads = int(os.environ.get("SLURM_CPUS_ON_NODE", self.cores))
+        except ValueError:
+            self.drjit_threads = self.cores
+        super().setup(worker)
+        worker.log_event(EVENT_TOPIC, {"worker": worker.address,
+                                       "job": os.environ.get("SLURM_JOB_ID", "")})
+
+
+def _test_only(script: str):
+    """``sbatch --test-only`` of the worker job script: SlurmError with sbatch's reason."""
+    with tempfile.NamedTemporaryFile("w", suffix=".sh", delete=False) as f:
+        f.write(script)
+    try:
+        done = _slurm("sbatch", "--test-only", f.name)
+    finally:
+        os.unlink(f.name)
+    if done.returncode != 0:
+        raise SlurmError(f"sbatch refuses the worker job: {_first_line(done)}")
+
+
+class _Keeper(threading.Thread):
+    """Asks the cluster for its worker jobs again every few seconds, so a
+    job that ended (scancel, walltime) is replaced once Dask gives it up."""
+
+    def __init__(self, cluster, jobs: int):
+        super().__init__(daemon=True, name="pbrdf-slurm-keeper")
+        self.cluster, self.jobs = cluster, jobs
+        self.stop = threading.Event()
+
+    def run(self):
+        while not self.stop.wait(REPLACE_INTERVAL_S):
+            try:
+                self.cluster.scale(jobs=self.jobs)
+            except Exception:  # pragma: no cover - closing
+                return
+
+
+def _stop(keeper: Optional[_Keeper]):
+    """Stop *keeper* and wait for it: no job may be submitted once closing starts."""
+    if keeper is not None:
+        keeper.stop.set()
+        keeper.join()
+
+
+def _worker_jobs(client) -> Dict[str, str]:
+    """``{worker address: Slurm job id}`` from the workers' events."""
+    return {msg["worker"]: msg["job"] for _, msg in client.get_events(EVENT_TOPIC)
+            if isinstance(msg, dict) and msg.get("job")}
+
+
+def _explainer(client):
+    """``explain(addresses) -> {address: why its worker left}`` for Slurm workers."""
+
+    def explain(addresses):
+        jobs = _worker_jobs(client)
+        states = job_states(sorted({jobs[a] for a in addresses if a in jobs}))
+        out = {}
+        for address in addresses:
+            job = jobs.get(address)
+            fields = states.get(job, {})
+            state = fields.get("JobState", "")
+            if not job:
+                out[address] = "its Slurm worker was lost before it reported its job id"
+            elif state == "CANCELLED":
+                out[address] = f"its worker's Slurm job {job} was cancelled"
+            elif state == "TIMEOUT":
+                out[address] = (f"its worker's Slurm job {job} reached its walltime "
+                                f"({fields.get('TimeLimit', '?')})")
+            elif state:
+                out[address] = (f"its worker's Slurm job {job} ended: {state} "
+                                f"(reason {fields.get('Reason', 'None')})")
+            else:
+                out[address] = f"its worker's Slurm job {job} ended"
+        return out
+
+    return explain
+
+
+@contextlib.contextmanager
+def connect_slurm(options: SlurmOptions, log_directory: str,
+                  allowed_failures: int = ALLOWED_FAILURES):
+    """A ``dask.distributed.Client`` on Slurm worker jobs (module docstring).
+    Yields ``(client, explain)``: *explain* maps addresses of workers that
+    left to one line each. Slurm's logs of the jobs go to *log_directory*.
+    Raises :class:`SlurmError` (one line) when the workers cannot start."""
+    import dask
+
+    cluster_class = slurm_cluster_class()
+    partition = check_partition(options.partition)
+    os.makedirs(log_directory, exist_ok=True)
+    # read by the scheduler (in this process) while the sweep runs, so set throughout
+    settings = {"distributed.scheduler.worker-saturation": 1.0,
+                "distributed.scheduler.allowed-failures": int(allowed_failures),
+                # give up a lost worker's job after 1 s (Dask: 15 s), so it is replaced soon
+                "distributed.deploy.lost-worker-timeout": "1s"}
+    with dask.config.set(settings):
+        yield from _session(cluster_class, options, partition, log_directory)
+
+
+def _session(cluster_class, options: SlurmOptions, partition: str, log_directory: str):
+    """The body of :func:`connect_slurm` (a generator it delegates to)."""
+    from dask.distributed import Client
+
+    job_name = f"pbrdf-{uuid.uuid4().hex[:8]}"
+    cluster = cluster_class(
+        cores=1, processes=1, job_cpu=options.cores, memory=options.memory,
+        walltime=format_walltime(options.walltime_s), queue=partition, job_name=job_name,
+        log_directory=log_directory, job_extra_directives=list(options.sbatch),
+        scheduler_options={"dashboard_address": None}, silence_logs=logging.CRITICAL)
+    keeper = None
+    try:
+        _test_only(cluster.job_script())
+        client = Client(cluster)
+        try:
+            client.register_plugin(SlurmWorkerSetup(options.cores))
+            cluster.scale(jobs=options.jobs)
+            keeper = _Keeper(cluster, options.jobs)
+            keeper.start()
+            try:
+                client.wait_for_workers(1, timeout=options.start_timeout)
+            except (TimeoutError, asyncio.TimeoutError):
+                queued = _queued(job_name)
+                why = ", ".join(sorted({f"{s} ({r})" for _, s, r in queued})) or \
+                    "no job in the queue: sbatch failed, see the logs in " + log_directory
+                raise SlurmError(f"no worker job started within {options.start_timeout:g} s on "
+                                 f"partition {partition!r} (squeue: {why}); the jobs were "
+                                 "cancelled") from None
+            yield client, _explainer(client)
+        finally:
+            _stop(keeper)
+            client.close()
+    finally:
+        _stop(keeper)
+        cluster.close()
+        _cancel_leftovers(job_name)

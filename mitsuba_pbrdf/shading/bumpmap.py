@@ -1,0 +1,203 @@
+"""``polarized_bumpmap``: Mitsuba's ``bumpmap`` with the Stokes bases put right.
+
+.. list-table::
+   :header-rows: 1
+
+   * - Parameter
+     - Type
+     - Description
+     - Default
+     - Flags
+   * - (nested texture)
+     - texture (``bitmap`` with ``raw`` = true, one channel)
+     - The height field, in scene units per unit of ``scale`` (any name).
+       Only its UV gradient matters: a constant offset changes nothing.
+       Non-finite heights are refused at load time.
+     - (required)
+     - |exposed|, |differentiable|, |discontinuous|
+   * - (nested plugin)
+     - bsdf
+     - The BSDF the bump map perturbs (``pbrdf``, ``roughconductor``, ...).
+     - (required)
+     - |exposed|, |differentiable|, |discontinuous|
+   * - ``scale``
+     - float
+     - Multiplier of the height gradient; finite.
+     - 1.0
+     - |exposed|
+   * - ``flip_invalid_normals``
+     - boolean
+     - Mirror the perturbed normal's tangential part where it faces away
+       from the viewer, as ``bumpmap`` does.
+     - true
+     - --
+   * - ``use_shadowing_function``
+     - boolean
+     - Multiply by Estevez et al. 2019's shadowing term of the perturbed
+       normal, as ``bumpmap`` does (see :mod:`.normalmap`).
+     - true
+     - --
+
+A drop-in replacement for Mitsuba 3.9.1's ``bumpmap``. The shading normal is
+that of the displaced surface p + scale · h(u, v) · n: with the height's UV
+gradient (h_u, h_v), dp/du gains n·h_u·scale and dp/dv gains n·h_v·scale (the
+change of n itself is neglected), and the normal is their normalized cross
+product; the tangent is ``dp_du`` projected off it. Same ``eval``/``pdf``/
+``eval_pdf``/``sample`` steps, flags and traversal (``nested_texture.data``,
+``nested_bsdf.*``, ``scale``) as ``bumpmap``, so unpolarized variants give
+what ``bumpmap`` gives; in polarized variants the nested Mueller matrix is
+rotated from the perturbed frame's Stokes bases into the unperturbed frame's
+(:mod:`.stokes_frames`, docs/conventions.md), which ``bumpmap`` leaves out.
+
+Kept from ``bumpmap``: the tangent is ``dp_du`` in world coordinates
+projected off the normal in shading coordinates. On shapes whose shading frame
+is not the world's axes, this turns the perturbed tangent about the normal.
+Isotropic nested BSDFs do not see the tangent (and the Stokes correction uses
+whatever tangent the frame has), anisotropic ones do. Changed: where that
+projection vanishes (shorter than 1e-3 |dp_du|: a shape turned so that its
+world ``dp_du`` lies along the local normal, e.g. a rectangle turned 90° about
+y with a flat height map), ``bumpmap``'s frame degenerates and it renders
+nearly black; ``polarized_bumpmap`` takes the shading frame's x axis projected
+off the normal there (as ``normalmap`` does).
+
+XML::
+
+    <bsdf type="polarized_bumpmap">
+        <texture name="height" type="bitmap">
+            <boolean name="raw" value="true"/>
+            <string name="filename" value="textures/height.exr"/>
+        </texture>
+        <float name="scale" value="0.5"/>
+        <bsdf type="roughconductor"/>
+    </bsdf>
+
+This module defines the class for the Mitsuba variant active when it is
+imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+"""
+
+from __future__ import annotations
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from . import perturbed
+from .props import flag, nested_objects, single_nested_bsdf
+
+#: The Mitsuba variant this module's class was built for (registry.variant_module).
+VARIANT = mi.variant()
+
+_NAME = "polarized_bumpmap"
+
+
+def check_heights(texture):
+    """Raise a one-line ``ValueError`` if the height texture stores a NaN or
+    infinite value."""
+    params = mi.traverse(texture)
+    for key in params.keys():
+        if key.split(".")[-1] in ("data", "value"):
+            values = np.asarray(dr.detach(params[key]).numpy() if hasattr(params[key], "numpy")
+                                else params[key], dtype=np.float64)
+            if not np.all(np.isfinite(values)):
+                raise ValueError(f"{_NAME}: the height texture contains NaN or infinite values")
+
+
+def bumpmap_frame(texture, scale, si, flip_invalid_normals, active):
+    """The perturbed frame of ``bumpmap`` in the unperturbed shading frame S
+    (see the module docstring for the tangent), and in world space."""
+    grad_uv = scale * texture.eval_1_grad(si, active)
+    n_sh = si.sh_frame.n
+    dp_du = dr.fma(n_sh, grad_uv.x - dr.dot(n_sh, si.dp_du), si.dp_du)
+    dp_dv = dr.fma(n_sh, grad_uv.y - dr.dot(n_sh, si.dp_dv), si.dp_dv)
+
+    n = dr.normalize(dr.cross(dp_du, dp_dv))
+    n = dr.select(dr.dot(si.n, n) < 0.0, -n, n)  # the geometric normal's side
+    n = si.to_local(n)
+    if flip_invalid_normals:
+        # Ensure that shading normals always face the incident direction.
+        flip = mi.Frame3f.cos_theta(si.wi) * dr.dot(si.wi, n) <= 0.0
+        n = dr.select(flip, mi.Vector3f(-n.x, -n.y, n.z), n)
+
+    frame_si = dr.zeros(mi.Frame3f)
+    frame_si.n = n
+    # bumpmap's tangent: dp_du (world) projected off n (shading frame) ...
+    s = dr.fma(-n, dr.dot(n, si.dp_du), si.dp_du)
+    # ... which vanishes where dp_du is along the local normal (a shape turned
+    # so that its world dp_du points along local z): there bumpmap's frame is
+    # degenerate (black); take S's x axis projected off n instead.
+    s = dr.select(dr.squared_norm(s) > 1e-6 * dr.squared_norm(si.dp_du), s,
+                  dr.fma(-n, n.x, mi.Vector3f(1.0, 0.0, 0.0)))
+    frame_si.s = dr.normalize(s)
+    frame_si.t = dr.cross(n, frame_si.s)
+
+    frame_world = dr.zeros(mi.Frame3f)
+    frame_world.n = si.to_world(frame_si.n)
+    frame_world.s = si.to_world(frame_si.s)
+    frame_world.t = si.to_world(frame_si.t)
+    return frame_si, frame_world
+
+
+class PolarizedBumpMap(mi.BSDF):
+    """Mitsuba's ``bumpmap`` with the nested Mueller matrix rotated into the
+    unperturbed frame's Stokes bases (module docstring)."""
+
+    def __init__(self, props):
+        super().__init__(props)
+        self.nested_bsdf = single_nested_bsdf(props, _NAME)
+        textures = nested_objects(props, mi.Texture)
+        if len(textures) != 1:
+            raise ValueError(f"{_NAME}: exactly one nested height texture must be given, "
+                             f"found {len(textures)}")
+        self.nested_texture = next(iter(textures.values()))
+        check_heights(self.nested_texture)
+        scale = props.get("scale", 1.0)
+        if not isinstance(scale, (int, float)) or not math.isfinite(scale):
+            raise ValueError(f"{_NAME}: parameter 'scale' must be a finite number, got {scale!r}")
+        self.scale = mi.Float(scale)
+        self.flip_invalid_normals = flag(props, _NAME, "flip_invalid_normals", True)
+        self.use_shadowing_function = flag(props, _NAME, "use_shadowing_function", True)
+        self.m_components = [self.nested_bsdf.flags(i)
+                             for i in range(self.nested_bsdf.component_count())]
+        self.m_flags = self.nested_bsdf.flags()
+
+    def traverse(self, callback):
+        disc = mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous
+        callback.put("nested_bsdf", self.nested_bsdf, disc)
+        callback.put("nested_texture", self.nested_texture, disc)
+        callback.put("scale", self.scale, mi.ParamFlags.NonDifferentiable)
+
+    def parameters_changed(self, keys):
+        if not keys or any(k.startswith("nested_texture.") for k in keys):
+            check_heights(self.nested_texture)
+
+    def frame(self, si, active=True):
+        return bumpmap_frame(self.nested_texture, self.scale, si, self.flip_invalid_normals,
+                             active)
+
+    def eval(self, ctx, si, wo, active=True):
+        return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
+                                  self.use_shadowing_function, want_pdf=False)[0]
+
+    def pdf(self, ctx, si, wo, active=True):
+        return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
+                                  self.use_shadowing_function, want_value=False)[1]
+
+    def eval_pdf(self, ctx, si, wo, active=True):
+        return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
+                                  self.use_shadowing_function)
+
+    def sample(self, ctx, si, sample1, sample2, active=True):
+        return perturbed.sample(self.nested_bsdf, ctx, si, sample1, sample2, active,
+                                *self.frame(si, active), self.use_shadowing_function,
+                                zero_pdf_on_wrong_side=False)
+
+    def eval_diffuse_reflectance(self, si, active=True):
+        return self.nested_bsdf.eval_diffuse_reflectance(si, active)
+
+    def to_string(self):
+        return (f"PolarizedBumpMap[\n  nested_bsdf = {self.nested_bsdf},\n"
+                f"  nested_texture = {self.nested_texture},\n  scale = {self.scale},\n"
+                f"  flip_invalid_normals = {self.flip_invalid_normals},\n"
+                f"  use_shadowing_function = {self.use_shadowing_function}\n]")
