@@ -51,6 +51,8 @@ class JobTask:
     outputs: tuple = ("stokes",)
     #: ``[polcam]`` options as ``((key, value), ...)`` (sensor, band, sensor model)
     polcam: tuple = ()
+    #: bands of a Stokes cube (``pbrdf render --bands`` syntax), or None
+    bands: Optional[str] = None
 
 
 @dataclass
@@ -137,7 +139,8 @@ def run_job(task: JobTask, drjit_threads: Optional[int] = None) -> JobResult:
         try:
             set_drjit_threads(drjit_threads)
             image, _ = render_scene_timed(task.scene, spp=task.spp, variant=task.variant,
-                                          seed=task.seed, params=task.params, progress=False)
+                                          seed=task.seed, params=task.params, progress=False,
+                                          bands=task.bands)
             result.spp = image.metadata.get("spp", "")
             image.metadata["job"] = task.name
             stokes = f"{task.name}.exr"

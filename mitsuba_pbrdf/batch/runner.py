@@ -77,7 +77,8 @@ class SweepSummary:
 def _task(sweep: Sweep, job) -> JobTask:
     return JobTask(name=job.name, scene=sweep.scene, params=dict(job.params), seed=job.seed,
                    spp=sweep.spp, variant=sweep.variant, out=sweep.out,
-                   outputs=tuple(sweep.outputs), polcam=tuple(sorted(sweep.polcam.items())))
+                   outputs=tuple(sweep.outputs), polcam=tuple(sorted(sweep.polcam.items())),
+                   bands=sweep.bands)
 
 
 def _result_row(job, result) -> Dict[str, str]:

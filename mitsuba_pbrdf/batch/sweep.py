@@ -7,6 +7,7 @@ Cartesian product defines the jobs of ``pbrdf batch`` (docs/batch.md).
     spp = 16
     seed = 0
     out = "renders"                   # relative to the sweep file
+    bands = "450:650:20"              # optional: a Stokes cube per job (pbrdf render --bands)
     outputs = ["stokes", "aov"]       # optional; default ["stokes"]; also "polcam"
     [polcam]                          # optional, with "polcam": the camera (pbrdf polcam)
     sensor = "colour"
@@ -61,7 +62,8 @@ MANIFEST_NAME = "manifest.csv"
 #: Manifest columns that are not parameters (a parameter may not take these names).
 FIXED_COLUMNS = ("job", "seed", "spp", "status", "seconds", "file", "aov", "polcam", "error",
                  "note")
-_KEYS = ("scene", "spp", "seed", "out", "variant", "outputs", "polcam", "params", "slurm")
+_KEYS = ("scene", "spp", "seed", "out", "variant", "bands", "outputs", "polcam", "params",
+         "slurm")
 _NAME_MAX = 120
 
 
@@ -89,6 +91,8 @@ class Sweep:
     spp: Optional[int] = None
     seed: int = 0
     variant: Optional[str] = None
+    #: bands of a Stokes cube per job (:func:`~mitsuba_pbrdf.rendering.bands.parse_bands` syntax)
+    bands: Optional[str] = None
     outputs: Tuple[str, ...] = ("stokes",)
     polcam: Dict[str, object] = field(default_factory=dict)
     #: the ``[slurm]`` table, checked (:func:`mitsuba_pbrdf.batch.slurm_options.slurm_options`)
@@ -181,6 +185,21 @@ def _param_values(path, key, values) -> List[str]:
             _fail(path, f"{where}: value {text!r} is listed twice")
         texts.append(text)
     return texts
+
+
+def _bands(path, value, variant: Optional[str]) -> str:
+    """The sweep's ``bands`` (a string in ``pbrdf render --bands`` syntax), checked."""
+    from ..errors import ParameterError
+    from ..rendering.bands import parse_bands, require_spectral_bands
+
+    text = _string(path, "bands", value)
+    try:
+        parse_bands(text)
+        if variant is not None:
+            require_spectral_bands(variant)
+    except ParameterError as e:
+        _fail(path, f"bands: {e.detail}")
+    return text
 
 
 def _check_variant(path, variant: str):
@@ -300,6 +319,7 @@ def load_sweep(path) -> Sweep:
     variant = _string(path, "variant", data["variant"]) if "variant" in data else None
     if variant is not None:
         _check_variant(path, variant)
+    bands = _bands(path, data["bands"], variant) if "bands" in data else None
 
     outputs = data.get("outputs", ["stokes"])
     if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
@@ -343,5 +363,5 @@ def load_sweep(path) -> Sweep:
     names = _job_names(combos, varying, os.path.splitext(os.path.basename(scene))[0])
     jobs = [Job(name=n, params=p, seed=job_seed(seed, p)) for n, p in zip(names, combos)]
     return Sweep(path=path, scene=scene, out=out, spp=spp, seed=seed, variant=variant,
-                 outputs=tuple(outputs), polcam=polcam, slurm=slurm, param_names=keys,
-                 jobs=jobs)
+                 bands=bands, outputs=tuple(outputs), polcam=polcam, slurm=slurm,
+                 param_names=keys, jobs=jobs)

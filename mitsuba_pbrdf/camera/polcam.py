@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Dict, Optional
 
 import numpy as np
@@ -42,7 +42,7 @@ from ..stokes.image import StokesImage, luminance_stokes
 
 __all__ = ["ANGLES", "MONO_LAYOUT", "BAYER_LAYOUT", "polarizer_images", "malus",
            "mono_layout", "colour_layout", "mono_mosaic", "colour_mosaic", "SensorModel",
-           "write_png16", "polcam_outputs", "polcam_file_names", "write_polcam_files"]
+           "write_png16", "is_cube", "polcam_outputs", "polcam_file_names", "write_polcam_files"]
 
 #: Polarizer angles of the four channels, degrees.
 ANGLES = (0, 45, 90, 135)
@@ -223,7 +223,14 @@ def polcam_outputs(image: StokesImage, sensor: str = "mono", band: Optional[str]
     """Everything ``pbrdf polcam`` writes, computed before anything is written:
     ``{suffix: value}`` with suffixes ``I0, I45, I90, I135`` (``{band: (H, W)}``
     channels), ``mosaic`` or ``mosaic_rgb`` (``{"Y": (H, W)}``) and, with
-    ``model.bits``, ``mosaic.png`` / ``mosaic_rgb.png`` (uint16 counts)."""
+    ``model.bits``, ``mosaic.png`` / ``mosaic_rgb.png`` (uint16 counts).
+
+    A Stokes cube (:func:`is_cube`) seen by the mono sensor without a *band*
+    gives one mosaic per band, as a monochrome polarization camera behind each
+    band's filter in turn: ``mosaic`` has one channel per band (named as the
+    bands), each with the sensor model applied on its own (its own exposure
+    when none is given, noise seed ``model.seed + band index``), and with
+    ``model.bits`` one ``mosaic_<band>.png`` per band."""
     if sensor not in ("mono", "colour"):
         raise ValueError(f"sensor must be 'mono' or 'colour', got {sensor!r}")
     if band is not None and band not in image.bands:
@@ -232,6 +239,8 @@ def polcam_outputs(image: StokesImage, sensor: str = "mono", band: Optional[str]
     if bad:
         raise ValueError(f"{bad} non-finite Stokes values (NaN or infinite); a camera image "
                          "needs finite ones")
+    if sensor == "mono" and band is None and is_cube(image):
+        return _cube_outputs(image, model)
     if sensor == "mono":
         raw, name = mono_mosaic(image, band), "mosaic"
     else:
@@ -246,6 +255,28 @@ def polcam_outputs(image: StokesImage, sensor: str = "mono", band: Optional[str]
     result[name] = {"Y": raw}
     if counts is not None:
         result[name + ".png"] = counts
+    return result
+
+
+def is_cube(image: StokesImage) -> bool:
+    """Whether *image* is a Stokes cube (``pbrdf render --bands``: band edges
+    in its metadata, more than one band)."""
+    return "band_edges_nm" in image.metadata and len(image.bands) > 1
+
+
+def _cube_outputs(image: StokesImage, model: Optional[SensorModel]) -> dict:
+    result = {f"I{a}": {b: plane[:, :, i] for i, b in enumerate(image.bands)}
+              for a, plane in polarizer_images(image).items()}
+    mosaics, counts = {}, {}
+    for i, name in enumerate(image.bands):
+        raw = mono_mosaic(image, name)
+        if model is not None and model.enabled:
+            raw, counts[name] = replace(model, seed=model.seed + i).apply(raw)
+        mosaics[name] = raw
+    result["mosaic"] = mosaics
+    for name, value in counts.items():
+        if value is not None:
+            result[f"mosaic_{name}.png"] = value
     return result
 
 

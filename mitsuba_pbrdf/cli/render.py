@@ -57,9 +57,10 @@ def run(args) -> int:
     warn_unused_picture_options(args, picture["panels"], "render")
     # the library's checks, once (errors name the parameter; run_command names the option)
     request = check_render(scene, spp=args.spp, variant=chosen_variant(args), params=params,
-                           passes=args.passes, wavelength=args.wavelength)
+                           passes=args.passes, wavelength=args.wavelength, bands=args.bands)
     band, variant = request.band, request.variant
-    bands = [band.name] if band is not None else ["R", "G", "B"]  # what stokes writes
+    bands = ([band.name] if band is not None else request.bands.names
+             if request.bands is not None else ["R", "G", "B"])  # what the render writes
     if picture["band"] not in (None, *bands):
         raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(bands)}")
     stem = _out_stem(args.out, scene)
@@ -82,7 +83,8 @@ def run(args) -> int:
     passes = int(image.metadata.get("passes", 1))
     image.metadata["title"] = (f"{name}: {variant}, {image.metadata['spp']} spp"
                                + (f" in {passes} passes" if passes > 1 else "")
-                               + (f", {band.describe()}" if band is not None else ""))
+                               + (f", {band.describe()}" if band is not None else "")
+                               + (f", {request.bands.describe()}" if request.bands else ""))
     exr = write_stokes_exr(exr_path, image)
     png = save_overview_png(png_path, image, quality=quality, **picture)
     print(_wrote(exr, existed[0],
@@ -115,6 +117,12 @@ def add_parser(subparsers):
                         "632.8) or averaged over a band WIDTH nm wide (e.g. 550:10), as one "
                         "Stokes band named after it; spectral variants only (see "
                         "docs/polarization-camera.md)")
+    r.add_argument("--bands", metavar="LIST", default=None,
+                   help="render a Stokes cube: S0-S3 averaged over each of several wavelength "
+                        "bands in one render, e.g. 450:650:20 (10 bands of 20 nm) or "
+                        "450:470,532:533,600:650 (LOW:HIGH bands); up to 64 bands within "
+                        "360-830 nm, EXR channels S0.460nm ...; spectral variants only (see "
+                        "docs/spectral-cube.md)")
     r.add_argument("-D", dest="define", action="append", metavar="key=value",
                    help="override a scene <default> parameter (repeatable)")
     picture_options(r, "intensity,dolp")

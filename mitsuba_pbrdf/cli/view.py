@@ -2,7 +2,12 @@
 
 Unusable pixels (non-finite, S0 < 0, polarization > 1;
 :mod:`mitsuba_pbrdf.stokes.quality`) are counted in a one-line warning and
-marked in the picture; a file with no usable pixel is an error (exit 2)."""
+marked in the picture; a file with no usable pixel is an error (exit 2).
+
+A Stokes cube (``pbrdf render --bands``) can be drawn as a contact sheet
+(``--cube``: S0, DoLP, AoLP per band) with the Stokes spectrum of a pixel or
+region (``--spectrum X,Y[,W,H]``, also written as ``<out>.csv``;
+:mod:`mitsuba_pbrdf.pictures.cube_sheet`); ``--band 460nm`` draws one band."""
 
 from __future__ import annotations
 
@@ -28,6 +33,8 @@ def run(args) -> int:
         image = read_stokes_exr(args.exr)
     except (StokesChannelError, ValueError) as e:
         raise CliError(one_line(e)) from e
+    if args.cube or args.spectrum is not None:
+        return _cube_sheet(args, image, out, existed)
     picture = picture_kwargs(args, image)
     warn_unused_picture_options(args, picture["panels"], "view")
     quality = report_quality(image, picture["band"], args.exr, "view")
@@ -35,6 +42,28 @@ def run(args) -> int:
         image.metadata["title"] = os.path.basename(args.exr)
     path = save_overview_png(out, image, quality=quality, **picture)
     print(f"{'replaced' if existed else 'wrote'} {path}")
+    return 0
+
+
+def _cube_sheet(args, image, out: str, existed: bool) -> int:
+    """``--cube`` / ``--spectrum``: the contact sheet (and the spectrum CSV)."""
+    from ..pictures.cube_sheet import parse_region, save_cube_sheet, write_spectrum_csv
+
+    if args.band is not None:
+        raise CliError("--band draws one band; --cube and --spectrum draw them all")
+    region = None if args.spectrum is None else parse_region(args.spectrum, image)
+    csv = os.path.splitext(out)[0] + ".csv"
+    if region is not None:
+        check_outputs(("--out", csv))
+    if not image.metadata.get("title"):
+        image.metadata["title"] = os.path.basename(args.exr)
+    dolp_max = args.dolp_max if args.dolp_max == "auto" else float(args.dolp_max)
+    path = save_cube_sheet(out, image, region=region, dolp_max=dolp_max,
+                           min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap)
+    print(f"{'replaced' if existed else 'wrote'} {path} ({len(image.bands)} bands)")
+    if region is not None:
+        print(f"wrote {write_spectrum_csv(csv, image, region)} (Stokes spectrum, "
+              f"{region.describe()})")
     return 0
 
 
@@ -51,4 +80,11 @@ def add_parser(subparsers):
     v.add_argument("--out", metavar="PNG", default=None,
                    help="output PNG, replaced if it exists (default: next to the EXR)")
     picture_options(v, "all")
+    v.add_argument("--cube", action="store_true",
+                   help="a Stokes cube's contact sheet: S0, DoLP and AoLP for every band "
+                        "(see docs/spectral-cube.md)")
+    v.add_argument("--spectrum", metavar="X,Y[,W,H]", default=None,
+                   help="with the contact sheet, the Stokes spectrum (S0 and S1-S3/S0 per band) "
+                        "of a pixel or the mean of a region (pixels from the top-left); also "
+                        "written as <out>.csv")
     v.set_defaults(func=run)

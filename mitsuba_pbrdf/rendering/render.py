@@ -46,6 +46,8 @@ from ..errors import ParameterError
 from ..registry import use_variant
 from ..shading import warn_unpolarized_wrappers
 from ..variant import default_variant
+from .bands import SpectralBands, parse_bands, require_spectral_bands
+from .cube import check_cube_spp, cube_image, cube_pass, load_cube_scene
 from .mitsuba_errors import SceneLoadError, interrupted, scene_load_errors
 from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
                          parse_wavelength, require_spectral)
@@ -161,7 +163,8 @@ class RenderRequest:
     """A render whose inputs :func:`check_render` has checked: the scene file,
     the variant (polarized; spectral for a band), the samples per pixel (None:
     the scene's), the number of passes (None: automatic), the ``$key``
-    parameters and the wavelength band (None: R, G, B)."""
+    parameters, the wavelength band (None: R, G, B) and the bands of a Stokes
+    cube (None: no cube)."""
 
     scene_path: str
     variant: str
@@ -169,19 +172,22 @@ class RenderRequest:
     passes: Optional[int] = None
     params: Optional[Mapping[str, object]] = None
     band: Optional[WavelengthBand] = None
+    bands: Optional[SpectralBands] = None
 
 
 def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] = None,
                  params: Optional[Mapping[str, object]] = None, passes: Optional[int] = None,
-                 wavelength=None) -> RenderRequest:
+                 wavelength=None, bands=None) -> RenderRequest:
     """Every check of a render that needs no loaded scene, once: ``spp`` and
     ``passes`` at least 1, the variant polarized (:func:`require_polarized`),
     ``params`` suited to what the scene does with them
     (:func:`~mitsuba_pbrdf.rendering.scene_params.check_parameter_values`),
     ``wavelength`` a band (:func:`~mitsuba_pbrdf.rendering.narrowband.parse_wavelength`)
-    and the variant spectral for it. Raises a ``ValueError`` naming the
+    and the variant spectral for it, ``bands`` a list of bands
+    (:func:`~mitsuba_pbrdf.rendering.bands.parse_bands`, spectral variants
+    only, not with ``wavelength``). Raises a ``ValueError`` naming the
     parameter (:class:`~mitsuba_pbrdf.errors.ParameterError` for ``spp``,
-    ``passes``, ``wavelength``). Sets no variant and loads nothing."""
+    ``passes``, ``wavelength``, ``bands``). Sets no variant and loads nothing."""
     for name, value in (("spp", spp), ("passes", passes)):
         if value is not None and int(value) < 1:
             raise ParameterError(name, f"must be at least 1, got {value}")
@@ -194,8 +200,17 @@ def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] =
         band = wavelength if isinstance(wavelength, WavelengthBand) else \
             parse_wavelength(wavelength)
         require_spectral(variant)
+    cube = None
+    if bands is not None:
+        if band is not None:
+            raise ParameterError("bands", "renders a Stokes cube; give wavelength (one band) or "
+                                 "bands, not both")
+        cube = parse_bands(bands)
+        require_spectral_bands(variant)
+        if spp is not None:
+            check_cube_spp(cube, int(spp))
     return RenderRequest(os.fspath(scene_path), variant, None if spp is None else int(spp),
-                         None if passes is None else int(passes), params, band)
+                         None if passes is None else int(passes), params, band, cube)
 
 
 def render_scene_timed(
@@ -207,6 +222,7 @@ def render_scene_timed(
     passes: Optional[int] = None,
     progress=False,
     wavelength=None,
+    bands=None,
 ):
     """Render the scene file; return its Stokes image and the timings:
     :func:`render_request` of :func:`check_render`'s request.
@@ -238,12 +254,19 @@ def render_scene_timed(
         (centre and width in nm) or a :class:`~.narrowband.WavelengthBand`; the
         image then has one Stokes band at that wavelength
         (:mod:`mitsuba_pbrdf.rendering.narrowband`; spectral variants only).
+    bands
+        None, or the bands of a Stokes cube: ``"450:650:20"``,
+        ``"450:470,532:533"`` (:mod:`mitsuba_pbrdf.rendering.bands`) or a
+        :class:`~.bands.SpectralBands`; the image then has one Stokes band per
+        band, named after its centre (``460nm``), each the band average of the
+        Stokes vector, from one render (:mod:`mitsuba_pbrdf.rendering.cube`;
+        spectral variants only).
 
     The returned image's ``metadata`` holds the scene, variant, spp, passes,
     seed, parameters and timings (keys ``time_<stage>_s``). Returns
     ``(image, timings)``; the timings are also logged at INFO level.
     """
-    request = check_render(scene_path, spp, variant, params, passes, wavelength)
+    request = check_render(scene_path, spp, variant, params, passes, wavelength, bands)
     return render_request(request, seed=seed, progress=progress)
 
 
@@ -261,18 +284,21 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
     response = None if request.band is None else band_response(request.band)
 
     t0 = time.perf_counter()
-    if response is None:
+    if response is None and request.bands is None:
         scene = load_scene(scene_path, params)
     else:
         if not os.path.isfile(os.fspath(scene_path)):
             raise FileNotFoundError(f"{os.fspath(scene_path)}: no such file")
-        scene = load_band_scene(scene_path, params, response)
+        scene = (load_band_scene(scene_path, params, response) if response is not None
+                 else load_cube_scene(scene_path, params))
     t1 = time.perf_counter()
     check_loaded_scene(scene, scene_path, params, spp)
     warn_unpolarized_wrappers(scene)
 
     sensor = scene.sensors()[0]
     total_spp = int(spp if spp is not None else sensor.sampler().sample_count())
+    if request.bands is not None:
+        check_cube_spp(request.bands, total_spp)
     size = sensor.film().crop_size()
     backend = "cuda" if variant.startswith("cuda") else "llvm"
     plan = plan_passes(total_spp, request.passes, pixels=int(size[0]) * int(size[1]),
@@ -286,14 +312,19 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
     try:
         t2 = time.perf_counter()
         history = []
-        accumulated = None
+        accumulated, first = None, 0
         with progress_reporter(total_spp, f"rendering {name} ({len(plan)} passes)", progress,
                                steps=len(plan)) as bar:
             for pass_spp, pass_seed in zip(plan, seeds):
                 try:
-                    tensor = mi.render(scene, spp=pass_spp, seed=pass_seed)
-                    # reading the result back runs the kernels
-                    array = np.array(tensor, dtype=np.float64) * (pass_spp / total_spp)
+                    if request.bands is not None:
+                        array = cube_pass(scene, request.bands, pass_spp, pass_seed, first,
+                                          total_spp)
+                    else:
+                        tensor = mi.render(scene, spp=pass_spp, seed=pass_seed)
+                        # reading the result back runs the kernels
+                        array = np.array(tensor, dtype=np.float64) * (pass_spp / total_spp)
+                    first += pass_spp
                 except RuntimeError as e:
                     if interrupted(e):
                         raise KeyboardInterrupt from e
@@ -301,7 +332,10 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
                 accumulated = array if accumulated is None else accumulated + array
                 history += dr.kernel_history()
                 bar.update(pass_spp)
-        image = from_mitsuba(accumulated.astype(np.float32), sensor.film())
+        if request.bands is not None:
+            image = cube_image(accumulated, request.bands)
+        else:
+            image = from_mitsuba(accumulated.astype(np.float32), sensor.film())
         if response is not None:
             image = band_image(image, response)
         t3 = time.perf_counter()

@@ -1,0 +1,163 @@
+"""Pictures of a Stokes cube (``pbrdf view --cube``): a contact sheet with
+one row per band (S0, DoLP, AoLP) and, for a pixel or a region, the Stokes
+spectrum: S0 (left axis, the cube's radiance units) and S1/S0, S2/S0, S3/S0
+(right axis) against the band centres in nm, with the region's mean.
+
+::
+
+    region = parse_region("10,8")            # a pixel: x, y (from the top-left)
+    region = parse_region("10,8,4,4")        # a region: x, y, width, height
+    spectrum = stokes_spectrum(image, region)  # (n_bands, 4), the region's mean
+    save_cube_sheet("sheet.png", image, region=region)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..stokes.image import StokesImage
+from .png import save_png
+
+__all__ = ["Region", "parse_region", "stokes_spectrum", "band_centres", "cube_sheet_figure",
+           "save_cube_sheet", "write_spectrum_csv"]
+
+
+@dataclass(frozen=True)
+class Region:
+    """Pixels x..x+width-1, y..y+height-1 (x to the right, y down from the top-left)."""
+
+    x: int
+    y: int
+    width: int = 1
+    height: int = 1
+
+    def describe(self) -> str:
+        if self.width == self.height == 1:
+            return f"pixel ({self.x}, {self.y})"
+        return f"region {self.width}x{self.height} at ({self.x}, {self.y})"
+
+
+def parse_region(text: str, image: Optional[StokesImage] = None) -> Region:
+    """``X,Y`` or ``X,Y,W,H`` (pixels); :class:`ParameterError` naming
+    ``spectrum`` if malformed or (with *image*) outside the image."""
+    parts = [p.strip() for p in str(text).split(",")]
+    try:
+        values = [int(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) not in (2, 4):
+        raise ParameterError("spectrum", f"expects X,Y (a pixel) or X,Y,W,H (a region), got "
+                             f"{text!r}")
+    region = Region(*values)
+    if region.x < 0 or region.y < 0 or region.width < 1 or region.height < 1:
+        raise ParameterError("spectrum", f"needs X, Y >= 0 and W, H >= 1, got {text!r}")
+    if image is not None and (region.x + region.width > image.width
+                              or region.y + region.height > image.height):
+        raise ParameterError("spectrum", f"{region.describe()} is outside the "
+                             f"{image.width}x{image.height} image")
+    return region
+
+
+def band_centres(image: StokesImage) -> np.ndarray:
+    """The band centres (nm) from the band names (``460nm`` -> 460); NaN for
+    a band not named so."""
+    out = []
+    for name in image.bands:
+        try:
+            out.append(float(name[:-2]) if name.endswith("nm") else math.nan)
+        except ValueError:
+            out.append(math.nan)
+    return np.array(out)
+
+
+def stokes_spectrum(image: StokesImage, region: Region) -> np.ndarray:
+    """Mean Stokes vector of *region* per band, shape (n_bands, 4), float64."""
+    block = image.stokes[region.y:region.y + region.height, region.x:region.x + region.width]
+    return block.astype(np.float64).mean(axis=(0, 1)).T
+
+
+def write_spectrum_csv(path, image: StokesImage, region: Region) -> str:
+    """The region's Stokes spectrum as CSV (band, centre_nm, S0..S3, DoLP),
+    written atomically."""
+    from ..outputs import atomic_path
+
+    spectrum = stokes_spectrum(image, region)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dolp = np.hypot(spectrum[:, 1], spectrum[:, 2]) / spectrum[:, 0]
+    lines = [f"# {region.describe()}", "band,centre_nm,S0,S1,S2,S3,DoLP"]
+    for name, c, s, d in zip(image.bands, band_centres(image), spectrum, dolp):
+        lines.append(",".join([name, f"{c:g}"] + [f"{v:.7g}" for v in s] + [f"{d:.7g}"]))
+    with atomic_path(path) as tmp:
+        with open(tmp, "w") as f:
+            f.write("\n".join(lines) + "\n")
+    return str(path)
+
+
+def _spectrum_axes(ax, image: StokesImage, region: Region):
+    spectrum = stokes_spectrum(image, region)
+    centres = band_centres(image)
+    x = centres if np.all(np.isfinite(centres)) else np.arange(len(image.bands))
+    ax.plot(x, spectrum[:, 0], "k-o", ms=3, label="S0")
+    ax.set_xlabel("wavelength (nm)" if x is centres else "band")
+    ax.set_ylabel("S0")
+    twin = ax.twinx()
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for i, colour in ((1, "tab:red"), (2, "tab:blue"), (3, "tab:green")):
+            twin.plot(x, spectrum[:, i] / spectrum[:, 0], "-s", ms=3, color=colour,
+                      label=f"S{i}/S0")
+    twin.set_ylabel("S1/S0, S2/S0, S3/S0")
+    lines = ax.get_legend_handles_labels()
+    more = twin.get_legend_handles_labels()
+    ax.legend(lines[0] + more[0], lines[1] + more[1], fontsize=7, loc="best")
+    ax.set_title(f"Stokes spectrum, {region.describe()}", fontsize=9)
+
+
+def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
+                      title: Optional[str] = None, panel_width: float = 2.6, **options):
+    """A matplotlib Figure: one row per band with S0, DoLP and AoLP (each
+    with its colour bar; S0 in grey with the band's own exposure), and with
+    *region* its Stokes spectrum on top, the region outlined in each S0 panel.
+    *options*: ``dolp_max`` (default ``"auto"``), ``min_dolp``, ``dolp_cmap``."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    from ..stokes.quality import assess
+    from .panels import plot_aolp, plot_dolp, plot_intensity
+
+    n = len(image.bands)
+    aspect = image.height / image.width
+    top = 1 if region is not None else 0
+    heights = [3.0] * top + [panel_width * aspect + 0.4] * n
+    fig = Figure(figsize=((panel_width + 0.8) * 3, sum(heights) + (0.4 if title else 0)),
+                 layout="constrained")
+    FigureCanvasAgg(fig)
+    grid = fig.add_gridspec(n + top, 3, height_ratios=heights)
+    if region is not None:
+        _spectrum_axes(fig.add_subplot(grid[0, :]), image, region)
+    for row, band in enumerate(image.bands):
+        quality = assess(image, band)
+        axes = [fig.add_subplot(grid[row + top, c]) for c in range(3)]
+        plot_intensity(axes[0], image, band=band, quality=quality, title=f"S0 [{band}]")
+        plot_dolp(axes[1], image, options.get("dolp_cmap", "viridis"),
+                  options.get("dolp_max", "auto"), band=band, quality=quality)
+        plot_aolp(axes[2], image, options.get("min_dolp", 0.01), band=band, quality=quality)
+        if region is not None:
+            axes[0].add_patch(Rectangle((region.x - 0.5, region.y - 0.5), region.width,
+                                        region.height, fill=False, edgecolor="red", lw=1))
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig
+
+
+def save_cube_sheet(path, image: StokesImage, region: Optional[Region] = None,
+                    title: Optional[str] = None, dpi: int = 100, **options) -> str:
+    """Write :func:`cube_sheet_figure` as a PNG (atomically); returns the path."""
+    if title is None:
+        title = image.metadata.get("title")
+    return save_png(cube_sheet_figure(image, region, title, **options), path, dpi=dpi)

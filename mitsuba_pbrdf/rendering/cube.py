@@ -1,0 +1,217 @@
+"""Stokes cubes (``pbrdf render --bands``): S0..S3 in many narrow wavelength
+bands from one render, one scene load and one set of kernels.
+
+Mitsuba's ``stokes`` integrator writes R, G, B only (and its ``specfilm``
+does not work inside ``stokes``), so the cube has its own render loop, in
+Dr.Jit, over the scene's integrator *inside* ``stokes`` (``path``, ``direct``
+or ``volpath``; the scene file is loaded with that integrator in place of
+``stokes``):
+
+1. a sample per (pixel, spp) at a uniform position in its pixel, splatted
+   with the film's reconstruction filter as Mitsuba's film does (weight
+   f(x) f(y) on each pixel of the filter's footprint, pixel values divided by
+   the sum of the weights they received; a box filter splats into the
+   sample's own pixel only);
+2. its 4 wavelengths drawn one per band in turn: the m-th wavelength of a
+   pixel (m = 4 k + j for its k-th sample, lane j, counted across passes)
+   lies in band m mod B (B bands), uniformly within it (position
+   (u + j/4) mod 1 of the band, u one random number per sample). So every band
+   gets the same number of wavelengths however narrow it is, n_b =
+   #{m < 4 spp : m mod B = b} in every pixel, a fixed count: a random count
+   (bands drawn at random) would add its own Poisson noise, about
+   1/sqrt(4 spp / B) of the band's value even where the spectrum is smooth;
+3. the Stokes vector (column 0 of the integrator's Mueller-matrix result)
+   rotated into the camera frame as ``stokes`` does
+   (:func:`mitsuba_pbrdf.integrators.film.camera_stokes`);
+4. each lane's Stokes vector, times the filter weight and spp / n_b,
+   scatter-added into the band that contains its wavelength; dividing by the
+   pixel's filter weight gives the band's mean over the wavelengths drawn
+   uniformly in it (with a box filter exactly the sum over the band's n_b
+   wavelengths / n_b).
+
+The expectation of band b is then (1/W_b) ∫_b S(λ) dλ, the band average of the
+Stokes vector: what ``pbrdf render --wavelength c:W_b`` gives for that band
+(:mod:`mitsuba_pbrdf.rendering.narrowband`). Each band gets about
+4 spp / B wavelength samples per pixel; a cube needs 4 spp >= B
+(:func:`band_counts`). Units: those of the scene's
+radiance (the band average of the spectral radiance); frames: the camera's
+(reference axis ray.d x the sensor's up vector).
+
+The sensor's camera weight is taken as 1 (pinhole perspective, orthographic
+and thin-lens cameras); scenes with a spectral response (``srf``) or a
+``specfilm`` are refused.
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..stokes.image import StokesImage
+from .bands import SpectralBands
+from .mitsuba_errors import scene_load_errors
+
+__all__ = ["scene_without_stokes", "load_cube_scene", "band_counts", "check_cube_spp",
+           "cube_pass", "cube_image"]
+
+
+def scene_without_stokes(scene_path) -> str:
+    """The scene file's XML with its ``stokes`` integrator replaced by the
+    integrator nested in it. :class:`ParameterError` (``bands``) if the scene
+    has no ``stokes`` integrator of its own, a sensor ``srf`` or a ``specfilm``."""
+    path = os.fspath(scene_path)
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as e:
+        raise ValueError(f"{path}: not readable XML ({e})") from None
+    children = list(root)
+    integrators = [c for c in children if c.tag == "integrator"]
+    if not integrators or integrators[0].get("type") != "stokes":
+        raise ParameterError("bands", f"{path} needs its own <integrator type=\"stokes\"> "
+                             "around path, direct or volpath")
+    stokes = integrators[0]
+    nested = [c for c in stokes if c.tag == "integrator"]
+    if len(nested) != 1:
+        raise ParameterError("bands", f"the stokes integrator of {path} must nest one integrator")
+    for sensor in root.findall("sensor"):
+        if any(child.get("name") == "srf" for child in sensor):
+            raise ParameterError("bands", f"the sensor of {path} has a spectral response (srf); "
+                                 "the bands replace it")
+        if any(child.tag == "film" and child.get("type") == "specfilm" for child in sensor):
+            raise ParameterError("bands", "the scene's film is a specfilm; use hdrfilm")
+    position = children.index(stokes)
+    root.remove(stokes)
+    root.insert(position, nested[0])
+    return ET.tostring(root, encoding="unicode")
+
+
+def load_cube_scene(scene_path, params):
+    """``mi.load_string`` of :func:`scene_without_stokes`, resolving relative
+    paths from the scene's folder as ``mi.load_file`` does."""
+    import mitsuba as mi
+
+    text = scene_without_stokes(scene_path)
+    resolver = mi.file_resolver()
+    saved = [resolver[i] for i in range(len(resolver))]
+    resolver.prepend(os.path.dirname(os.path.abspath(os.fspath(scene_path))))
+    try:
+        with scene_load_errors():
+            return mi.load_string(text, **{str(k): str(v) for k, v in (params or {}).items()})
+    finally:
+        resolver.clear()
+        for p in saved:
+            resolver.append(p)
+
+
+def band_counts(n_bands: int, total_spp: int) -> np.ndarray:
+    """Wavelengths per pixel in each band of a render of *total_spp* samples
+    per pixel (4 wavelengths each, band m mod B for the m-th)."""
+    return np.bincount(np.arange(4 * total_spp) % n_bands, minlength=n_bands)
+
+
+def check_cube_spp(bands: SpectralBands, total_spp: int):
+    """:class:`ParameterError` (``bands``) unless every band gets a wavelength."""
+    n = len(bands.edges)
+    if 4 * int(total_spp) < n:
+        raise ParameterError("bands", f"{n} bands need at least {-(-n // 4)} samples per pixel "
+                             f"(4 wavelengths each), got {total_spp}")
+
+
+def _footprint(rfilter):
+    """Pixel offsets (dx, dy) a sample can reach with *rfilter*; None for a box
+    filter of radius <= 0.5 (the sample's own pixel only)."""
+    radius = float(rfilter.radius())
+    if rfilter.class_name() == "BoxFilter" and radius <= 0.5:
+        return None
+    r = int(np.ceil(radius))
+    return [(dx, dy) for dy in range(-r, r + 1) for dx in range(-r, r + 1)]
+
+
+def cube_pass(scene, bands: SpectralBands, spp: int, seed: int, first: int,
+              total_spp: int) -> np.ndarray:
+    """One pass of *spp* samples per pixel, the pixel's samples *first* ..
+    *first* + spp - 1 of *total_spp*: its filter-weighted sums, float64 array
+    (H, W, 4 n_bands + 1): the Stokes sums per (component, band) times
+    spp / n_b, then the sum of the filter weights. The passes' arrays add up;
+    :func:`cube_image` divides. Camera frame (see the module docstring)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from ..integrators.film import camera_stokes
+
+    sensor = scene.sensors()[0]
+    film = sensor.film()
+    width, height = (int(v) for v in film.crop_size())
+    n_bands = len(bands.edges)
+    lows = mi.Float(bands.lows.astype(np.float32))
+    widths = mi.Float(bands.widths.astype(np.float32))
+    counts = band_counts(n_bands, total_spp)
+    lane_scale = mi.Float((total_spp / counts).astype(np.float32))
+
+    n = width * height * spp
+    sampler = sensor.sampler().clone()
+    sampler.set_sample_count(spp)
+    sampler.set_samples_per_wavefront(spp)
+    sampler.seed(seed, n)
+    idx = dr.arange(mi.UInt32, n)
+    pixel = idx // spp
+    sample = idx % spp + first  # the sample's index in its pixel, across passes
+    pos = mi.Vector2f(mi.Float(pixel % width), mi.Float(pixel // width)) + sampler.next_2d()
+    time = sensor.shutter_open() + sensor.shutter_open_time() * sampler.next_1d()
+    # the position within the crop window, as mi.render gives it (the sensor maps the crop)
+    ray, _ = sensor.sample_ray(time, 0.5, pos / mi.Vector2f(width, height), sampler.next_2d())
+    u = sampler.next_1d()
+    lanes, band_index = [], []
+    for j in range(4):  # the 4 wavelength lanes of a spectral variant (fixed, not data)
+        shifted = u + j / 4.0
+        within = shifted - dr.floor(shifted)
+        b = (4 * sample + j) % n_bands
+        band_index.append(b)
+        lanes.append(dr.fma(within, dr.gather(mi.Float, widths, b), dr.gather(mi.Float, lows, b)))
+    ray.wavelengths = mi.UnpolarizedSpectrum(*lanes)
+    spec, _, _ = scene.integrator().sample(scene, sampler, ray, None, True)
+    stokes = camera_stokes(sensor, ray, [spec[i][0] for i in range(4)])
+
+    cube = dr.zeros(mi.Float, width * height * n_bands * 4)
+    weights = dr.zeros(mi.Float, width * height)
+    scales = [dr.gather(mi.Float, lane_scale, band_index[j]) for j in range(4)]
+    rfilter = film.rfilter()
+    footprint = _footprint(rfilter)
+    corner = mi.Vector2i(dr.floor(pos))
+    # the filter's footprint: a few pixel offsets (fixed by the filter, not the image)
+    for dx, dy in footprint or [(0, 0)]:
+        if footprint is None:
+            target, weight, ok = pixel, mi.Float(1.0), mi.Bool(True)
+        else:
+            px, py = corner.x + dx, corner.y + dy
+            weight = (rfilter.eval(mi.Float(px) + 0.5 - pos.x)
+                      * rfilter.eval(mi.Float(py) + 0.5 - pos.y))
+            ok = (px >= 0) & (px < width) & (py >= 0) & (py < height) & (weight != 0)
+            target = mi.UInt32(dr.select(ok, py * width + px, 0))
+        dr.scatter_reduce(dr.ReduceOp.Add, weights, weight, target, ok)
+        for j in range(4):
+            base = (target * n_bands + band_index[j]) * 4
+            for i in range(4):
+                dr.scatter_reduce(dr.ReduceOp.Add, cube, stokes[i][j] * (weight * scales[j]),
+                                  base + i, ok)
+    sums = np.array(cube, dtype=np.float64).reshape(height, width, n_bands, 4)
+    sums = np.moveaxis(sums, 3, 2).reshape(height, width, 4 * n_bands)
+    return np.concatenate([sums, np.array(weights, dtype=np.float64).reshape(height, width, 1)],
+                          axis=2)
+
+
+def cube_image(stokes: np.ndarray, bands: SpectralBands, metadata=None) -> StokesImage:
+    """The cube as a :class:`StokesImage`: one band per wavelength band,
+    named after its centre, the band edges in ``metadata['band_edges_nm']``.
+    *stokes* is the cube (H, W, 4, n_bands), or the sum of :func:`cube_pass`'s
+    arrays (H, W, 4 n_bands + 1), divided here by its filter weights."""
+    n = len(bands.edges)
+    if stokes.ndim == 3:
+        weights = stokes[..., -1:]
+        safe = np.where(weights > 0, weights, 1.0)
+        stokes = (stokes[..., :-1] / safe).reshape(stokes.shape[0], stokes.shape[1], 4, n)
+    metadata = dict(metadata or {}, band_edges_nm=bands.header(), spectral_cube="1")
+    return StokesImage(stokes.astype(np.float32), bands.names, None, metadata)
