@@ -366,11 +366,14 @@ def peak_memory(scene_name, res, spp):
 
 # --------------------------------------------------------------------- report
 
-def report(args, ratios, compiles, throughput, curves, memory, figures, seconds):
+def report(args, ratios, compiles, throughput, curves, memory, figures, seconds, load=None):
     lines = ["# Benchmarks", "",
              f"`python benchmarks/benchmark.py{' --quick' if args.quick else ''}` "
              f"({seconds:.0f} s on {os.cpu_count()} cores, Mitsuba variant `{POLARIZED}`, "
-             "path tracer depth 4 inside `stokes`). Medians of interleaved repetitions.", "",
+             "path tracer depth 4 inside `stokes`). Medians of interleaved repetitions."
+             + (f" Load average {load[0]:.1f} before, {load[1]:.1f} after (other work on the "
+                "machine inflates the absolute times; the ratios compare interleaved runs)."
+                if load else ""), "",
              f"## Render time at equal spp ({args.ratio_spp} spp, {args.res} px wide)", "",
              "CPU time of the rendering process (all its threads), median of interleaved runs.", "",
              "| comparison | built-in / baseline (CPU s) | pbrdf (CPU s) | ratio |", "|---|---|---|---|"]
@@ -425,6 +428,7 @@ def main(argv=None):
     os.makedirs(os.path.join(args.out, "figures"), exist_ok=True)
 
     start = time.perf_counter()
+    load = [os.getloadavg()[0]]
     ratios = render_time_ratios(args.res, args.ratio_spp, args.reps)
     compiles = compile_times(args.res)
     throughput = eval_throughput(args.pairs, args.reps)
@@ -432,8 +436,9 @@ def main(argv=None):
                            args.spp_list, args.reference_spp)
     figures = dict(zip(curves, plot_curves(curves, os.path.join(args.out, "figures"))))
     memory = {name: peak_memory(name, args.res, args.ratio_spp) for name in args.scenes}
+    load.append(os.getloadavg()[0])
     text = report(args, ratios, compiles, throughput, curves, memory, figures,
-                  time.perf_counter() - start)
+                  time.perf_counter() - start, load)
     with open(os.path.join(args.out, "results.md"), "w") as f:
         f.write(text)
     sys.stdout.write(text)

@@ -9,7 +9,10 @@
 4. narrow-band renders (632.8 nm line, 632.8:20 band) against the reference
    evaluator, with the renders and tolerance of tests/test_narrowband.py.
 
-    python benchmarks/polcam_figures.py [--spp 16]
+    python benchmarks/polcam_figures.py [--spp 16] [--report benchmarks/polcam.md]
+
+prints the figures as Markdown; ``--report`` also writes them, under a title
+with the command, to a report the docs quote (docs/polarization-camera.md).
 """
 
 from __future__ import annotations
@@ -25,9 +28,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from mitsuba_pbrdf.figures.gallery import _Settings, render_polarizer_images  # noqa: E402
-from mitsuba_pbrdf.imaging.polcam import (ANGLES, SensorModel, colour_mosaic,  # noqa: E402
-                                          mono_mosaic, polarizer_images, polcam_outputs)
-from mitsuba_pbrdf.imaging.stokes import StokesImage, aolp, dolp  # noqa: E402
+from mitsuba_pbrdf.camera.polcam import (ANGLES, SensorModel, colour_mosaic,  # noqa: E402
+                                         mono_mosaic, polarizer_images, polcam_outputs)
+from mitsuba_pbrdf.stokes.image import StokesImage, aolp, dolp  # noqa: E402
 
 
 def round_trip(image: StokesImage):
@@ -80,8 +83,8 @@ def narrowband():
     import test_narrowband as t
 
     from mitsuba_pbrdf import use_variant
-    from mitsuba_pbrdf.imaging import render_scene
-    from mitsuba_pbrdf.imaging.narrowband import parse_wavelength
+    from mitsuba_pbrdf.rendering import render_scene
+    from mitsuba_pbrdf.rendering.narrowband import parse_wavelength
 
     use_variant(t.VARIANT)
 
@@ -118,7 +121,32 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--scale", type=float, default=1.0, help="of the 240 x 180 renders")
+    parser.add_argument("--report", default=None, metavar="FILE.md",
+                        help="also write the figures to this Markdown report")
     args = parser.parse_args(argv)
+    if args.report is None:
+        return figures(args)
+    import contextlib
+    import io
+
+    from mitsuba_pbrdf.outputs import atomic_path
+
+    command = "python benchmarks/polcam_figures.py " + " ".join(argv or sys.argv[1:])
+    text = io.StringIO()
+    with contextlib.redirect_stdout(text):
+        status = figures(args)
+    body = (f"# Polarization-camera figures\n\n`{command.strip()}` (this file), "
+            "variant `llvm_ad_spectral_polarized`, on this project's 2-core machine.\n\n"
+            + text.getvalue())
+    print(body)
+    with atomic_path(args.report) as tmp:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(body)
+    return status
+
+
+def figures(args) -> int:
+    """Print every figure (Markdown)."""
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -19,8 +19,8 @@ import time
 
 import numpy as np
 
-from mitsuba_pbrdf.imaging import render_scene_timed
-from mitsuba_pbrdf.imaging.stokes import dolp, luminance_stokes
+from mitsuba_pbrdf.rendering import render_scene_timed
+from mitsuba_pbrdf.stokes.image import dolp, luminance_stokes
 
 
 def noise(scene, spp=64, ref_spp=1024, width=160, height=120, seeds=2):

@@ -3,7 +3,7 @@
 Shows how to:
 
 * render a Mitsuba scene file that uses ``<bsdf type="pbrdf">`` from Python
-  (``mitsuba_pbrdf.imaging.render_scene``: sets the variant, registers the
+  (``mitsuba_pbrdf.rendering.render_scene``: sets the variant, registers the
   plugin, renders in passes), overriding the scene's ``<default>`` values;
 * write the Stokes image to an OpenEXR file (named channels ``S0.R ... S3.B``)
   and a picture (intensity, DoLP, AoLP);
@@ -35,9 +35,10 @@ import os
 
 import numpy as np
 
-from mitsuba_pbrdf.imaging import render_scene, write_stokes_exr
-from mitsuba_pbrdf.imaging.panels import save_overview_png
-from mitsuba_pbrdf.imaging.stokes import aolp, dolp, luminance_stokes
+from mitsuba_pbrdf.rendering import render_scene
+from mitsuba_pbrdf.stokes import write_stokes_exr
+from mitsuba_pbrdf.pictures.panels import save_overview_png
+from mitsuba_pbrdf.stokes.image import aolp, dolp, luminance_stokes
 
 #: x0, y0, x1, y1 as fractions of the image width and height (y downwards).
 DEFAULT_REGION = "0.74,0.16,0.82,0.26"

@@ -18,14 +18,19 @@ Sub-packages, one concern each:
 * :mod:`~mitsuba_pbrdf.plugin`: the Dr.Jit BSDF ``pbrdf`` (never imports the reference);
 * :mod:`~mitsuba_pbrdf.reference`: the NumPy float64 reference evaluator (NumPy only);
 * :mod:`~mitsuba_pbrdf.frames`: any Mitsuba BSDF in the reference's frames;
-* :mod:`~mitsuba_pbrdf.imaging`: rendering, Stokes images, EXR files, pictures;
+* :mod:`~mitsuba_pbrdf.rendering`: rendering a scene file in passes, narrow bands;
+* :mod:`~mitsuba_pbrdf.stokes`: Stokes images and their EXR files;
+* :mod:`~mitsuba_pbrdf.pictures`: pictures of Stokes images (panels, PNG);
+* :mod:`~mitsuba_pbrdf.camera`: what a polarization camera records;
 * :mod:`~mitsuba_pbrdf.figures`: pBRDF plots and the scene gallery;
 * :mod:`~mitsuba_pbrdf.measured`: measured-data files (goniometer CSV);
 * :mod:`~mitsuba_pbrdf.fitting`: least-squares fits of the model to measurements;
 * :mod:`~mitsuba_pbrdf.inverse`: gradients of rendered Stokes images, Adam fits;
 * :mod:`~mitsuba_pbrdf.integrators`: Mitsuba integrators the package registers;
 * :mod:`~mitsuba_pbrdf.batch`: many renders (sweeps, datasets);
-* :mod:`~mitsuba_pbrdf.checks`: physical and numerical checks of a pBRDF;
+* :mod:`~mitsuba_pbrdf.diagnostics`: physical checks of any polarized BSDF (realizability,
+  reciprocity, albedo);
+* :mod:`~mitsuba_pbrdf.errors`: errors in the library's terms, one-line descriptions;
 * :mod:`~mitsuba_pbrdf.cli`: the ``pbrdf`` command line;
 * :mod:`~mitsuba_pbrdf.schema`: the model's parameters, each declared once (name, kind, default, bounds, flags);
 * :mod:`~mitsuba_pbrdf.variant`, :mod:`~mitsuba_pbrdf.registry`: Mitsuba variants, and

@@ -7,7 +7,7 @@ inside a whole scene), parameter updates through ``mi.traverse``, and a subset
 in other variants. Cases Mitsuba's own parser rejects before the plugin sees
 them (a spectrum with negative entries, an unreferenced parameter, a Python
 list) are listed with Mitsuba's message, which names the parameter too. The
-table of load_dict cases lives in ``mitsuba_pbrdf/checks/bad_input.py``.
+table of load_dict cases lives in ``proof/bad_input.py``.
 """
 
 import numpy as np
@@ -16,7 +16,7 @@ import pytest
 import mitsuba as mi
 
 from mitsuba_pbrdf import use_variant
-from mitsuba_pbrdf.checks.bad_input import INF, NAN, bitmap, cases, load_error
+from proof.bad_input import INF, NAN, bitmap, cases, load_error
 
 #: (extra parameters, error raised by the plugin or None for Mitsuba's parser,
 #:  text the last line of the message must contain): the table shared with

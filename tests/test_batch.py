@@ -25,7 +25,7 @@ import pytest
 from mitsuba_pbrdf.batch.manifest import read_manifest
 from mitsuba_pbrdf.batch.sweep import SweepError, job_seed, load_sweep
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging.exr import read_stokes_exr
+from mitsuba_pbrdf.stokes.exr import read_stokes_exr
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SPHERE = SCENES / "gallery" / "sphere.xml"
@@ -72,6 +72,8 @@ height = 16
      ["polcam.full_well must be a finite number > 0"]),
     ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nread_noise = 2\n',
      ["polcam.read_noise", "needs polcam.full_well"]),
+    ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nexposure = 2.0\n',
+     ["polcam.exposure", "needs polcam.full_well or polcam.bits"]),
     ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\nbits = 20\n',
      ["polcam.bits must be an integer in [1, 16]"]),
     ('out = "o"\noutputs = ["stokes", "polcam"]\n[polcam]\ngain = 2\n',
@@ -172,7 +174,7 @@ def test_killed_worker_loses_nothing_and_a_rerun_renders_nothing(tmp_path, clust
     worker, every output appears and reads back, the retried image equals an
     in-process render with the job's seed, and a second run renders nothing."""
     from mitsuba_pbrdf.batch.runner import run_sweep
-    from mitsuba_pbrdf.imaging.render import render_scene
+    from mitsuba_pbrdf.rendering.render import render_scene
 
     client, address = cluster
     path = write_sweep(tmp_path, TINY.replace("[params]", 'outputs = ["stokes", "aov"]\n[params]')
@@ -259,8 +261,8 @@ def test_polcam_outputs_are_pbrdf_polcam_of_the_job_s_stokes_image(tmp_path, clu
     included, same seed), the manifest lists them, and a rerun checks them
     (one deleted file makes only its job run again)."""
     from mitsuba_pbrdf.batch.runner import run_sweep
-    from mitsuba_pbrdf.imaging.exr import read_exr_channels, read_stokes_exr
-    from mitsuba_pbrdf.imaging.polcam import SensorModel, polcam_outputs
+    from mitsuba_pbrdf.stokes.exr import read_exr_channels, read_stokes_exr
+    from mitsuba_pbrdf.camera.polcam import SensorModel, polcam_outputs
 
     _, address = cluster
     body = (TINY.replace('out = "out"', 'out = "out"\noutputs = ["stokes", "polcam"]')

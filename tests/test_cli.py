@@ -12,7 +12,7 @@ import pytest
 
 from mitsuba_pbrdf import variant as variant_module
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging.exr import read_stokes_exr
+from mitsuba_pbrdf.stokes.exr import read_stokes_exr
 
 #: The real GPU probe (the autouse fixture below replaces it).
 CUDA_AVAILABLE = variant_module.cuda_available
@@ -222,9 +222,9 @@ def test_usage_error_exits_2():
 
 
 def test_plan_passes():
-    from mitsuba_pbrdf.imaging.passes import (SAMPLES_PER_GPU_PASS, SAMPLES_PER_PASS,
-                                              derivative_seed, pass_seeds, plan_passes,
-                                              samples_per_pass)
+    from mitsuba_pbrdf.rendering.passes import (SAMPLES_PER_GPU_PASS, SAMPLES_PER_PASS,
+                                                derivative_seed, pass_seeds, plan_passes,
+                                                samples_per_pass)
 
     assert plan_passes(4, pixels=320 * 240) == [4]  # within the budget: one pass
     # scenes/default.xml (320 x 240, 64 spp): 4 passes of 16 spp, each 2^21 samples at most,
@@ -254,8 +254,8 @@ def test_passes_average_the_pass_images_weighted_by_their_samples():
     renders with the pass seeds. analytic_plane.xml has one emitter, so renders
     with the same seed are identical (with several emitters Mitsuba 3.9 may
     list them in another order at each load, changing the sample realization)."""
-    from mitsuba_pbrdf.imaging import render_scene
-    from mitsuba_pbrdf.imaging.passes import pass_seeds
+    from mitsuba_pbrdf.rendering import render_scene
+    from mitsuba_pbrdf.rendering.passes import pass_seeds
 
     scene = os.path.join(ROOT, "scenes", "analytic_plane.xml")
     small = {"width": 16, "height": 12}
@@ -277,7 +277,7 @@ def test_render_passes_and_progress_bar(scene, tmp_path, capsys):
     assert "rendering tiny.xml (2 passes)" in captured.err and "spp" in captured.err
     assert read_stokes_exr(f"{out}.exr").metadata["passes"] == "2"
     assert main(["render", str(scene), "--passes", "0"]) == 2
-    assert "--passes must be at least 1" in error_of(capsys)
+    assert "--passes: must be at least 1" in error_of(capsys)
 
 
 def test_default_variant_probe():
@@ -425,3 +425,18 @@ def test_render_mono_polarized_variant(scene, tmp_path):
     assert image.bands == ["R", "G", "B"] and image.metadata["variant"] == "llvm_ad_mono_polarized"
     np.testing.assert_array_equal(image.stokes[..., 0], image.stokes[..., 2])
     assert image.s0.max() > 0
+
+
+def test_library_errors_name_the_option_the_command_has():
+    """A library error names its parameter (``wavelength: ...``); the command
+    line's error path names the option where the command has one, and leaves
+    the parameter's name where it has none."""
+    import argparse
+
+    from mitsuba_pbrdf.cli.common import option_message
+    from mitsuba_pbrdf.errors import ParameterError
+
+    error = ParameterError("sigma_dd", "must be positive,\n got 0")
+    assert option_message(error, argparse.Namespace(sigma_dd=1.0)) == \
+        "--sigma-dd: must be positive, got 0"
+    assert option_message(error, argparse.Namespace()) == "sigma_dd: must be positive, got 0"

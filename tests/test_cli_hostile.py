@@ -24,8 +24,8 @@ import pytest
 from mitsuba_pbrdf import cli
 from mitsuba_pbrdf import variant as variant_module
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging.exr import read_stokes_exr, write_stokes_exr
-from mitsuba_pbrdf.imaging.stokes import StokesImage
+from mitsuba_pbrdf.stokes.exr import read_stokes_exr, write_stokes_exr
+from mitsuba_pbrdf.stokes.image import StokesImage
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 DEFAULT = os.path.join(ROOT, "scenes", "default.xml")
@@ -83,7 +83,7 @@ TABLE = [
      None),
     ("render: -D float that is not a number",
      ["render", DEFAULT, "-D", "sigma=abc"], 2, "-D sigma must be a number", None),
-    ("render: --spp 0", ["render", "{scene}", "--spp", "0"], 2, "--spp must be at least 1", None),
+    ("render: --spp 0", ["render", "{scene}", "--spp", "0"], 2, "--spp: must be at least 1", None),
     ("render: unpolarized variant",
      ["render", "{scene}", "--variant", "llvm_ad_rgb"], 2,
      "variant 'llvm_ad_rgb' does not track polarization", None),
@@ -118,7 +118,7 @@ TABLE = [
     ("view: unknown band", ["view", "{exr}", "--band", "Q", "--out", "{tmp}/q.png"], 2,
      "no band 'Q'", "{tmp}/q.png"),
     ("render: --wavelength not a number", ["render", "{scene}", "--wavelength", "red"], 2,
-     "--wavelength expects NM or NM:WIDTH", "{tmp}/out"),
+     "--wavelength: expects NM or NM:WIDTH", "{tmp}/out"),
     ("render: --wavelength outside the colour tables", ["render", "{scene}", "--wavelength",
                                                         "900"], 2,
      "must lie within 360-830 nm", "{tmp}/out"),
@@ -126,7 +126,7 @@ TABLE = [
                                                     "600:-5"], 2, "width >= 0", "{tmp}/out"),
     ("render: --wavelength in an RGB variant", ["render", "{scene}", "--wavelength", "600",
                                                 "--variant", "llvm_ad_mono_polarized"], 2,
-     "--wavelength needs a spectral variant, not llvm_ad_mono_polarized", "{tmp}/out"),
+     "--wavelength: needs a spectral variant, not llvm_ad_mono_polarized", "{tmp}/out"),
     ("render: --band of another wavelength", ["render", "{scene}", "--wavelength", "600",
                                               "--band", "R"], 2,
      "no band 'R' in a render; bands are 600nm", "{tmp}/out"),
@@ -159,6 +159,12 @@ TABLE = [
      "--read-noise (electrons) needs --full-well", "{tmp}/cam"),
     ("polcam: --exposure 0", ["polcam", "{exr}", "--out", "{tmp}/cam", "--exposure", "0"], 2,
      "--exposure must be a finite number > 0", "{tmp}/cam"),
+    ("polcam: --exposure alone would be ignored", ["polcam", "{exr}", "--out", "{tmp}/cam",
+                                                  "--exposure", "2"], 2,
+     "--exposure (the radiance at full well) needs --full-well or --bits", "{tmp}/cam"),
+    ("polcam: --seed without noise would be ignored", ["polcam", "{exr}", "--out", "{tmp}/cam",
+                                                       "--bits", "8", "--seed", "3"], 2,
+     "--seed (of the shot and read noise) needs --full-well", "{tmp}/cam"),
     ("polcam: unknown band", ["polcam", "{exr}", "--out", "{tmp}/cam", "--band", "Q"], 2,
      "no band 'Q'; bands are R, G, B", "{tmp}/cam"),
     ("polcam: --band with the colour sensor", ["polcam", "{exr}", "--out", "{tmp}/cam",
@@ -189,7 +195,7 @@ def files(tmp_path):
         data = f.read()
     (tmp_path / "truncated.exr").write_bytes(data[: len(data) // 2])
     (tmp_path / "text.exr").write_text("not an image\n")
-    from mitsuba_pbrdf.imaging.exr import write_exr
+    from mitsuba_pbrdf.stokes.exr import write_exr
 
     plain = write_exr(tmp_path / "plain.exr", {"Y": np.ones((4, 4), np.float32)})
     y_exr = write_stokes_exr(tmp_path / "y.exr", np.ones((4, 4, 4), np.float32) * [1, 0, 0, 0])
@@ -227,7 +233,7 @@ def test_hostile_input(case, argv, status, text, absent, files, capfd, monkeypat
 
 
 def test_unpolarized_variant_is_refused_before_loading_the_scene(files, capfd, monkeypatch):
-    import mitsuba_pbrdf.imaging.render as render_module
+    import mitsuba_pbrdf.rendering.render as render_module
 
     def no_load(*args, **kwargs):
         raise AssertionError("the scene was loaded")
@@ -241,9 +247,9 @@ def test_unpolarized_variant_is_refused_before_loading_the_scene(files, capfd, m
 def test_unusable_pixels_are_counted_and_marked(files, capfd, tmp_path):
     """Some non-finite, negative and over-polarized pixels: exit 0, one warning
     line with the counts, and the picture paints them in each panel's marker."""
-    from mitsuba_pbrdf.imaging.colours import MARKERS
-    from mitsuba_pbrdf.imaging.panels import overview_figure
-    from mitsuba_pbrdf.imaging.quality import assess
+    from mitsuba_pbrdf.pictures.colours import MARKERS
+    from mitsuba_pbrdf.pictures.panels import overview_figure
+    from mitsuba_pbrdf.stokes.quality import assess
 
     path = stokes_exr(tmp_path / "bad.exr", some_bad)
     assert main(["view", path, "--out", str(tmp_path / "bad.png")]) == 0
@@ -274,7 +280,7 @@ def test_unusable_pixels_are_counted_and_marked(files, capfd, tmp_path):
 def test_band_tolerance_allows_slightly_unphysical_rgb_bands(tmp_path):
     """One RGB band may be out of range by up to 5 % of the pixel's luminance S0;
     the luminance vector is judged strictly."""
-    from mitsuba_pbrdf.imaging.quality import assess
+    from mitsuba_pbrdf.stokes.quality import assess
 
     def blue_over(s):
         s[:, :, 0, 2] = 0.2             # dim blue band
@@ -447,7 +453,7 @@ def test_ctrl_c_inside_the_plugin_is_reported_as_an_interruption(files, capfd, m
 def test_progress_lines_when_stderr_is_not_a_terminal(monkeypatch, capsys):
     """Logs get plain lines (not a bar's carriage returns), at most one per
     interval, and a last line saying how long it took; short work gets none."""
-    from mitsuba_pbrdf.imaging import progress
+    from mitsuba_pbrdf.rendering import progress
 
     monkeypatch.setattr(progress.sys.stderr, "isatty", lambda: False, raising=False)
     with progress.progress_reporter(4, "rendering x.xml (4 passes)", "auto", steps=4) as p:

@@ -66,8 +66,8 @@ def test_render_stokes_image(tmp_path):
     Monte Carlo noise of 49 pixels at 8 spp and fail for an unpolarized or a
     wrongly normalized image. The diffuse floor depolarizes: its DoLP is the
     noise of light reflected once off the spheres (< 0.05)."""
-    from mitsuba_pbrdf.imaging.exr import read_stokes_exr
-    from mitsuba_pbrdf.imaging.stokes import aolp, dolp, luminance_stokes
+    from mitsuba_pbrdf.stokes.exr import read_stokes_exr
+    from mitsuba_pbrdf.stokes.image import aolp, dolp, luminance_stokes
 
     stem = str(tmp_path / "render")
     out = run_example("render_stokes_image.py", "--quick", "--out", stem)
@@ -119,7 +119,7 @@ def test_inverse_rendering(tmp_path):
     n, k within 4 %, ks within 5 % and sigma within 8.2 % (always below: the
     highlights of 32x32 pixels barely resolve the lobe). The bounds (10 %;
     15 % for sigma) fail if the fit does not move towards the truth."""
-    from mitsuba_pbrdf.imaging.exr import read_stokes_exr
+    from mitsuba_pbrdf.stokes.exr import read_stokes_exr
 
     prefix = str(tmp_path / "inverse")
     out = run_example("inverse_rendering.py", "--quick", "--out", prefix)

@@ -1,6 +1,6 @@
 """Fuzz test of the plugin: 10^5 random direction pairs over random parameters
 (the CI share of ``validation/stress.py``, which runs 10^6; both run
-``mitsuba_pbrdf.checks.stress``).
+``proof.stress``).
 
 Directions: generic, grazing (cos theta down to 1e-7), exact normal incidence
 and exit, exact retro-reflection and mirror pairs (collinear: the Mueller
@@ -8,16 +8,16 @@ rotation singularity), near-mirror pairs for narrow lobes, nearly opposite
 grazing pairs, and directions at or below the horizon. Parameters: sigma 1e-4..2,
 sigma_dd 1e-3..5, k = 0 (dielectric) to 100, n from 0.05 (n < 1) to 10, weights
 0 and 1e3, per-lane textures, named conductors, wavelengths over 360-830 nm.
-The generator is documented in ``mitsuba_pbrdf/checks/fuzz_inputs.py``, every
-check in ``mitsuba_pbrdf/checks/stress.py``.
+The generator is documented in ``proof/fuzz_inputs.py``, every
+check in ``proof/stress.py``.
 
 Every eval, pdf, eval_pdf and sample result, both transport modes, must be
 finite, non-negative where it must be, physically realizable (Cloude's
 coherency matrix, tolerance REALIZABILITY_TOL: 16 float32 roundings of M00,
-derived in checks/realizability.py) and zero below the horizon; and within
+derived in mitsuba_pbrdf/diagnostics/realizability.py) and zero below the horizon; and within
 ACCURACY_UNITS float32 roundings of the float64 reference once the problem's own
-conditioning kappa is accounted for (checks/conditioning.py explains kappa,
-checks/stress.py the bound).
+conditioning kappa is accounted for (proof/conditioning.py explains kappa,
+proof/stress.py the bound).
 """
 
 import mitsuba as mi
@@ -26,9 +26,9 @@ import pytest
 
 from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import frames, reference
-from mitsuba_pbrdf.checks import stress
-from mitsuba_pbrdf.checks.conditioning import lane_parameters, reference_brdf, sensitivity
-from mitsuba_pbrdf.checks.realizability import U32
+from proof import stress
+from proof.conditioning import lane_parameters, reference_brdf, sensitivity
+from mitsuba_pbrdf.diagnostics.realizability import U32
 
 
 @pytest.fixture(scope="module")

@@ -12,14 +12,14 @@ import pytest
 
 from mitsuba_pbrdf.figures import gallery
 from mitsuba_pbrdf.figures.gallery import (
-    POLARIZER_ANGLES,
-    _Settings,
-    polarization_camera_stokes,
-    polarizer_check,
-    render_polarizer_images,
-    run_gallery,
-)
-from mitsuba_pbrdf.imaging import render_scene
+                                           POLARIZER_ANGLES,
+                                           _Settings,
+                                           polarization_camera_stokes,
+                                           polarizer_check,
+                                           render_polarizer_images,
+                                           run_gallery,
+                                           )
+from mitsuba_pbrdf.rendering import render_scene
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 SCENES = os.path.join(ROOT, "scenes", "gallery")

@@ -448,7 +448,7 @@ def test_rendered_loss_gradient_matches_finite_differences_direct(method):
     the images and the finite-difference truncation (see `_fd_of_renders`):
     relative 2e-3."""
     use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.imaging.passes import derivative_seed
+    from mitsuba_pbrdf.rendering.passes import derivative_seed
     from mitsuba_pbrdf.inverse import loss_and_gradient
     scene = _plane_scene({"type": "direct"}, spp=8)
     loss, weights = _linear_loss(scene)
@@ -486,7 +486,7 @@ def test_rendered_stokes_loss_gradient_matches_finite_differences_path():
     A t-test of mean(d_b) = 0 per component (15 degrees of freedom) at a
     family-wise 1e-3 for the 7 components (Sidak: 1.4e-4 each). 64 spp."""
     use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.imaging.passes import derivative_seed
+    from mitsuba_pbrdf.rendering.passes import derivative_seed
     from mitsuba_pbrdf.inverse import loss_and_gradient, render, stokes_loss
     scene = _plane_scene({"type": "path", "max_depth": 3}, spp=64)
     params = mi.traverse(scene)

@@ -1,7 +1,8 @@
 """The package's layout and import behaviour: the plugin and the reference
 evaluator never import each other, the reference needs NumPy alone, importing
 the package needs no variant, the plugin is registered in every variant, tests/ and
-validation/ never import each other (both use mitsuba_pbrdf.checks), and
+validation/ never import each other (both use proof/ and mitsuba_pbrdf.diagnostics),
+the package never imports proof/, no module imports itself in a circle, and
 validation/run_all.py runs every study."""
 
 import ast
@@ -152,7 +153,7 @@ def test_no_project_file_cites_files_outside_the_repository():
     assert not missing, missing
 
 
-# ---------------------------------------------------------------- tests/, validation/, checks/
+# ---------------------------------------------------------------- tests/, validation/, proof/
 
 def import_references(path):
     """(module names a Python file imports, string constants it hands to
@@ -202,20 +203,33 @@ def layout_violations(folder, forbidden):
 
 
 def test_tests_never_import_validation():
-    """tests/ runs mitsuba_pbrdf.checks, never the validation scripts."""
+    """tests/ runs proof/ and mitsuba_pbrdf.diagnostics, never the validation scripts."""
     assert layout_violations("tests", {"validation"}) == []
 
 
 def test_validation_never_imports_tests():
-    """validation/ reads shared data from the package (e.g. checks/bad_input.py)."""
+    """validation/ reads shared scaffolding from proof/ (e.g. proof/bad_input.py)."""
     assert layout_violations("validation", {"tests"}) == []
 
 
-def test_checks_import_neither_tests_nor_validation():
-    assert layout_violations(os.path.join("mitsuba_pbrdf", "checks"),
-                             {"tests", "validation"}) == []
-    for name, modules in imported_modules("checks").items():
-        assert not [m for m in modules if m.split(".")[0] in ("tests", "validation")], name
+def _package_folders():
+    """Every folder of the package that holds Python files, relative to ROOT."""
+    return sorted(os.path.relpath(d, ROOT) for d, _, files in os.walk(PACKAGE)
+                  if "__pycache__" not in d and any(f.endswith(".py") for f in files))
+
+
+def test_the_package_imports_neither_proof_nor_tests_nor_validation():
+    """Nothing shipped imports the non-packaged folders: proof/ (test and study
+    scaffolding, not in the wheel), tests/ or validation/."""
+    folders = _package_folders()
+    assert os.path.join("mitsuba_pbrdf", "diagnostics") in folders
+    found = [v for folder in folders
+             for v in layout_violations(folder, {"proof", "tests", "validation"})]
+    assert found == [], found
+
+
+def test_proof_imports_neither_tests_nor_validation():
+    assert layout_violations("proof", {"tests", "validation"}) == []
 
 
 def test_the_folder_scan_sees_forbidden_imports(tmp_path, monkeypatch):
@@ -226,7 +240,10 @@ def test_the_folder_scan_sees_forbidden_imports(tmp_path, monkeypatch):
                                  "sys.path.insert(0, os.path.join(ROOT, 'tests'))\n"
                                  "import test_bad_input\n")
     (folder / "b.py").write_text("from tests.conftest import make_si\n")
-    (folder / "c.py").write_text("from . import common\nimport mitsuba_pbrdf.checks\n")
+    (folder / "c.py").write_text("from . import common\nimport mitsuba_pbrdf.diagnostics\n")
+    package = tmp_path / "mitsuba_pbrdf" / "rendering"
+    package.mkdir(parents=True)
+    (package / "d.py").write_text("from proof.stress import run\nfrom .proof import x\n")
     (tmp_path / "tests").mkdir()
     (tmp_path / "tests" / "t.py").write_text(
         "import importlib\nstress = importlib.import_module('validation.stress')\n"
@@ -237,6 +254,8 @@ def test_the_folder_scan_sees_forbidden_imports(tmp_path, monkeypatch):
                      "validation/b.py: tests.conftest"], found
     found = layout_violations("tests", {"validation"})
     assert found == ["tests/t.py: validation", "tests/t.py: validation.stress"], found
+    found = layout_violations(os.path.join("mitsuba_pbrdf", "rendering"), {"proof"})
+    assert found == ["mitsuba_pbrdf/rendering/d.py: proof.stress"], found
 
 
 def run_all(*args):
@@ -270,3 +289,106 @@ def test_run_all_only_selects_and_rejects_unknown_names():
     assert result.returncode == 2 and result.stdout == ""
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert "'no_such_study'" in result.stderr and "Traceback" not in result.stderr
+
+
+# ---------------------------------------------------------------- no circles
+
+def package_import_graph(root=None):
+    """{module: set of package modules it imports} over every module of the
+    package (imports inside functions too), a package's ``__init__`` named by
+    the package. An imported name resolves to the longest module prefix."""
+    root = root or ROOT
+    package = os.path.join(root, "mitsuba_pbrdf")
+    files = {}
+    for folder, _, names in os.walk(package):
+        for n in names:
+            if n.endswith(".py") and "__pycache__" not in folder:
+                rel = os.path.relpath(os.path.join(folder, n), root)[:-3].replace(os.sep, ".")
+                files[rel.removesuffix(".__init__")] = (os.path.join(folder, n),
+                                                        rel.endswith("__init__"))
+
+    def resolve(name):
+        while name and name not in files:
+            name = name.rpartition(".")[0]
+        return name
+
+    graph = {}
+    for name, (path, is_package) in files.items():
+        base = name.split(".") if is_package else name.split(".")[:-1]
+        found = set()
+        for node in ast.walk(ast.parse(open(path, encoding="utf-8").read(), path)):
+            targets = []
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                module = (".".join(base[:len(base) - node.level + 1]
+                                   + ([node.module] if node.module else []))
+                          if node.level else node.module or "")
+                targets = [module] + [f"{module}.{a.name}" for a in node.names]
+            found |= {resolve(t) for t in targets if t.startswith("mitsuba_pbrdf")}
+        graph[name] = found - {name, ""}
+    return graph, {n for n, (_, is_package) in files.items() if is_package}
+
+
+def circles(graph):
+    """The strongly connected components (more than one node) of ``graph``."""
+    order, low, stack, out = {}, {}, [], []
+
+    def visit(v):
+        order[v] = low[v] = len(order)
+        stack.append(v)
+        for w in graph.get(v, ()):
+            if w not in order:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], order[w])
+        if low[v] == order[v]:
+            component = []
+            while not component or component[-1] != v:
+                component.append(stack.pop())
+            if len(component) > 1:
+                out.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in order:
+            visit(v)
+    return out
+
+
+def test_no_module_imports_itself_in_a_circle():
+    """No two modules of the package import each other, directly or through
+    others (a package's ``__init__`` only hands its modules' names on, so it
+    is left out)."""
+    graph, faces = package_import_graph()
+    modules = {n: {m for m in e if m not in faces} for n, e in graph.items() if n not in faces}
+    assert circles(modules) == []
+
+
+def test_no_subpackage_imports_itself_in_a_circle():
+    """Between the sub-packages and top-level modules (``cli``, ``batch``,
+    ``rendering``, ...) the arrows run one way: e.g. ``batch`` and ``cli`` share
+    ``errors`` instead of ``batch`` importing ``cli``."""
+    graph, _ = package_import_graph()
+    top = lambda n: ".".join(n.split(".")[:2])
+    arrows = {}
+    for name, imported in graph.items():
+        for m in imported:
+            if "." in name and "." in m and top(name) != top(m):
+                arrows.setdefault(top(name), set()).add(top(m))
+    assert circles(arrows) == []
+
+
+def test_the_circle_finder_sees_a_circle(tmp_path):
+    """The graph reads relative and deferred imports, and a two-module loop is found."""
+    folder = tmp_path / "mitsuba_pbrdf" / "rendering"
+    folder.mkdir(parents=True)
+    (tmp_path / "mitsuba_pbrdf" / "__init__.py").write_text("")
+    (folder / "__init__.py").write_text("from .render import x\n")
+    (folder / "render.py").write_text("from .narrowband import band\n")
+    (folder / "narrowband.py").write_text("def f():\n    from .render import y\n")
+    graph, faces = package_import_graph(str(tmp_path))
+    assert graph["mitsuba_pbrdf.rendering.narrowband"] == {"mitsuba_pbrdf.rendering.render"}
+    assert circles(graph) == [["mitsuba_pbrdf.rendering.narrowband",
+                               "mitsuba_pbrdf.rendering.render"]]
+    assert faces == {"mitsuba_pbrdf", "mitsuba_pbrdf.rendering"}

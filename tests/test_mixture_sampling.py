@@ -20,8 +20,8 @@ from scipy import stats
 from conftest import WAVELENGTHS, as_numpy, hemisphere_pairs, make_si
 from mitsuba_pbrdf import frames, use_variant
 from mitsuba_pbrdf import reference as ref
-from mitsuba_pbrdf.checks.conditioning import lane_parameters, reference_brdf, sensitivity
-from mitsuba_pbrdf.checks.realizability import U32
+from proof.conditioning import lane_parameters, reference_brdf, sensitivity
+from mitsuba_pbrdf.diagnostics.realizability import U32
 
 BASE = dict(ks=1.0, kdd=0.0, sigma=0.1, sigma_dd=0.5, kid=0.0, shadowing="vgroove",
             dd_distribution="beckmann")
@@ -126,7 +126,7 @@ def mixture_pdf(config, wi, wo):
 
 def reference_value(config, to_viewer, to_light):
     """Reference BRDF (m, 4, 4, 4) in the global s/p frames and its float32
-    conditioning kappa (m, 4) (mitsuba_pbrdf/checks/conditioning.py)."""
+    conditioning kappa (m, 4) (proof/conditioning.py)."""
     p = lane_parameters(config, WAVELENGTHS, {}, len(to_viewer))
     R = reference_brdf(config, p, to_viewer, to_light)
     return R, sensitivity(config, p, to_viewer, to_light, R, np.random.default_rng(0))
@@ -239,7 +239,7 @@ def test_sample_weight_is_reference_value_over_mixture_pdf(name, mode):
     computed here; sample()'s pdf equals that pdf.
 
     Tolerance per lane: 128 u (1 + kappa) of M00 (the fuzz test's bound,
-    mitsuba_pbrdf/checks/stress.py), kappa the reference's own float32
+    proof/stress.py), kappa the reference's own float32
     conditioning at the sampled pair, plus the pdf's 4 u x (see above); lanes
     whose bound exceeds 1e-2 (ill-conditioned, e.g. the narrowest lobe's far
     tail) are not compared, and at least 80 % of the valid lanes must be (50 %

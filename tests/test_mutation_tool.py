@@ -1,4 +1,4 @@
-"""The mutation-study tool (mitsuba_pbrdf/checks/mutation.py) itself: it must
+"""The mutation-study tool (proof/mutation.py) itself: it must
 produce each operator's mutants, change exactly the node it names, leave
 strings, error messages and annotations alone, and give sources that compile,
 or the study's score (validation/mutation.md) would measure nothing."""
@@ -8,7 +8,7 @@ import textwrap
 
 import pytest
 
-from mitsuba_pbrdf.checks import mutation
+from proof import mutation
 
 MODULE = textwrap.dedent('''
     """Docstring 1 + 2."""

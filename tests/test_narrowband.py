@@ -1,5 +1,5 @@
 """Narrow-band Stokes renders (``pbrdf render --wavelength NM[:WIDTH]``,
-mitsuba_pbrdf.imaging.narrowband) against the float64 reference evaluator on
+mitsuba_pbrdf.rendering.narrowband) against the float64 reference evaluator on
 scenes/analytic_plane.xml, with a complex index that changes with wavelength
 (so that a render at the wrong wavelength, or with the wrong normalization,
 fails)."""
@@ -12,10 +12,13 @@ import pytest
 
 from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging import read_stokes_exr, render_scene
-from mitsuba_pbrdf.imaging.exr import read_exr_channels
-from mitsuba_pbrdf.imaging.narrowband import (band_response, parse_wavelength, rgb_response,
-                                              scene_with_band)
+from mitsuba_pbrdf.errors import ParameterError
+from mitsuba_pbrdf.rendering import render_scene
+from mitsuba_pbrdf.rendering.render import check_render
+from mitsuba_pbrdf.stokes import read_stokes_exr
+from mitsuba_pbrdf.stokes.exr import read_exr_channels
+from mitsuba_pbrdf.rendering.narrowband import (band_response, parse_wavelength, rgb_response,
+                                                scene_with_band)
 from test_analytic_scene import LIGHT_DIR, SCENE, expected_stokes
 
 pytestmark = pytest.mark.usefixtures("restore_variant")
@@ -46,8 +49,26 @@ def test_parse_wavelength():
     for bad, text in [("red", "expects NM or NM:WIDTH"), ("550:-1", "width >= 0"),
                       ("nan", "finite"), ("300", "within 360-830 nm"),
                       ("825:20", "835 nm must lie within")]:
-        with pytest.raises(ValueError, match=text):
+        with pytest.raises(ParameterError, match=text) as error:
             parse_wavelength(bad)
+        # the library names its parameter; only the command line names the option
+        assert error.value.parameter == "wavelength" and "--" not in str(error.value)
+
+
+def test_check_render_refuses_a_band_in_a_non_spectral_variant_before_loading():
+    """check_render makes the render's checks once, without setting a variant:
+    a band in an RGB variant is refused by parameter name; a good request
+    carries the parsed band."""
+    with pytest.raises(ParameterError, match="needs a spectral variant, not "
+                                             "llvm_ad_rgb_polarized") as error:
+        check_render(SCENE, variant="llvm_ad_rgb_polarized", wavelength="600")
+    assert error.value.parameter == "wavelength"
+    for name, value in (("spp", 0), ("passes", 0)):
+        with pytest.raises(ParameterError, match="must be at least 1") as error:
+            check_render(SCENE, variant=VARIANT, **{name: value})
+        assert error.value.parameter == name
+    request = check_render(SCENE, spp=2, variant=VARIANT, wavelength="550:10")
+    assert request.band.limits == (545.0, 555.0) and request.spp == 2
 
 
 def test_sampled_wavelengths_weigh_the_band_evenly():

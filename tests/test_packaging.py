@@ -14,12 +14,16 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import zipfile
+from pathlib import Path
 
 import pytest
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
-#: What a build needs from the repository.
-SOURCES = ("mitsuba_pbrdf", "scenes", "setup.py", "pyproject.toml", "README.md")
+#: What a build needs from the repository, and the folders beside the package that
+#: must stay out of the wheel (copied so that the build could pick them up).
+SOURCES = ("mitsuba_pbrdf", "scenes", "setup.py", "pyproject.toml", "README.md",
+           "proof", "tests")
 
 
 def run(argv, cwd, timeout=300):
@@ -31,8 +35,8 @@ def run(argv, cwd, timeout=300):
 
 
 @pytest.fixture(scope="module")
-def installed(tmp_path_factory):
-    """(bin folder of a fresh venv holding the wheel, an empty working folder)."""
+def wheel(tmp_path_factory):
+    """The wheel built from a copy of the repository's sources."""
     root = tmp_path_factory.mktemp("packaging")
     source = root / "source"
     source.mkdir()
@@ -47,12 +51,19 @@ def installed(tmp_path_factory):
          "-q", "-w", str(root / "wheels"), str(source)], cwd=root)
     wheels = list((root / "wheels").glob("mitsuba_pbrdf-*.whl"))
     assert len(wheels) == 1, wheels
+    return wheels[0]
+
+
+@pytest.fixture(scope="module")
+def installed(wheel):
+    """(bin folder of a fresh venv holding the wheel, an empty working folder)."""
+    root = wheel.parent.parent
 
     venv = root / "venv"
     run([sys.executable, "-m", "venv", "--without-pip", str(venv)], cwd=root)
     python = venv / "bin" / "python"
     run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps",
-         "--no-index", "-q", str(wheels[0])], cwd=root)
+         "--no-index", "-q", str(wheel)], cwd=root)
     # only now the dependencies: pip, installing, must not see (and offer to replace) the
     # mitsuba_pbrdf this interpreter has
     purelib = run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
@@ -68,7 +79,7 @@ def installed(tmp_path_factory):
 def test_wheel_carries_the_scenes(installed):
     bin_dir, work = installed
     out = run([str(bin_dir / "python"), "-c",
-               "import mitsuba_pbrdf, os; from mitsuba_pbrdf.imaging.scene_files import "
+               "import mitsuba_pbrdf, os; from mitsuba_pbrdf.rendering.scene_files import "
                "scenes_dir, packaged_scenes; print(mitsuba_pbrdf.__file__); "
                "print(scenes_dir()); print(' '.join(packaged_scenes())); "
                "print(os.path.isfile(scenes_dir() / 'gallery' / 'studio.exr'))"], cwd=work)
@@ -99,3 +110,22 @@ def test_installed_commands_run_from_any_directory(installed):
          "-D", "height=18", "--out", "s"], cwd=work)
     assert (work / "s.exr").is_file()
     assert not (work / "scenes").exists()
+
+
+def scaffolding_names():
+    """The file names of the test and study scaffolding (proof/)."""
+    return {p.name for p in (Path(ROOT) / "proof").glob("*.py") if p.name != "__init__.py"}
+
+
+def test_wheel_holds_no_test_scaffolding(wheel):
+    """The wheel is the package alone: no proof/, tests/ or validation/, and no
+    file named like a proof/ module anywhere in it (a scaffolding module moved
+    back into the package would be one)."""
+    names = zipfile.ZipFile(wheel).namelist()
+    top = {n.split("/")[0] for n in names}
+    assert top == {"mitsuba_pbrdf", wheel.name.split("-")[0] + "-" + wheel.name.split("-")[1]
+                   + ".dist-info"}, top
+    scaffolding = scaffolding_names()
+    assert len(scaffolding) >= 8, scaffolding  # the scan below looks at real names
+    found = [n for n in names if n.rsplit("/", 1)[-1] in scaffolding]
+    assert not found, found

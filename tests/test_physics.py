@@ -1,6 +1,6 @@
 """Physics checks on the float64 reference and on the plugin: the CI share of
 ``validation/physics.py``, ``validation/furnace.py`` and
-``validation/rendered_stokes.py`` (the same ``mitsuba_pbrdf.checks`` functions,
+``validation/rendered_stokes.py`` (the same ``mitsuba_pbrdf.diagnostics`` and ``proof`` functions,
 fewer samples). Run with ``pytest -s`` to see each table.
 
 Float32 tolerances use u = 2^-24 (the unit roundoff of float32); each bound
@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import use_variant
-from mitsuba_pbrdf.checks import fresnel, furnace, physics, realizability, rendered
+from mitsuba_pbrdf.diagnostics import furnace, physics, realizability
+from proof import mirror_fresnel
+from proof import rendered
 
 U32 = 2.0 ** -24
 U64 = 2.0 ** -53
@@ -46,7 +48,7 @@ def test_fresnel_reflectance_at_normal_incidence():
     interpolation (~1e-7 relative each; dR/R is at most ~2x as sensitive),
     plus ~40 float32 operations for D(0) and the complex amplitudes: at most
     ~100 u = 6e-6, bound 1e-5."""
-    rows = fresnel.normal_incidence()
+    rows = mirror_fresnel.normal_incidence()
     show(["metal", "λ", "n", "k", "R closed form", "R reference", "R plugin"], rows)
     for metal, wl, n, k, closed, ref, plugin in rows:
         assert 0.3 < closed < 1.0
@@ -60,12 +62,12 @@ def test_pseudo_brewster_angle():
 
     A minimum this flat is located only as well as R_p is known: an error e
     (relative to M00 ~ (R_s + R_p)/2, from which R_p = M00 - M01 is computed)
-    moves it by up to sqrt(2 e M00 / R_p''). fresnel.pseudo_brewster reports
+    moves it by up to sqrt(2 e M00 / R_p''). mirror_fresnel.pseudo_brewster reports
     that resolution for the plugin's e = 2e-6 (~30 float32 operations); the
     reference's e is ~10 float64 roundings, 1e-15, i.e. its resolution is
     sqrt(1e-15 / 2e-6) of the plugin's, plus the golden-section search's 1e-10
     rad. Both must be within twice their resolution."""
-    rows = fresnel.pseudo_brewster()
+    rows = mirror_fresnel.pseudo_brewster()
     show(["case", "λ", "n", "k", "closed (°)", "reference (°)", "plugin (°)", "res. (°)",
           "R_p min"], rows)
     for name, wl, n, k, closed, ref, plugin, res32, rp_min in rows:
@@ -84,7 +86,7 @@ def test_reflected_light_is_s_polarized_and_its_dop_rises_to_pseudo_brewster():
     the facet and global frames coincide: only rounding of the frame rotations
     remains, a few u of M00 in float32, bound 16 u), and the DOP rises
     monotonically up to the pseudo-Brewster angle and peaks beyond it."""
-    rows = fresnel.s_polarization()
+    rows = mirror_fresnel.s_polarization()
     show(["metal", "λ", "lobes", "engine", "min S1/S0", "max |S2|,|S3|/S0", "rising",
           "θpB", "DOP(θpB)", "θ max DOP", "max DOP"], rows)
     for metal, wl, lobes, engine, min_s1, max_s23, rising, pb, dop_pb, theta_max, dop_max in rows:

@@ -1,4 +1,4 @@
-"""Polarization-camera images (mitsuba_pbrdf.imaging.polcam, ``pbrdf polcam``):
+"""Polarization-camera images (mitsuba_pbrdf.camera.polcam, ``pbrdf polcam``):
 the frame convention against renders through Mitsuba's ``polarizer``, the
 mosaics against polanalyser's demosaicing (an independent reading of the
 IMX250MZR / IMX250MYR layouts), and the sensor model's statistics."""
@@ -11,10 +11,10 @@ import pytest
 from PIL import Image
 
 from mitsuba_pbrdf.cli import main
-from mitsuba_pbrdf.imaging.exr import read_exr_channels, write_stokes_exr
-from mitsuba_pbrdf.imaging.polcam import (ANGLES, SensorModel, colour_layout, colour_mosaic,
-                                          malus, mono_layout, mono_mosaic, polarizer_images)
-from mitsuba_pbrdf.imaging.stokes import StokesImage, aolp, dolp
+from mitsuba_pbrdf.stokes.exr import read_exr_channels, write_stokes_exr
+from mitsuba_pbrdf.camera.polcam import (ANGLES, SensorModel, colour_layout, colour_mosaic,
+                                         malus, mono_layout, mono_mosaic, polarizer_images)
+from mitsuba_pbrdf.stokes.image import StokesImage, aolp, dolp
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 SCENES = os.path.join(ROOT, "scenes", "gallery")
@@ -159,7 +159,7 @@ def test_sensor_model_statistics_and_png(tmp_path):
     assert counts.dtype == np.uint16 and counts.max() == 4095 and counts.min() == 0
     np.testing.assert_allclose(frame[ramp <= 1], ramp[ramp <= 1], atol=0.5 / 4095 + 1e-7)
     assert np.all(frame[ramp > 1] == 1.0)  # saturated
-    from mitsuba_pbrdf.imaging.polcam import write_png16
+    from mitsuba_pbrdf.camera.polcam import write_png16
 
     path = write_png16(tmp_path / "c.png", counts)
     with Image.open(path) as png:

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from conftest import WAVELENGTHS, as_numpy, chi2_sampling_test, hemisphere_pairs, make_si
-from mitsuba_pbrdf.checks.conditioning import lane_parameters, reference_brdf
-from mitsuba_pbrdf.checks.realizability import U32
+from proof.conditioning import lane_parameters, reference_brdf
+from mitsuba_pbrdf.diagnostics.realizability import U32
 from test_mixture_sampling import to_global
 from mitsuba_pbrdf import use_variant
 

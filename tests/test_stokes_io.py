@@ -1,23 +1,23 @@
-"""Stokes EXR I/O and derived quantities (mitsuba_pbrdf.imaging.stokes, .exr)."""
+"""Stokes EXR I/O and derived quantities (mitsuba_pbrdf.stokes.image, .exr)."""
 
 import mitsuba as mi
 import numpy as np
 import OpenEXR
 import pytest
 
-from mitsuba_pbrdf.imaging.stokes import (
-    StokesChannelError,
-    StokesImage,
-    as_stokes_image,
-    aolp,
-    docp,
-    dolp,
-    dop,
-    from_mitsuba,
-    intensity,
-    luminance_stokes,
-)
-from mitsuba_pbrdf.imaging.exr import read_stokes_exr, write_stokes_exr
+from mitsuba_pbrdf.stokes.image import (
+                                        StokesChannelError,
+                                        StokesImage,
+                                        as_stokes_image,
+                                        aolp,
+                                        docp,
+                                        dolp,
+                                        dop,
+                                        from_mitsuba,
+                                        intensity,
+                                        luminance_stokes,
+                                        )
+from mitsuba_pbrdf.stokes.exr import read_stokes_exr, write_stokes_exr
 
 #: The channel order of Mitsuba's `stokes` integrator output (RGB/spectral variants).
 MITSUBA_ORDER = ["R", "G", "B"] + [f"S{i}.{b}" for i in range(4) for b in "RGB"]

@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import use_variant
-from mitsuba_pbrdf.checks.gradients import functional_gradient, random_functional
+from proof.render_gradients import functional_gradient, random_functional
 from mitsuba_pbrdf.inverse.scenes import sphere_scene
 
 T = mi.ScalarTransform4f
@@ -139,7 +139,7 @@ def test_primal_equals_stokes_path(case):
 
 def test_channels_are_those_of_stokes():
     use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.imaging.stokes import channel_names
+    from mitsuba_pbrdf.stokes.image import channel_names
     names = []
     for integrator in ("path", "stokes_prb"):
         scene = mi.load_dict(scene_dict(integrator, max_depth=1))
@@ -226,7 +226,7 @@ def test_loss_and_gradient_uses_replay_by_default():
     for k in PBRDF_KEYS[:3]:
         dr.enable_grad(params[k])
     params.update()
-    from mitsuba_pbrdf.imaging.passes import derivative_seed
+    from mitsuba_pbrdf.rendering.passes import derivative_seed
     image = mi.render(path, params, integrator=replay, spp=SPP, seed=2,
                       seed_grad=derivative_seed(2))
     dr.backward(loss(image))
@@ -260,12 +260,12 @@ def test_unpolarized_variant_says_which_to_use(restore_variant):
 
 
 def test_svbrdf_example_runs_and_moves_the_maps():
-    """examples/svbrdf_recovery.py at toy size (the study is
-    validation/svbrdf_recovery.py): two Adam steps on the 2 x 64 texels keep
+    """mitsuba_pbrdf.inverse.svbrdf.recover (examples/svbrdf_recovery.py) at toy size
+    (the study is validation/svbrdf_recovery.py): two Adam steps on the 2 x 64 texels keep
     them inside their bounds, change the texels the cameras see, and leave
     the others."""
     use_variant("llvm_ad_spectral_polarized")
-    from examples.svbrdf_recovery import BOUNDS, START, recover
+    from mitsuba_pbrdf.inverse.svbrdf import BOUNDS, START, recover
     result = recover(iterations=2, size=12, spp=2, target_spp=4, log=None)
     assert len(result["loss"]) == 2 and np.all(np.isfinite(result["loss"]))
     for name, recovered in result["recovered"].items():

@@ -1,4 +1,4 @@
-"""Pictures of Stokes images (mitsuba_pbrdf.imaging.panels) and pBRDF plots
+"""Pictures of Stokes images (mitsuba_pbrdf.pictures.panels) and pBRDF plots
 (mitsuba_pbrdf.figures.pbrdf_plots): the figures are built, saved and opened again, and the
 numbers behind them are checked against the reference evaluator."""
 
@@ -11,29 +11,29 @@ from PIL import Image
 
 from mitsuba_pbrdf import reference
 from mitsuba_pbrdf.figures.pbrdf_plots import (
-    PBRDFParams,
-    dop_unpolarized,
-    hemisphere,
-    in_plane,
-    pbrdf_figure,
-    save_pbrdf_plot,
-)
-from mitsuba_pbrdf.imaging.stokes import StokesImage
+                                               PBRDFParams,
+                                               dop_unpolarized,
+                                               hemisphere,
+                                               in_plane,
+                                               pbrdf_figure,
+                                               save_pbrdf_plot,
+                                               )
+from mitsuba_pbrdf.stokes.image import StokesImage
 from matplotlib.figure import Figure
 
-from mitsuba_pbrdf.imaging.colours import nice_ceiling
-from mitsuba_pbrdf.imaging.panels import (
-    PANEL_PRESETS,
-    draw_aolp,
-    draw_docp,
-    draw_dolp,
-    overview_figure,
-    parse_panels,
-    polarization_hsv,
-    save_overview_png,
-    save_png,
-    tonemap,
-)
+from mitsuba_pbrdf.pictures.colours import nice_ceiling
+from mitsuba_pbrdf.pictures.panels import (
+                                           PANEL_PRESETS,
+                                           draw_aolp,
+                                           draw_docp,
+                                           draw_dolp,
+                                           overview_figure,
+                                           parse_panels,
+                                           polarization_hsv,
+                                           save_overview_png,
+                                           save_png,
+                                           tonemap,
+                                           )
 
 
 def synthetic_image(h=24, w=32):
@@ -134,7 +134,7 @@ def test_aolp_colours_are_polanalysers_hue_wheel():
     """The AoLP panel's colours are those of polanalyser's applyColorToAoLP
     (hue = AoLP / 180 deg, full saturation and value) up to its 8-bit
     rounding, no angle is dark, and grey marks DoLP below the threshold."""
-    from mitsuba_pbrdf.imaging.colours import MASKED_GREY, aolp_rgb
+    from mitsuba_pbrdf.pictures.colours import MASKED_GREY, aolp_rgb
 
     angles = np.linspace(-90.0, 90.0, 181)
     rgb = aolp_rgb(angles)

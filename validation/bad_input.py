@@ -3,7 +3,7 @@
     python validation/bad_input.py   (-> bad_input.md)
 
 Loads a ``pbrdf`` with every entry of the table in
-``mitsuba_pbrdf/checks/bad_input.py`` (``llvm_ad_spectral_polarized``) and
+``proof/bad_input.py`` (``llvm_ad_spectral_polarized``) and
 writes the error message it gets. ``tests/test_bad_input.py`` asserts on the
 same table that each is rejected at load time and that the message names the
 parameter; this page shows the messages a user sees.
@@ -16,7 +16,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from validation import common  # noqa: E402
-from mitsuba_pbrdf.checks import bad_input  # noqa: E402
+from proof import bad_input  # noqa: E402
 
 
 def main(argv=None):
@@ -30,7 +30,7 @@ def main(argv=None):
         rows.append((bad_input.describe(params), message[:160], named))
     text = (f"# Study 5: bad input\n\n`python validation/bad_input.py` "
             f"({time.perf_counter() - start:.1f} s): every invalid parameter of the table in "
-            f"`mitsuba_pbrdf/checks/bad_input.py` ({len(rows)} cases; `tests/test_bad_input.py` "
+            f"`proof/bad_input.py` ({len(rows)} cases; `tests/test_bad_input.py` "
             "also covers XML, scenes, `mi.traverse` updates and other variants) and the last "
             "line of the error Mitsuba reports when loading it. Found by that test and fixed "
             "since (regression tests there): bitmap textures were checked on a 64×64 grid of "

@@ -2,10 +2,10 @@
 tables and figure output.
 
 Each study (``validation/<study>.py``) is a driver with a ``main(argv)``: its
-arguments and sizes, a run of the checks in ``mitsuba_pbrdf.checks`` (or of the
+arguments and sizes, a run of the checks in ``mitsuba_pbrdf.diagnostics`` and ``proof/`` (or of the
 package's own functions), and ``validation/<study>.md`` with its figures under
 ``validation/figures/``. ``python validation/run_all.py`` runs them all. The
-tests in ``tests/`` call the same ``mitsuba_pbrdf.checks`` functions with
+tests in ``tests/`` call the same ``mitsuba_pbrdf.diagnostics`` and ``proof`` functions with
 smaller sample counts and assert on them; neither folder imports the other.
 """
 

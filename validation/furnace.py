@@ -22,7 +22,7 @@ more than once). Lobes:
   reflectance R(theta_i) it would have without roughness.
 * **ideal diffuse lobe** (kid = 1): exactly 1.
 
-Two estimates per point, independent of each other (``mitsuba_pbrdf.checks.furnace``):
+Two estimates per point, independent of each other (``mitsuba_pbrdf.diagnostics.furnace``):
 the reference's deterministic quadrature over the half vector, with its error
 estimated by halving the number of points, and the plugin's Monte Carlo over its
 own importance sampling, with its standard error. This script runs them at the
@@ -43,7 +43,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from validation import common  # noqa: E402
-from mitsuba_pbrdf.checks import furnace  # noqa: E402
+from mitsuba_pbrdf.diagnostics import furnace  # noqa: E402
 
 
 def figure(rows):

@@ -54,7 +54,7 @@ def main(argv=None):
     import mitsuba_pbrdf
     mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf import inverse
-    from mitsuba_pbrdf.imaging import stokes as stokes_io
+    from mitsuba_pbrdf.stokes import image as stokes_io
 
     scene = mi.load_dict(inverse.sphere_scene(args.size, args.size, args.spp,
                                               integrator="direct"))
@@ -178,7 +178,7 @@ def _figures(fits, truth, keys, target, initial, film, stokes_io):
     import matplotlib
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
-    from mitsuba_pbrdf.imaging import panels as visualize
+    from mitsuba_pbrdf.pictures import panels as visualize
 
     os.makedirs(FIGURES, exist_ok=True)
     styles = {"S0": "--", "S0..S2": "-"}

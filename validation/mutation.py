@@ -18,7 +18,7 @@ survived`` runs its survivors against today's tests/ (those of the working
 tree, whatever the record's ``tests_rev``): after tests were added for them.
 The analysis is ``validation/mutation.md``. The mutants, the test subsets
 and the tables of equivalent mutants and of the review's defects are in
-``mitsuba_pbrdf/checks/mutation.py`` and ``mitsuba_pbrdf/checks/mutation_tables.py``.
+``proof/mutation.py`` and ``proof/mutation_tables.py``.
 """
 
 import argparse
@@ -30,7 +30,7 @@ import time
 
 from common import HERE
 
-from mitsuba_pbrdf.checks import mutation
+from proof import mutation
 
 RUNS = os.path.join(HERE, "mutation_runs")
 

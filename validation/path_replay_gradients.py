@@ -50,13 +50,13 @@ def scene(sampling, depth):
 
 
 def weights():
-    from mitsuba_pbrdf.checks.gradients import random_functional
+    from proof.render_gradients import random_functional
 
     return random_functional(SIZE, SIZE, seed=0)
 
 
 def gradient(sc, integrator, w, seed, mode="reverse"):
-    from mitsuba_pbrdf.checks.gradients import functional_gradient
+    from proof.render_gradients import functional_gradient
 
     return functional_gradient(sc, KEYS, w, integrator=integrator, spp=SPP, seed=seed,
                                seed_grad=seed + 50_000, mode=mode)

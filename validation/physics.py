@@ -15,8 +15,8 @@
 5. Realizability: the eigenvalues of Cloude's coherency matrix are >= 0 and the
    degree of polarization of the output is <= 1 for every input Stokes vector.
 
-The checks are ``mitsuba_pbrdf.checks.fresnel`` (1-3) and
-``mitsuba_pbrdf.checks.physics`` (4, 5), whose docstrings say how the plugin is
+The checks are ``proof.mirror_fresnel`` (1-3) and
+``mitsuba_pbrdf.diagnostics.physics`` (4, 5), whose docstrings say how the plugin is
 measured; this script runs them at the study's sizes and writes the report. The
 directional-hemispherical albedo (white furnace) is ``furnace.py``. The
 tolerances and their reasons are in ``tests/test_physics.py``, which runs the same
@@ -33,7 +33,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from validation import common  # noqa: E402
 from mitsuba_pbrdf import reference  # noqa: E402
-from mitsuba_pbrdf.checks import fresnel, physics  # noqa: E402
+from mitsuba_pbrdf.diagnostics import physics  # noqa: E402
+from proof import mirror_fresnel  # noqa: E402
 
 
 # ---------------------------------------------------------------------------
@@ -47,18 +48,18 @@ def figure_fresnel(plugin=True, wavelength=632.8):
     fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), sharex=True)
     for col, metal in enumerate(("Al", "Cu")):
         n, k = (float(x) for x in reference.conductor_ior(metal, wavelength))
-        rs, rp = fresnel.closed_form_reflectances(theta, n, k)
-        pb = np.degrees(fresnel.closed_form_pseudo_brewster(n, k))
+        rs, rp = mirror_fresnel.closed_form_reflectances(theta, n, k)
+        pb = np.degrees(mirror_fresnel.closed_form_pseudo_brewster(n, k))
         ax = axes[0, col]
         ax.plot(theta_deg, rs, color="tab:blue", label="R_s closed form")
         ax.plot(theta_deg, rp, color="tab:red", label="R_p closed form")
         ax.plot(theta_deg, 0.5 * (rs + rp), color="k", lw=0.8, label="R (unpolarized)")
         marks = np.arange(2.5, 89.0, 5.0)
         if plugin:
-            bsdf = fresnel.load_plugin(material=metal, sigma=fresnel.SIGMA)
-            to_viewer, to_light = fresnel.in_plane_pair(np.radians(marks))
-            M = fresnel.mueller_global(bsdf, to_viewer, to_light, [wavelength])[:, 0]
-            scale = 4 * np.pi * fresnel.ALPHA**2 * np.cos(np.radians(marks)) ** 2
+            bsdf = mirror_fresnel.load_plugin(material=metal, sigma=mirror_fresnel.SIGMA)
+            to_viewer, to_light = mirror_fresnel.in_plane_pair(np.radians(marks))
+            M = mirror_fresnel.mueller_global(bsdf, to_viewer, to_light, [wavelength])[:, 0]
+            scale = 4 * np.pi * mirror_fresnel.ALPHA**2 * np.cos(np.radians(marks)) ** 2
             ax.plot(marks, (M[:, 0, 0] + M[:, 0, 1]) * scale, "o", mfc="none", ms=4,
                     color="tab:blue", label="R_s plugin")
             ax.plot(marks, (M[:, 0, 0] - M[:, 0, 1]) * scale, "s", mfc="none", ms=4,
@@ -72,16 +73,16 @@ def figure_fresnel(plugin=True, wavelength=632.8):
 
         ax = axes[1, col]
         for three, style in ((False, "-"), (True, "--")):
-            result = fresnel.mirror_polarization(metal, wavelength, theta_deg, plugin=False,
+            result = mirror_fresnel.mirror_polarization(metal, wavelength, theta_deg, plugin=False,
                                                  three_lobes=three)
             label = "3 lobes (kdd 0.2, kid 0.05)" if three else "specular only"
-            ax.plot(theta_deg, fresnel.dop(result["reference"]), style, color="k", label=label)
+            ax.plot(theta_deg, mirror_fresnel.dop(result["reference"]), style, color="k", label=label)
             ax.plot(theta_deg, result["reference"][:, 1], style, color="tab:green", lw=0.8,
                     label=f"S1/S0, {label}")
             if plugin:
-                pr = fresnel.mirror_polarization(metal, wavelength, marks, plugin=True,
+                pr = mirror_fresnel.mirror_polarization(metal, wavelength, marks, plugin=True,
                                                  three_lobes=three)["plugin"]
-                ax.plot(marks, fresnel.dop(pr), "o" if not three else "^", mfc="none", ms=4,
+                ax.plot(marks, mirror_fresnel.dop(pr), "o" if not three else "^", mfc="none", ms=4,
                         color="k", label=f"DOP plugin, {label}")
         ax.axvline(pb, color="0.5", ls=":")
         ax.set_xlabel("incidence angle = mirror reflection angle (deg)")
@@ -97,19 +98,19 @@ def report(pairs=100_000, plugin=True):
     start = time.perf_counter()
     sections = []
 
-    rows = fresnel.normal_incidence(plugin=plugin)
+    rows = mirror_fresnel.normal_incidence(plugin=plugin)
     worst_ref = max(abs(r[5] / r[4] - 1) for r in rows)
     worst_plugin = max(abs(r[6] / r[4] - 1) for r in rows) if plugin else np.nan
     sections.append(
         "## 1. Fresnel reflectance at normal incidence\n\n"
         "R = ((n−1)² + k²)/((n+1)² + k²) from Mitsuba's tabulated n, k, against R recovered "
-        f"from the BRDF at exact normal incidence and exit (σ = {fresnel.SIGMA}: R = 4πα² M00). "
+        f"from the BRDF at exact normal incidence and exit (σ = {mirror_fresnel.SIGMA}: R = 4πα² M00). "
         f"Worst relative error: reference **{worst_ref:.1e}**, plugin **{worst_plugin:.1e}**.\n\n"
         + common.table(["metal", "λ (nm)", "n", "k", "R closed form", "R reference",
                         "R plugin", "plugin rel. error"],
                        [r + (abs(r[6] / r[4] - 1),) for r in rows], digits=6))
 
-    rows = fresnel.pseudo_brewster(plugin=plugin)
+    rows = mirror_fresnel.pseudo_brewster(plugin=plugin)
     worst_ref = max(abs(r[5] - r[4]) for r in rows)
     worst_plugin = max(abs(r[6] - r[4]) for r in rows) if plugin else np.nan
     sections.append(
@@ -125,7 +126,7 @@ def report(pairs=100_000, plugin=True):
                        [(r[0], r[1], r[2], r[3], r[4], r[5] - r[4], r[6] - r[4], r[7], r[8])
                         for r in rows], digits=4))
 
-    rows = fresnel.s_polarization(plugin=plugin)
+    rows = mirror_fresnel.s_polarization(plugin=plugin)
     sections.append(
         "## 3. Reflected light is s-polarized; DOP rises toward the pseudo-Brewster angle\n\n"
         "Unpolarized light reflected into the mirror direction, incidence 1°–89.5° (step "
@@ -164,8 +165,8 @@ def report(pairs=100_000, plugin=True):
     text = (f"# Study 2: physics checks\n\n`python validation/physics.py --pairs {pairs}` "
             f"({time.perf_counter() - start:.0f} s). Each check on the float64 reference "
             "evaluator and on the plugin (float32, through `frames.eval_global`), by the "
-            "functions of `mitsuba_pbrdf/checks/fresnel.py` (1–3) and "
-            "`mitsuba_pbrdf/checks/physics.py` (4, 5). The same functions run with fewer "
+            "functions of `proof/mirror_fresnel.py` (1–3) and "
+            "`mitsuba_pbrdf/diagnostics/physics.py` (4, 5). The same functions run with fewer "
             "samples in `tests/test_physics.py`, whose docstrings justify each tolerance. "
             "The white-furnace (albedo) study is "
             "[`furnace.md`](furnace.md).\n\n"

@@ -6,7 +6,7 @@
 The scenes (a plate and a sphere of ``pbrdf`` with Al and Cu, lit by an
 unpolarized narrow-band directional light), the per-pixel checks (AoLP from
 geometry alone, DoLP against the reference evaluator) and the noise model are
-described in ``mitsuba_pbrdf.checks.rendered``, which :func:`report` runs at the
+described in ``proof.rendered``, which :func:`report` runs at the
 study's sizes; ``tests/test_physics.py`` runs the same measurement with fewer
 samples and asserts on it.
 """
@@ -20,7 +20,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from validation import common  # noqa: E402
-from mitsuba_pbrdf.checks import rendered  # noqa: E402
+from proof import rendered  # noqa: E402
 
 
 def figure(result):

@@ -10,9 +10,9 @@ finite, non-negative where it must be, physically realizable, zero below the
 horizon and self-consistent, and its value is compared with the float64
 reference, also in units of the problem's own float32 conditioning.
 
-The generator is ``mitsuba_pbrdf.checks.fuzz_inputs``, the checks and their
-tallies ``mitsuba_pbrdf.checks.stress``, the conditioning
-``mitsuba_pbrdf.checks.conditioning``; their docstrings give every range,
+The generator is ``proof.fuzz_inputs``, the checks and their
+tallies ``proof.stress``, the conditioning
+``proof.conditioning``; their docstrings give every range,
 region and bound. This script runs them at the study's size and writes the
 report; ``tests/test_fuzz.py`` runs the same code on 10^5 pairs.
 """
@@ -25,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from validation import common  # noqa: E402
-from mitsuba_pbrdf.checks import stress  # noqa: E402
+from proof import stress  # noqa: E402
 
 
 def report(samples=1_000_000, seed=0):
@@ -56,8 +56,8 @@ def report(samples=1_000_000, seed=0):
 {tally.samples:,} direction pairs over {tally.configs} random configurations, each evaluated
 in both transport modes with `eval`, `pdf`, `eval_pdf` and `sample` ({tally.evaluations:,}
 calls' lanes; × 4 wavelengths). The generator, the parameter ranges and the regions are
-described in `mitsuba_pbrdf/checks/fuzz_inputs.py`, the checks in
-`mitsuba_pbrdf/checks/stress.py`; `tests/test_fuzz.py` runs the same code on 10⁵ pairs.
+described in `proof/fuzz_inputs.py`, the checks in
+`proof/stress.py`; `tests/test_fuzz.py` runs the same code on 10⁵ pairs.
 
 **Checks** (number of failing lanes; every check must be 0):
 
@@ -70,7 +70,7 @@ Smallest coherency eigenvalue seen: {tally.min_eigen:.2e} × M00 (tolerance
 reference M00 > 1e-10 1/sr; reference evaluated at the plugin's float32 inputs, with Mitsuba's
 approximate Beckmann G1 for Smith shadowing as the plugin uses). u = 2⁻²⁴; κ is the reference's
 own sensitivity to perturbations the size of the float32 representation of the inputs
-(`mitsuba_pbrdf/checks/conditioning.py`). Large relative errors occur only where κ is large, i.e. where the problem itself is
+(`proof/conditioning.py`). Large relative errors occur only where κ is large, i.e. where the problem itself is
 ill-conditioned: narrow lobes near grazing, and nearly opposite grazing directions, where the
 half vector is the normalized sum of two almost cancelling float32 vectors. Bound asserted in
 `tests/test_fuzz.py`: {stress.ACCURACY_UNITS} u (1 + κ).

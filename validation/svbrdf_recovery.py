@@ -6,9 +6,9 @@ from Stokes images, with S0 only and with S0, S1, S2.
 
 Writes ``validation/svbrdf_recovery.md`` and
 ``validation/figures/svbrdf_recovery.png`` (loss curves, maps before/after,
-error maps). The fit is examples/svbrdf_recovery.py: three views, two area
-lights and a sky, ``stokes_prb`` at depth 2, 64 x 64 pixels, 16 spp per
-iteration and view, targets at 128 spp, Adam on the 2 x 64 texels from
+error maps). The fit is mitsuba_pbrdf.inverse.svbrdf (examples/svbrdf_recovery.py
+runs it): three views, two area lights and a sky, ``stokes_prb`` at depth 2,
+64 x 64 pixels, 16 spp per iteration and view, targets at 128 spp, Adam on the 2 x 64 texels from
 uniform maps (sigma 0.2, kdd 0.2). Error: RMS over the texels that received
 a gradient (seen by a camera), for each map.
 """
@@ -73,7 +73,7 @@ def main(argv=None):
     import mitsuba_pbrdf
 
     mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
-    from examples.svbrdf_recovery import map_errors, recover
+    from mitsuba_pbrdf.inverse.svbrdf import map_errors, recover
 
     iterations = 20 if args.quick else 60
     results, errors = {}, {}
@@ -86,7 +86,7 @@ def main(argv=None):
 
     lines = ["# Spatially varying recovery: sigma and kdd maps from Stokes images", "",
              f"`python validation/svbrdf_recovery.py{' --quick' if args.quick else ''}` (this "
-             "file). examples/svbrdf_recovery.py: a `pbrdf` sphere (n = 1.5, k = 3.5, ks = 1, "
+             "file). `mitsuba_pbrdf/inverse/svbrdf.py`: a `pbrdf` sphere (n = 1.5, k = 3.5, ks = 1, "
              "sigma_dd = 0.5) whose `sigma` and `kdd` are 8 x 8 single-channel bitmaps (bilinear), "
              "seen by three cameras (64 x 64) under two area lights and a sky; `stokes_prb` at "
              "depth 2 (`mi.render` + `dr.backward`), 16 spp per view and iteration, targets at "

@@ -9,7 +9,7 @@
 :mod:`.sweep` reads and checks sweep files, :mod:`.job` renders one job on a
 worker, :mod:`.manifest` keeps ``out/manifest.csv``, :mod:`.cluster` starts or
 joins a Dask cluster, :mod:`.runner` runs a sweep without losing work. Single
-renders live in :mod:`mitsuba_pbrdf.imaging`. Importing this package does not
+renders live in :mod:`mitsuba_pbrdf.rendering`. Importing this package does not
 import Dask; running a sweep needs it (``pip install 'mitsuba-pbrdf[batch]'``)."""
 
 from .runner import SweepSummary, run_sweep

@@ -1,8 +1,8 @@
 """One job of a sweep, as a worker runs it: render the scene with the job's
-``-D`` values and seed through :func:`mitsuba_pbrdf.imaging.render.render_scene_timed`
+``-D`` values and seed through :func:`mitsuba_pbrdf.rendering.render.render_scene_timed`
 (the path ``pbrdf render`` takes), write the Stokes EXR and, if asked, the AOV
 EXR (normals and depth) and a polarization camera's images (the files of
-``pbrdf polcam``, :mod:`mitsuba_pbrdf.imaging.polcam`; the sensor noise is
+``pbrdf polcam``, :mod:`mitsuba_pbrdf.camera.polcam`; the sensor noise is
 seeded with the job's seed), each atomically (:mod:`mitsuba_pbrdf.outputs`).
 
 :func:`run_job` never raises for a job that fails (bad value, scene error,
@@ -90,7 +90,7 @@ def set_drjit_threads(count: Optional[int]):
 
 
 def _one_line(error: BaseException) -> str:
-    from ..cli.common import describe_error
+    from ..errors import describe_error
 
     text = describe_error(error)
     known = (ValueError, RuntimeError, OSError, MemoryError)
@@ -103,8 +103,8 @@ def _write_aov(path: str, scene_path: str, params: Dict[str, str], spp: int, see
 
     import mitsuba as mi
 
-    from ..imaging.exr import write_exr
-    from ..imaging.render import load_scene
+    from ..stokes.exr import write_exr
+    from ..rendering.render import load_scene
 
     scene = load_scene(scene_path, params)
     integrator = mi.load_dict({"type": "aov", "aovs": AOV_SPEC})
@@ -115,7 +115,7 @@ def _write_aov(path: str, scene_path: str, params: Dict[str, str], spp: int, see
 
 def _write_polcam(task: JobTask, image) -> str:
     """Write the job's polarization-camera files; returns their names, ``;``-separated."""
-    from ..imaging.polcam import SensorModel, polcam_outputs, write_polcam_files
+    from ..camera.polcam import SensorModel, polcam_outputs, write_polcam_files
 
     options = dict(task.polcam)
     sensor, band = options.pop("sensor", "mono"), options.pop("band", None)
@@ -127,8 +127,8 @@ def _write_polcam(task: JobTask, image) -> str:
 
 def run_job(task: JobTask, drjit_threads: Optional[int] = None) -> JobResult:
     """Run one job (see the module docstring); returns its :class:`JobResult`."""
-    from ..imaging.exr import write_stokes_exr
-    from ..imaging.render import render_scene_timed
+    from ..stokes.exr import write_stokes_exr
+    from ..rendering.render import render_scene_timed
 
     with _LOCK:
         start = time.perf_counter()

@@ -82,20 +82,9 @@ def _valid_exr(path: str, stokes: bool) -> bool:
     if not os.path.isfile(path):
         return False
     try:
-        if stokes:
-            from ..imaging.exr import read_stokes_exr
+        from ..stokes.exr import read_exr_channels, read_stokes_exr
 
-            read_stokes_exr(path)
-        else:
-            import OpenEXR
-
-            from ..imaging.exr import _library_output
-
-            with _library_output() as noise, OpenEXR.File(path, separate_channels=True) as f:
-                for channel in f.channels().values():
-                    _ = channel.pixels
-            if noise.text().strip():
-                return False
+        (read_stokes_exr if stokes else read_exr_channels)(path)  # ValueError if damaged
     except Exception:
         return False
     return True

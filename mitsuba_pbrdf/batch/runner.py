@@ -84,7 +84,7 @@ def _lost_worker_error(error: BaseException) -> str:
     if isinstance(error, KilledWorker):
         return ("the worker running it died each time it was tried (killed, crashed or out "
                 "of memory; Dask's distributed.scheduler.allowed-failures)")
-    from ..cli.common import describe_error
+    from ..errors import describe_error
 
     return f"{type(error).__name__}: {describe_error(error)}"
 
@@ -111,11 +111,11 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
     of *workers* processes or on the scheduler at *scheduler* (see the module
     docstring). *drjit_threads*: Dr.Jit threads per worker (local default:
     the cores shared out). *progress*: as for
-    :func:`~mitsuba_pbrdf.imaging.progress.progress_reporter` (a bar over jobs).
+    :func:`~mitsuba_pbrdf.rendering.progress.progress_reporter` (a bar over jobs).
     Returns a :class:`SweepSummary`."""
     from dask.distributed import as_completed
 
-    from ..imaging.progress import progress_reporter
+    from ..rendering.progress import progress_reporter
     from .cluster import ALLOWED_FAILURES, connect
 
     start = time.perf_counter()

@@ -18,7 +18,7 @@ Cartesian product defines the jobs of ``pbrdf batch`` (docs/batch.md).
 :class:`SweepError` (a ``ValueError``) with one line naming the file and the
 key: unknown keys, wrong types, empty or repeated values, a missing scene, an
 unwritable ``out`` folder, a parameter the scene does not declare, a value the
-scene cannot use (:mod:`mitsuba_pbrdf.imaging.scene_params`), an unknown or
+scene cannot use (:mod:`mitsuba_pbrdf.rendering.scene_params`), an unknown or
 unpolarized variant.
 
 Each :class:`Job` has a file-system-safe unique name made of the parameters
@@ -181,7 +181,7 @@ def _param_values(path, key, values) -> List[str]:
 
 
 def _check_variant(path, variant: str):
-    from ..imaging.render import UnpolarizedVariantError, require_polarized
+    from ..rendering.render import UnpolarizedVariantError, require_polarized
 
     import mitsuba as mi
 
@@ -224,13 +224,17 @@ def _polcam_options(path, table, outputs) -> Dict[str, object]:
             options[key] = float(value)
     if options.get("read_noise") and "full_well" not in options:
         _fail(path, "polcam.read_noise (electrons) needs polcam.full_well")
+    if "exposure" in options and "full_well" not in options and "bits" not in options:
+        # without shot noise or an ADC nothing would use the exposure
+        _fail(path, "polcam.exposure (the radiance at full well) needs polcam.full_well "
+                    "or polcam.bits")
     if "bits" in options:
         _int(path, "polcam.bits", options["bits"], 1, 16)
     return options
 
 
 def _scene_path(path: str, folder: str, scene: str) -> str:
-    from ..imaging.scene_files import packaged_scene
+    from ..rendering.scene_files import packaged_scene
 
     candidate = os.path.normpath(os.path.join(folder, os.path.expanduser(scene)))
     if os.path.isfile(candidate):
@@ -246,8 +250,8 @@ def _scene_path(path: str, folder: str, scene: str) -> str:
 def load_sweep(path) -> Sweep:
     """Read and check the sweep file *path* (see the module docstring); raises
     :class:`SweepError`, or ``FileNotFoundError`` for a missing file."""
-    from ..imaging.scene_params import (SceneParameterError, check_parameter_values,
-                                        declared_parameters)
+    from ..rendering.scene_params import (SceneParameterError, check_parameter_values,
+                                          declared_parameters)
     from ..outputs import check_writable
 
     path = os.path.abspath(os.fspath(path))

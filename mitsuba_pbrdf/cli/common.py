@@ -6,7 +6,10 @@ Every command, present and future, reports through :func:`run_command`:
 
 * :class:`CliError`, ``OSError`` (``cannot write PATH: REASON``), ``ValueError``
   (bad values, unusable files), ``RuntimeError`` and ``MemoryError`` (Mitsuba,
-  Dr.Jit): ``pbrdf COMMAND: error: MESSAGE`` on one line, exit status 2;
+  Dr.Jit): ``pbrdf COMMAND: error: MESSAGE`` on one line, exit status 2; the
+  library's errors name its parameters (:class:`mitsuba_pbrdf.errors.ParameterError`),
+  and where the command has that parameter as an option the message names the
+  option instead (``--wavelength: ...``);
 * ``KeyboardInterrupt`` (Ctrl-C, SIGINT): ``pbrdf COMMAND: interrupted``, exit
   status 130 (128 + SIGINT, as shells report it). Outputs are written
   atomically (:mod:`mitsuba_pbrdf.outputs`), so nothing partial is left;
@@ -22,6 +25,8 @@ import os
 import sys
 from typing import Optional
 
+from ..errors import ParameterError, describe_error, one_line
+
 PROG = "pbrdf"
 EXIT_ERROR = 2
 EXIT_INTERNAL = 1
@@ -35,23 +40,13 @@ class CliError(Exception):
     """An error reported to the user as one line, exit status 2."""
 
 
-def one_line(message) -> str:
-    """A message (an exception's, possibly over several lines) on one line."""
-    return " ".join(str(message).split())
-
-
-def describe_error(error: BaseException) -> str:
-    """The one-line message of an error: ``cannot write PATH: REASON`` for an
-    output (:class:`mitsuba_pbrdf.outputs.OutputError`), ``PATH: REASON`` for
-    other ``OSError`` s naming a file, else the message."""
-    from ..outputs import OutputError
-
-    if isinstance(error, OSError) and error.filename is not None:
-        reason = error.strerror or one_line(error)
-        if isinstance(error, OutputError):
-            return f"cannot write {error.filename}: {reason}"
-        return f"{error.filename}: {reason}"
-    return one_line(error) or type(error).__name__
+def option_message(error: BaseException, args) -> str:
+    """The one-line message of *error* in the command line's terms: a
+    :class:`~mitsuba_pbrdf.errors.ParameterError` of a parameter that the
+    command has as an option (``wavelength`` -> ``--wavelength``) names the option."""
+    if isinstance(error, ParameterError) and hasattr(args, error.parameter):
+        return f"--{error.parameter.replace('_', '-')}: {one_line(error.detail)}"
+    return describe_error(error)
 
 
 def run_command(func, args, command: str) -> int:
@@ -67,7 +62,7 @@ def run_command(func, args, command: str) -> int:
         print(f"{prefix}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (CliError, OSError, ValueError, RuntimeError, MemoryError) as e:
-        print(f"{prefix}: error: {describe_error(e)}", file=sys.stderr)
+        print(f"{prefix}: error: {option_message(e, args)}", file=sys.stderr)
         return EXIT_ERROR
     except Exception as e:  # a bug: still one line, and how to see more
         print(f"{prefix}: internal error: {type(e).__name__}: {describe_error(e)} "
@@ -102,7 +97,7 @@ def parse_defines(items) -> dict:
 
 def parse_panels(text: str):
     """``--panels`` as panel names, or a :class:`CliError` naming unknown ones."""
-    from ..imaging.panels import parse_panels as parse
+    from ..pictures.panels import parse_panels as parse
 
     try:
         return parse(text)
@@ -139,7 +134,7 @@ def show_progress(args):
     """The ``progress`` argument of the rendering functions: ``"bar"`` with
     ``--progress``, ``"off"`` with ``--no-progress``, else ``"auto"`` (a bar
     when stderr is a terminal, a line every few seconds of long work otherwise;
-    :mod:`mitsuba_pbrdf.imaging.progress`)."""
+    :mod:`mitsuba_pbrdf.rendering.progress`)."""
     if args.progress is None:
         return "auto"
     return "bar" if args.progress else "off"
@@ -219,7 +214,7 @@ def picture_options(parser, panels_default: str):
 
 
 def picture_kwargs(args, image=None) -> dict:
-    """Checked keyword arguments of :func:`~mitsuba_pbrdf.imaging.panels.save_overview_png`
+    """Checked keyword arguments of :func:`~mitsuba_pbrdf.pictures.panels.save_overview_png`
     from the picture options (and *image*'s bands, for ``--band``)."""
     panels = parse_panels(args.panels)
     finite_float("--min-dolp", args.min_dolp, 0.0, 1.0)
@@ -237,7 +232,7 @@ def picture_kwargs(args, image=None) -> dict:
 def report_quality(image, band, source: str, command: str):
     """Warn (one line on stderr) about unusable pixels of *image*; a
     :class:`CliError` when none is usable. Returns the assessment."""
-    from ..imaging.quality import assess
+    from ..stokes.quality import assess
 
     quality = assess(image, band)
     if quality.usable == 0:

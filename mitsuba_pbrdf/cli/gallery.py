@@ -27,7 +27,7 @@ def run(args) -> int:
                    if args.exr_dir and renders else None))
     variant = chosen_variant(args) if renders else None
     if variant is not None:
-        from ..imaging.render import require_polarized
+        from ..rendering.render import require_polarized
 
         require_polarized(variant)
     run_gallery(out=args.out, scenes_dir=args.scenes, exr_dir=args.exr_dir or None,
@@ -39,8 +39,9 @@ def run(args) -> int:
 def add_parser(subparsers):
     g = subparsers.add_parser("gallery", help="render scenes/gallery and draw README's pictures",
                               description="Render the gallery scenes (metals, roughness, polarizer at "
-                                          "0/45/90/135 degrees), the Stokes sheet of scenes/default.xml "
-                                          "and the pBRDF plot into PNGs.")
+                                          "0/45/90/135 degrees, a polarization camera's images "
+                                          "and sensor frames), the Stokes sheet of "
+                                          "scenes/default.xml and the pBRDF plot into PNGs.")
     g.add_argument("--out", default="gallery", metavar="DIR", help="folder of the PNGs "
                                                                    "(default: gallery)")
     g.add_argument("--exr-dir", default="out/gallery", metavar="DIR",
@@ -48,7 +49,7 @@ def add_parser(subparsers):
     g.add_argument("--scenes", default=None, metavar="DIR",
                    help="folder of the gallery scenes (default: the packaged scenes/gallery)")
     g.add_argument("--only", default=None, metavar="ITEM,...",
-                   help="materials, roughness, polarizer, sheet, plot (default: all)")
+                   help="materials, roughness, polarizer, polcam, sheet, plot (default: all)")
     g.add_argument("--spp", type=int, default=None, help="samples per pixel (default: each scene's)")
     g.add_argument("--scale", type=float, default=1.0,
                    help="image size factor (default: 1, i.e. 240x180 panels)")

@@ -6,7 +6,7 @@ sensor frame ``DIR/<stem>_mosaic.exr`` (monochrome sensor) or
 ``_mosaic_rgb.exr`` (colour sensor), one channel ``Y``; with ``--bits`` also
 the ADC counts as a 16-bit PNG. Everything is checked and computed before the
 first file is written, and each file is written atomically
-(:mod:`mitsuba_pbrdf.imaging.polcam`, ``docs/polarization-camera.md``)."""
+(:mod:`mitsuba_pbrdf.camera.polcam`, ``docs/polarization-camera.md``)."""
 
 from __future__ import annotations
 
@@ -16,25 +16,30 @@ from .common import CliError, check_outputs, finite_float, one_line, require_fil
 
 
 def sensor_model(args):
-    """The :class:`~mitsuba_pbrdf.imaging.polcam.SensorModel` of the options (checked)."""
-    from ..imaging.polcam import SensorModel
+    """The :class:`~mitsuba_pbrdf.camera.polcam.SensorModel` of the options (checked)."""
+    from ..camera.polcam import SensorModel
 
     finite_float("--exposure", args.exposure, low=0.0, low_open=True)
     finite_float("--full-well", args.full_well, low=0.0, low_open=True)
     finite_float("--read-noise", args.read_noise, low=0.0)
     if args.read_noise and args.full_well is None:
         raise CliError("--read-noise (electrons) needs --full-well")
+    if args.exposure is not None and args.full_well is None and args.bits is None:
+        # without shot noise or an ADC nothing would use the exposure
+        raise CliError("--exposure (the radiance at full well) needs --full-well or --bits")
+    if args.seed is not None and args.full_well is None:
+        raise CliError("--seed (of the shot and read noise) needs --full-well")
     if args.bits is not None and not 1 <= args.bits <= 16:
         raise CliError(f"--bits must be in 1..16, got {args.bits}")
     return SensorModel(exposure=args.exposure, full_well=args.full_well,
-                       read_noise=args.read_noise or 0.0, bits=args.bits, seed=args.seed)
+                       read_noise=args.read_noise or 0.0, bits=args.bits, seed=args.seed or 0)
 
 
 def run(args) -> int:
     """``pbrdf polcam``."""
-    from ..imaging.exr import read_stokes_exr
-    from ..imaging.polcam import polcam_file_names, polcam_outputs, write_polcam_files
-    from ..imaging.stokes import StokesChannelError
+    from ..stokes.exr import read_stokes_exr
+    from ..camera.polcam import polcam_file_names, polcam_outputs, write_polcam_files
+    from ..stokes.image import StokesChannelError
 
     require_file(args.exr, "EXR file")
     model = sensor_model(args)
@@ -77,9 +82,11 @@ def add_parser(subparsers):
     p.add_argument("--band", default=None,
                    help="Stokes band the mono sensor sees (default: the luminance combination "
                         "of R, G, B; the only band of a one-band image)")
-    g = p.add_argument_group("sensor model (off unless one of these is given)")
+    g = p.add_argument_group(
+        "sensor model (on with --full-well or --bits; the other options need one of them)")
     g.add_argument("--exposure", type=float, default=None, metavar="RADIANCE",
-                   help="radiance that fills the full well (default: the frame's maximum)")
+                   help="radiance that fills the full well (default: the frame's maximum); needs "
+                        "--full-well or --bits")
     g.add_argument("--full-well", type=float, default=None, metavar="ELECTRONS",
                    help="full-well capacity in electrons; adds photon shot noise")
     g.add_argument("--read-noise", type=float, default=None, metavar="ELECTRONS",
@@ -87,5 +94,6 @@ def add_parser(subparsers):
     g.add_argument("--bits", type=int, default=None, metavar="N",
                    help="ADC bits (1-16): quantize, and also write the counts as a 16-bit PNG "
                         "(values in the low N bits)")
-    g.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
+    g.add_argument("--seed", type=int, default=None,
+                   help="seed of the shot and read noise (default: 0; needs --full-well)")
     p.set_defaults(func=run)

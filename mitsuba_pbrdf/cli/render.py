@@ -13,8 +13,9 @@ import sys
 from typing import Optional
 
 from .common import (PROG, CliError, check_outputs, chosen_variant, parse_defines,
-                     picture_kwargs, picture_options, positive_int, progress_options,
-                     report_quality, show_progress, variant_help)
+                     picture_kwargs, picture_options, progress_options, report_quality,
+                     show_progress, variant_help)
+from .unused_options import warn_unused_picture_options
 
 
 def _out_stem(out: Optional[str], scene_path: str) -> str:
@@ -29,7 +30,7 @@ def _out_stem(out: Optional[str], scene_path: str) -> str:
 
 def _scene(path: str) -> str:
     """The scene file, or the packaged scene of that name (with a notice)."""
-    from ..imaging.scene_files import find_scene
+    from ..rendering.scene_files import find_scene
 
     if os.path.isfile(path):
         return path
@@ -45,41 +46,29 @@ def _wrote(path: str, existed: bool, detail: str = "") -> str:
 
 def run(args) -> int:
     """``pbrdf render``."""
-    from ..imaging.exr import write_stokes_exr
-    from ..imaging.narrowband import parse_wavelength
-    from ..imaging.panels import save_overview_png
-    from ..imaging.render import SceneLoadError, render_scene_timed, require_polarized
-    from ..imaging.scene_params import check_parameter_values
-    from ..imaging.stokes import StokesChannelError
+    from ..pictures.panels import save_overview_png
+    from ..rendering.render import SceneLoadError, check_render, render_request
+    from ..stokes.exr import write_stokes_exr
+    from ..stokes.image import StokesChannelError
 
     scene = _scene(args.scene)
     params = parse_defines(args.define)
-    positive_int("--spp", args.spp)
-    positive_int("--passes", args.passes)
     picture = picture_kwargs(args)
-    band = None
-    if args.wavelength is not None:
-        band = parse_wavelength(args.wavelength)
-        bands = [band.name]
-    else:
-        bands = ["R", "G", "B"]  # what Mitsuba's stokes integrator writes
+    warn_unused_picture_options(args, picture["panels"], "render")
+    # the library's checks, once (errors name the parameter; run_command names the option)
+    request = check_render(scene, spp=args.spp, variant=chosen_variant(args), params=params,
+                           passes=args.passes, wavelength=args.wavelength)
+    band, variant = request.band, request.variant
+    bands = [band.name] if band is not None else ["R", "G", "B"]  # what stokes writes
     if picture["band"] not in (None, *bands):
         raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(bands)}")
-    variant = chosen_variant(args)
-    require_polarized(variant)
-    if band is not None and "_spectral_" not in variant:
-        raise CliError(f"--wavelength needs a spectral variant, not {variant}")
-    check_parameter_values(scene, params)
     stem = _out_stem(args.out, scene)
     exr_path, png_path = stem + ".exr", stem + ".png"
     check_outputs(("--out", exr_path), ("--out", png_path))
     existed = [os.path.exists(exr_path), os.path.exists(png_path)]
 
     try:
-        image, timings = render_scene_timed(
-            scene, spp=args.spp, variant=variant, seed=args.seed, params=params,
-            passes=args.passes, progress=show_progress(args), wavelength=band,
-        )
+        image, timings = render_request(request, seed=args.seed, progress=show_progress(args))
     except SceneLoadError as e:
         raise CliError(f"cannot load {scene}: {e}") from e
     except StokesChannelError as e:

@@ -1,7 +1,7 @@
 """``pbrdf view``: the Stokes sheet (PNG) of a Stokes EXR.
 
 Unusable pixels (non-finite, S0 < 0, polarization > 1;
-:mod:`mitsuba_pbrdf.imaging.quality`) are counted in a one-line warning and
+:mod:`mitsuba_pbrdf.stokes.quality`) are counted in a one-line warning and
 marked in the picture; a file with no usable pixel is an error (exit 2)."""
 
 from __future__ import annotations
@@ -10,13 +10,14 @@ import os
 
 from .common import (CliError, check_outputs, one_line, picture_kwargs, picture_options,
                      report_quality, require_file)
+from .unused_options import warn_unused_picture_options
 
 
 def run(args) -> int:
     """``pbrdf view``."""
-    from ..imaging.exr import read_stokes_exr
-    from ..imaging.panels import save_overview_png
-    from ..imaging.stokes import StokesChannelError
+    from ..stokes.exr import read_stokes_exr
+    from ..pictures.panels import save_overview_png
+    from ..stokes.image import StokesChannelError
 
     require_file(args.exr, "EXR file")
     picture_kwargs(args)  # the options' own checks, before reading anything
@@ -28,6 +29,7 @@ def run(args) -> int:
     except (StokesChannelError, ValueError) as e:
         raise CliError(one_line(e)) from e
     picture = picture_kwargs(args, image)
+    warn_unused_picture_options(args, picture["panels"], "view")
     quality = report_quality(image, picture["band"], args.exr, "view")
     if not image.metadata.get("title"):
         image.metadata["title"] = os.path.basename(args.exr)

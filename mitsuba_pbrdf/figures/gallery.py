@@ -39,11 +39,11 @@ from typing import Dict, Optional, Sequence
 
 import numpy as np
 
-from ..imaging.exr import write_stokes_exr
-from ..imaging.panels import (DRAWERS, auto_exposure, linear_rgb, overview_figure, plot_aolp,
-                              plot_dolp, plot_intensity, save_png, tonemap)
-from ..imaging.render import render_scene
-from ..imaging.stokes import StokesImage
+from ..stokes.exr import write_stokes_exr
+from ..pictures.panels import (DRAWERS, auto_exposure, linear_rgb, overview_figure, plot_aolp,
+                               plot_dolp, plot_intensity, save_png, tonemap)
+from ..rendering.render import render_scene
+from ..stokes.image import StokesImage
 from ..reference.params import PBRDFParams
 from .pbrdf_plots import save_pbrdf_plot
 
@@ -83,16 +83,16 @@ GALLERY_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "
 #: The items that render scenes (the others need neither scenes nor a variant).
 RENDERED_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet")
 
-#: Colour quantization of committed PNGs (see imaging.panels.save_png).
+#: Colour quantization of committed PNGs (see pictures.panels.save_png).
 _PNG_COLOURS = 256
 
 
 def find_scenes(scenes_dir=None) -> Path:
     """The folder holding the gallery scenes: *scenes_dir* if given, else
     ``scenes/gallery`` under the current directory, else the packaged one
-    (:func:`mitsuba_pbrdf.imaging.scene_files.scenes_dir`). Raises
+    (:func:`mitsuba_pbrdf.rendering.scene_files.scenes_dir`). Raises
     ``FileNotFoundError`` saying where it looked."""
-    from ..imaging.scene_files import scenes_dir as packaged
+    from ..rendering.scene_files import scenes_dir as packaged
 
     if scenes_dir is not None:
         candidates = [Path(scenes_dir)]
@@ -179,7 +179,7 @@ def montage_figure(
     exposure: Optional[float] = None,
 ):
     """A grid with one column per ``(label, StokesImage)`` and one row per
-    panel of :data:`~mitsuba_pbrdf.imaging.panels.DRAWERS` (``intensity``,
+    panel of :data:`~mitsuba_pbrdf.pictures.panels.DRAWERS` (``intensity``,
     ``dolp``, ``aolp``, ``hsv``, ...), all columns on the same scales (one
     exposure, one DoLP range) with one colour bar per row."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg

@@ -327,8 +327,8 @@ def save_pbrdf_plot(path, params: PBRDFParams, theta_i: float,
                     title: Optional[str] = None, dpi: int = 110,
                     colors: Optional[int] = None) -> str:
     """Write :func:`pbrdf_figure` as a PNG; returns the path. *colors* as for
-    :func:`mitsuba_pbrdf.imaging.panels.save_png`."""
-    from ..imaging.panels import save_png
+    :func:`mitsuba_pbrdf.pictures.panels.save_png`."""
+    from ..pictures.panels import save_png
 
     fig = pbrdf_figure(params, theta_i, wavelengths, title)
     return save_png(fig, os.fspath(path), dpi=dpi, colors=colors)

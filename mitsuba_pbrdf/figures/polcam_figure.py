@@ -2,7 +2,7 @@
 the four polarizer images of a Stokes image with one exposure, the colour and
 monochrome sensors' raw frames, and close-ups of both mosaics with each
 pixel's polarizer angle (and colour filter) written on it
-(:mod:`mitsuba_pbrdf.imaging.polcam`)."""
+(:mod:`mitsuba_pbrdf.camera.polcam`)."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from ..imaging.polcam import (ANGLES, colour_layout, colour_mosaic, mono_layout, mono_mosaic,
-                              polarizer_images)
-from ..imaging.stokes import StokesImage
-from ..imaging.tonemap import auto_exposure, linear_rgb, tonemap
+from ..camera.polcam import (ANGLES, colour_layout, colour_mosaic, mono_layout, mono_mosaic,
+                             polarizer_images)
+from ..stokes.image import StokesImage
+from ..pictures.tonemap import auto_exposure, linear_rgb, tonemap
 
 __all__ = ["polcam_figure"]
 
@@ -39,7 +39,7 @@ def _close_up(ax, raw, angles, corner, size, colours=None, title=""):
 def _most_polarized_block(image: StokesImage, size: int):
     """Top-left pixel (multiples of 4) of the size x size block with the most
     linearly polarized light (the mosaic's pattern shows best there)."""
-    from ..imaging.stokes import luminance_stokes
+    from ..stokes.image import luminance_stokes
 
     s = luminance_stokes(image)
     linear = np.hypot(s[..., 1], s[..., 2])

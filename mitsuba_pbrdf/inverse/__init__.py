@@ -20,8 +20,9 @@ determines::
 Modules: :mod:`.scenes` (a scene to invert), :mod:`.losses` (Stokes losses),
 :mod:`.gradients` (gradients by polarized path replay, or by reverse
 or forward mode in passes; Jacobians, Fisher information; the methods and
-their memory and time are in its docstring), :mod:`.optimize` (Adam). The Mueller matrices of a BSDF with
-derivatives, in the reference's frames, are
+their memory and time are in its docstring), :mod:`.optimize` (Adam),
+:mod:`.svbrdf` (texture maps recovered by polarized path replay). The Mueller
+matrices of a BSDF with derivatives, in the reference's frames, are
 :func:`mitsuba_pbrdf.frames.mueller_brdf`.
 """
 

@@ -44,7 +44,7 @@ same paths, the same estimator; tested), and ``"prb"`` what they give with
 ``stokes_prb``. The seed of the derivative renders differs from the primal
 one, as in ``mi.render``, so the gradient of a non-linear loss is unbiased.
 
-Passes and their seeds follow :mod:`mitsuba_pbrdf.imaging.passes`.
+Passes and their seeds follow :mod:`mitsuba_pbrdf.rendering.passes`.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from ..imaging.passes import derivative_seed, pass_seeds, plan_passes
+from ..rendering.passes import derivative_seed, pass_seeds, plan_passes
 
 __all__ = ["METHODS", "render", "reverse_passes", "GradientStats", "gradient_method",
            "loss_and_gradient", "jacobian", "fisher_information"]
@@ -68,7 +68,7 @@ METHODS = ("auto", "prb", "reverse", "forward")
 
 
 def _passes(seed, spp, passes):
-    """(primal seed, derivative seed, spp) of each pass (:mod:`mitsuba_pbrdf.imaging.passes`)."""
+    """(primal seed, derivative seed, spp) of each pass (:mod:`mitsuba_pbrdf.rendering.passes`)."""
     plan = plan_passes(spp, passes)
     return [(s, derivative_seed(s), n) for s, n in zip(pass_seeds(seed, len(plan)), plan)]
 
@@ -76,8 +76,8 @@ def _passes(seed, spp, passes):
 def render(scene, spp=16, seed=0, passes=1):
     """Primal render (no derivatives) of ``scene``'s first sensor as a
     ``mi.TensorXf`` (H, W, C), the samples split into ``passes`` renders
-    (:func:`~mitsuba_pbrdf.imaging.passes.plan_passes`, seeds from
-    :func:`~mitsuba_pbrdf.imaging.passes.pass_seeds`) whose mean it returns."""
+    (:func:`~mitsuba_pbrdf.rendering.passes.plan_passes`, seeds from
+    :func:`~mitsuba_pbrdf.rendering.passes.pass_seeds`) whose mean it returns."""
     integrator, sensor = scene.integrator(), scene.sensors()[0]
     image = None
     with dr.suspend_grad():

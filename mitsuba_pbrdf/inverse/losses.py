@@ -1,11 +1,11 @@
 """Stokes losses on rendered images, with channels found by name (``S0.R`` ...
-``S3.B``, see :mod:`mitsuba_pbrdf.imaging.stokes`), never by position."""
+``S3.B``, see :mod:`mitsuba_pbrdf.stokes.image`), never by position."""
 
 import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from ..imaging.stokes import channel_names
+from ..stokes.image import channel_names
 
 
 def _film_channels(scene_or_film):

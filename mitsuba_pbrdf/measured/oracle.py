@@ -77,7 +77,7 @@ def render_stokes(scene: dict, seed=0):
     the camera's Stokes frame."""
     import mitsuba as mi
 
-    from ..imaging.stokes import from_mitsuba, luminance_stokes
+    from ..stokes.image import from_mitsuba, luminance_stokes
 
     loaded = mi.load_dict(scene)
     image = mi.render(loaded, seed=seed)

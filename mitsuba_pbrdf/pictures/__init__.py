@@ -1,0 +1,9 @@
+"""Pictures of Stokes images: PNG files a person looks at.
+
+* :mod:`.panels`: the panels (intensity, DoLP, AoLP, DoCP, HSV, S1-S3) and the
+  overview sheet (:func:`~.panels.save_overview_png`);
+* :mod:`.composites`: pixel arrays of the HSV polarization composite and S1-S3/S0;
+* :mod:`.tonemap`: linear RGB and its tone mapping;
+* :mod:`.colours`: the AoLP hue wheel, automatic scales, marker colours;
+* :mod:`.png`: atomic PNG writing.
+"""

@@ -1,0 +1,20 @@
+"""Rendering a scene file into a Stokes image.
+
+* :mod:`.render`: render a scene file in passes into a
+  :class:`~mitsuba_pbrdf.stokes.StokesImage`; the checks before it renders;
+* :mod:`.passes`: the pass planner and its seeding policy (also used by
+  :mod:`mitsuba_pbrdf.inverse`);
+* :mod:`.progress`: a progress bar or log lines over long work;
+* :mod:`.scene_params`: checks of the values given to a scene's ``$key`` parameters;
+* :mod:`.scene_files`: the scenes shipped with the package;
+* :mod:`.narrowband`: Stokes renders at one wavelength or over a narrow band;
+* :mod:`.mitsuba_errors`: Mitsuba's loader errors and Ctrl-C, in the package's terms.
+
+Stokes images and their files are :mod:`mitsuba_pbrdf.stokes`, pictures of them
+:mod:`mitsuba_pbrdf.pictures`, what a polarization camera records
+:mod:`mitsuba_pbrdf.camera`.
+"""
+
+from .render import RenderTimings, SceneLoadError, load_scene, render_scene, render_scene_timed
+
+__all__ = ["RenderTimings", "SceneLoadError", "load_scene", "render_scene", "render_scene_timed"]

@@ -1,0 +1,50 @@
+"""Mitsuba's loader errors and Ctrl-C in the package's terms, shared by the
+scene loaders (:mod:`.render`, :mod:`.narrowband`) and the pass loop.
+
+Mitsuba reports a scene it cannot load, and a Ctrl-C that reached Python code
+it was calling (the plugin's), as ``RuntimeError``: :func:`scene_load_errors`
+turns the first into :class:`SceneLoadError` (one line) and the second back
+into ``KeyboardInterrupt``.
+"""
+
+from __future__ import annotations
+
+import re
+from contextlib import contextmanager
+
+__all__ = ["SceneLoadError", "interrupted", "condense", "scene_load_errors"]
+
+
+class SceneLoadError(RuntimeError):
+    """Mitsuba could not load the scene (its parser's message, on one line)."""
+
+
+def interrupted(error: BaseException) -> bool:
+    """Whether *error* is Ctrl-C that Mitsuba or Dr.Jit wrapped (it was raised
+    inside the plugin's Python code while they were calling it)."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt) or "KeyboardInterrupt" in str(error):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
+
+
+def condense(message: str) -> str:
+    """Mitsuba's error message on one line; a Python traceback that a Python
+    plugin's constructor raised is reduced to its last line (the exception)."""
+    message = re.sub(r"Traceback \(most recent call last\):\n(?:[ \t].*\n)*", "", message)
+    return " ".join(message.split())
+
+
+@contextmanager
+def scene_load_errors():
+    """Around a Mitsuba scene loader: its ``RuntimeError`` becomes
+    :class:`SceneLoadError`, or ``KeyboardInterrupt`` where it was Ctrl-C."""
+    try:
+        yield
+    except RuntimeError as e:
+        if interrupted(e):
+            raise KeyboardInterrupt from e
+        raise SceneLoadError(condense(str(e))) from e

@@ -1,0 +1,231 @@
+"""Docs that cannot drift: every figure a doc attributes to a report is in that
+report, every measured time or memory figure a doc quotes is attributed to a
+report (or declared a setting), and every option a doc gives a ``pbrdf``
+command is one that command's ``--help`` lists (the argparse parser is built
+in-process; nothing is rendered). The marker syntax is in
+``tests/doc_figures.py``."""
+
+import os
+import re
+
+import pytest
+
+from mitsuba_pbrdf.cli import build_parser
+
+from doc_figures import check, doc_files, figures, prose_lines, read, unsourced_measurements
+
+DOCS = doc_files()
+
+
+# ---------------------------------------------------------------- figures
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_every_attributed_figure_is_in_its_report(doc):
+    problems = [p for p in map(check, figures(doc)) if p]
+    assert not problems, "\n".join(problems)
+
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_every_measured_time_or_memory_figure_names_its_report(doc):
+    bad = unsourced_measurements(doc)
+    assert not bad, ("time/memory figures without a report (mark them "
+                     "'<!-- from: REPORT | ROW -->' or '<!-- fixed -->', or link the report "
+                     "instead):\n" + "\n".join(bad))
+
+
+def test_the_figure_checker_can_fail(tmp_path, monkeypatch):
+    """The checks above are not vacuous: a figure missing from its report, a
+    figure in the report but not in the labelled row, and an unmarked
+    timing are each reported."""
+    import doc_figures
+
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "report.md").write_text("| backend | time |\n| drjit | 1.60 s |\n"
+                                        "| reference | 3.52 s |\n")
+    (tmp_path / "notes" / "page.md").write_text(
+        "drjit 1.60 s<!-- from: report.md | drjit -->, reference 3.52<!-- from: report.md -->,\n"
+        "drjit 3.52 s<!-- from: report.md | drjit -->, old 1.7 s<!-- from: report.md -->,\n"
+        "took 9 s here, timeout 20 s<!-- fixed -->.\n"
+        "```\ncode 5 s\n```\n")
+    monkeypatch.setattr(doc_figures, "ROOT", str(tmp_path))
+    results = [check(f) for f in figures("notes/page.md")]
+    assert [r is None for r in results] == [True, True, False, False]
+    assert "not in the line(s) of report.md with 'drjit'" in results[2]
+    assert "1.7 does not occur" in results[3]
+    assert unsourced_measurements("notes/page.md") == ["notes/page.md:3: 9 s"]
+
+
+# ---------------------------------------------------------------- options
+
+COMMAND = re.compile(r"(?:\bpbrdf(?:-fit)?|python -m mitsuba_pbrdf)\s+(?P<rest>.*)")
+
+
+def subcommand_options():
+    """``{command: set of option strings}`` from the argparse parser itself
+    (``None``: the top-level options)."""
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    options = {None: {s for a in parser._actions for s in a.option_strings}}
+    for name, p in sub.choices.items():
+        options[name] = {s for a in p._actions for s in a.option_strings}
+    return options
+
+
+def command_spans(doc):
+    """``(line, text)`` of every piece of a doc that gives a ``pbrdf`` command:
+    each line of a code block (indented lines continue the command above)
+    and each inline code span that starts with ``pbrdf``, ``pbrdf-fit`` or
+    ``python -m mitsuba_pbrdf``; in a table whose rows start with a
+    subcommand (docs/cli.md), that first cell."""
+    text = read(doc)
+    lines = text.splitlines()
+    prose = prose_lines(text)
+    spans = []
+    fenced = False
+    for i, line in enumerate(lines):
+        if line.lstrip().startswith("```"):
+            fenced = not fenced
+            continue
+        if fenced:
+            if line.startswith((" ", "\t")) and spans and spans[-1][0] == i:
+                spans[-1] = (i + 1, spans[-1][1] + " " + line.strip())
+            else:
+                spans.append((i + 1, line))
+    for i, line in enumerate(prose):
+        for span in re.findall(r"`([^`]+)`", line.replace("\\|", "|")):
+            spans.append((i + 1, span))
+        row = re.match(r"^\|\s*`(?P<cell>[a-z]+ [^`]*)`\s*\|", line)
+        if row:
+            spans.append((i + 1, "pbrdf " + row.group("cell").replace("\\|", "|")))
+    return spans
+
+
+def named_options(doc, commands):
+    """``(line, command, option)`` of every ``--option`` given to a ``pbrdf``
+    command in *doc* (``pbrdf-fit`` is ``pbrdf fit``)."""
+    for line, span in command_spans(doc):
+        for m in COMMAND.finditer(span):
+            words = m.group("rest").split()
+            if "pbrdf-fit" in m.group(0):
+                command, args = "fit", words
+            elif words and words[0] in commands:
+                command, args = words[0], words[1:]
+            elif words and words[0].startswith("-"):
+                command, args = None, words
+            else:
+                continue
+            # stop at the next command in the same span, or a shell comment
+            for word in args:
+                if word.startswith("#") or word in ("pbrdf", "&&", ";"):
+                    break
+                for option in re.findall(r"(?<![\w-])--?[a-zA-Z][\w-]*", word):
+                    if option.startswith("--") or option in ("-D", "-h"):
+                        yield line, command, option
+
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_every_option_a_doc_names_is_in_the_help(doc):
+    options = subcommand_options()
+    commands = {c for c in options if c}
+    named = list(named_options(doc, commands))
+    bad = [f"{doc}:{line}: pbrdf {command or ''} {option}" for line, command, option in named
+           if option not in options[command] and option != "-D" or
+           option == "-D" and command not in ("render", None)]
+    assert not bad, "options that `--help` does not list:\n" + "\n".join(bad)
+
+
+def test_the_option_check_reads_the_docs():
+    """The option check is not vacuous: it finds the options of README's and
+    cli.md's commands (table rows, code blocks, continued lines)."""
+    commands = {c for c in subcommand_options() if c}
+    readme = {(c, o) for _, c, o in named_options("README.md", commands)}
+    assert {("plot", "--theta-i"), ("batch", "--workers"), ("render", "-D")} <= readme
+    cli = {(c, o) for _, c, o in named_options("docs/cli.md", commands)}
+    assert {("polcam", "--full-well"), ("export", "--grid"), ("gallery", "--only")} <= cli
+    fitting = {(c, o) for _, c, o in named_options("docs/fitting.md", commands)}
+    assert ("fit", "--abs-uncertainty") in fitting  # on the continued usage line
+
+
+def test_gallery_help_lists_every_gallery_item():
+    from mitsuba_pbrdf.figures.gallery import GALLERY_ITEMS
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    only = next(a for a in sub.choices["gallery"]._actions if "--only" in a.option_strings)
+    assert [i for i in GALLERY_ITEMS if i not in only.help] == []
+
+
+def test_stokes_prb_parameter_table_matches_the_integrator():
+    """docs/path-replay.md's parameter table lists exactly the parameters and
+    defaults of the integrator's own docstring table."""
+    from mitsuba_pbrdf.integrators import stokes_prb
+
+    doc = stokes_prb.__doc__
+    rows = re.findall(r"\* - ``(\w+)``\n\s+- (\w+)\n(?:.*\n)*?\s+- (\S+)\n", doc)
+    assert {r[0] for r in rows} == {"max_depth", "rr_depth", "hide_emitters"}
+    page = read("docs/path-replay.md")
+    documented = dict(re.findall(r"^\| `(\w+)` \| \w+ \| (\S+) \|", page, flags=re.M))
+    assert documented == {name: default for name, _, default in rows}
+
+
+def rendered_and_read(doc, commands):
+    """``(line, kind, path)`` in the order of *doc*: ``("writes", out/x.exr)``
+    for each ``pbrdf render`` and ``("reads", x.exr)`` for each ``pbrdf view``
+    or ``pbrdf polcam`` of a concrete (not upper-case placeholder) EXR."""
+    for line, span in sorted(command_spans(doc), key=lambda s: s[0]):
+        for m in COMMAND.finditer(span):
+            words = m.group("rest").split()
+            if not words or words[0] not in ("render", "view", "polcam") or len(words) < 2:
+                continue
+            target = words[1]
+            if words[0] == "render":
+                out = words[words.index("--out") + 1] if "--out" in words[:-1] else None
+                stem = out or "out/" + os.path.splitext(os.path.basename(target))[0]
+                yield line, "writes", stem.removesuffix(".exr") + ".exr"
+            elif target.endswith(".exr") and not re.search(r"[A-Z]{3}|[<>{}]", target):
+                yield line, "reads", target
+
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_every_exr_a_doc_views_is_rendered_first(doc):
+    """A doc that views or feeds ``out/x.exr`` to ``polcam`` runs the render
+    that writes it first (in the same doc, or README's quick start)."""
+    commands = {c for c in subcommand_options() if c}
+    written = {p for _, kind, p in rendered_and_read("README.md", commands)
+               if kind == "writes"} if doc != "README.md" else set()
+    missing = []
+    for line, kind, path in rendered_and_read(doc, commands):
+        if kind == "writes":
+            written.add(path)
+        elif path not in written:
+            missing.append(f"{doc}:{line}: {path}")
+    assert not missing, "EXRs read before any render writes them:\n" + "\n".join(missing)
+
+
+def script_options():
+    """Options that the repository's validation and benchmark scripts define
+    (their ``add_argument("--x", ...)`` calls), and those ``install.sh`` takes."""
+    import glob
+
+    from doc_figures import ROOT
+
+    found = set()
+    install = os.path.join(ROOT, "install.sh")
+    if os.path.isfile(install):
+        with open(install, encoding="utf-8") as f:
+            found.update(re.findall(r"^\s*(--[\w-]+)\)", f.read(), flags=re.M))  # case arms
+    for path in glob.glob(os.path.join(ROOT, "validation", "*.py")) + glob.glob(
+            os.path.join(ROOT, "benchmarks", "*.py")):
+        with open(path, encoding="utf-8") as f:
+            found.update(re.findall(r"add_argument\(\s*[\"'](--[\w-]+)", f.read()))
+    return found
+
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_every_option_anywhere_in_a_doc_exists(doc):
+    """Options the docs mention outside a ``pbrdf`` command line (in prose,
+    or for a study script) are options of some ``pbrdf`` command, of a
+    validation or benchmark script, or pytest's ``--collect-only``."""
+    known = set().union(*subcommand_options().values()) | script_options() | {"--collect-only"}
+    named = set(re.findall(r"(?<![\w-])--[a-zA-Z][\w-]*", read(doc)))
+    assert sorted(named - known) == []
