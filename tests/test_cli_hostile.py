@@ -181,6 +181,27 @@ TABLE = [
      "cannot write /proc/x.png", None),
     ("fit: unwritable --json, before fitting", ["fit", CSV, "--json", "/sys/x.json"], 2,
      "cannot write /sys/x.json", None),
+    ("recover-normals: missing scene", ["recover-normals", "{tmp}/none.xml", "--targets",
+     "{exr}", "--out", "{tmp}/rn"], 2, "none.xml", "{tmp}/rn/normals.exr"),
+    ("recover-normals: not a scene", ["recover-normals", "{text}", "--targets", "{exr}",
+     "--out", "{tmp}/rn"], 2, "text.exr", "{tmp}/rn/normals.exr"),
+    ("recover-normals: no polarized_normalmap in the scene", ["recover-normals", "{scene}",
+     "--targets", "{exr}", "--out", "{tmp}/rn"], 2, "polarized_normalmap",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: unwritable --out", ["recover-normals", "{plate}", "--targets", "{exr}",
+     "--out", "/sys/rn"], 2, "cannot write /sys/rn", None),
+    ("recover-normals: bad --observables", ["recover-normals", "{plate}", "--targets", "{exr}",
+     "--out", "{tmp}/rn", "--observables", "colour"], 2,
+     "--observables: must be one of intensity, stokes, polcam", "{tmp}/rn/normals.exr"),
+    ("recover-normals: --iterations 0", ["recover-normals", "{plate}", "--targets", "{exr}",
+     "--out", "{tmp}/rn", "--iterations", "0"], 2, "--iterations: must be an integer >= 1",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: target of another size", ["recover-normals", "{plate}", "--targets",
+     "{exr}", "--out", "{tmp}/rn", "--iterations", "1"], 2, "--targets: target 0 must be",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: two targets, one sensor", ["recover-normals", "{plate}", "--targets",
+     "{exr}", "{exr}", "--out", "{tmp}/rn"], 2, "--targets: 2 given, the scene has 1 sensors",
+     "{tmp}/rn/normals.exr"),
 ]
 
 
@@ -199,7 +220,12 @@ def files(tmp_path):
 
     plain = write_exr(tmp_path / "plain.exr", {"Y": np.ones((4, 4), np.float32)})
     y_exr = write_stokes_exr(tmp_path / "y.exr", np.ones((4, 4, 4), np.float32) * [1, 0, 0, 0])
-    return dict(tmp=str(tmp_path), scene=str(scene), exr=good, plain_exr=plain, y_exr=y_exr,
+    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+
+    flat = np.zeros((4, 4, 3), np.float32)
+    flat[..., 2] = 1.0
+    plate = write_plate_files(tmp_path, flat, size=8, spp=1)
+    return dict(tmp=str(tmp_path), scene=str(scene), exr=good, plate=plate, plain_exr=plain, y_exr=y_exr,
                 odd_exr=stokes_exr(tmp_path / "odd.exr", h=13),
                 nan_exr=stokes_exr(tmp_path / "nan.exr", set_nan),
                 truncated=str(tmp_path / "truncated.exr"), text=str(tmp_path / "text.exr"))
@@ -219,7 +245,7 @@ def one_line_error(capfd, command):
 def test_hostile_input(case, argv, status, text, absent, files, capfd, monkeypatch):
     monkeypatch.chdir(files["tmp"])
     argv = [a.format(**files) for a in argv]
-    if argv[0] == "render" and "-D" not in argv and "--spp" not in argv:
+    if argv[0] in ("render", "recover-normals") and "-D" not in argv and "--spp" not in argv:
         argv += ["--spp", "1"]
     assert main(argv) == status
     out, line = one_line_error(capfd, argv[0])
@@ -471,3 +497,38 @@ def test_progress_lines_when_stderr_is_not_a_terminal(monkeypatch, capsys):
     with progress.progress_reporter(4, "one pass", "bar", steps=1) as p:
         p.update(4)
     assert capsys.readouterr().err == ""  # one step: nothing to show
+
+
+def test_ctrl_c_during_recover_normals_leaves_no_output(files, capfd, monkeypatch, tmp_path):
+    """Ctrl-C while recover-normals renders an iteration: `interrupted`, exit
+    130, and none of its three outputs (they are written after the fit)."""
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+    from mitsuba_pbrdf.stokes.image import from_mitsuba
+
+    folder = tmp_path / "plate"
+    folder.mkdir()
+    flat = np.zeros((4, 4, 3), np.float32)
+    flat[..., 2] = 1.0
+    plate = write_plate_files(folder, flat, size=8, spp=1)
+    scene = mi.load_file(plate)
+    target = write_stokes_exr(folder / "t.exr", from_mitsuba(mi.render(scene, spp=4),
+                                                             scene.sensors()[0].film()))
+    calls = []
+    render = mi.render
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:  # the second iteration
+            raise KeyboardInterrupt
+        return render(*args, **kwargs)
+
+    monkeypatch.setattr(mi, "render", interrupted)
+    out_dir = folder / "out"
+    assert main(["recover-normals", plate, "--targets", target, "--out", str(out_dir),
+                 "--iterations", "5", "--spp", "1", "--no-progress"]) == 130
+    out, err = capfd.readouterr()
+    assert err.strip() == "pbrdf recover-normals: interrupted" and not out
+    assert len(calls) == 2
+    assert not out_dir.exists() or not os.listdir(out_dir)

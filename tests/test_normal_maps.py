@@ -332,7 +332,7 @@ def test_stokes_prb_texel_gradients_match_finite_differences(wrapper):
     gradient of a random Stokes functional with respect to every texel equals
     central finite differences of the same renders (common random numbers):
     what shape from polarization will optimize."""
-    from mitsuba_pbrdf.checks.gradients import functional_gradient, random_functional
+    from proof.render_gradients import functional_gradient, random_functional
 
     rng = np.random.default_rng(4)
     if wrapper == "polarized_normalmap":

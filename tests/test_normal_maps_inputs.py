@@ -94,7 +94,7 @@ def test_polarized_render_warns_once_about_mitsubas_wrapper(tmp_path, caplog, wr
     """``render_scene`` logs one line naming the replacement when the scene
     uses Mitsuba's ``normalmap`` (nested in ``twosided`` here), none with
     ours."""
-    from mitsuba_pbrdf.imaging import render_scene
+    from mitsuba_pbrdf.rendering import render_scene
 
     mi.Bitmap(np.full((2, 2, 3), [0.55, 0.5, 0.9], np.float32)).write(str(tmp_path / "n.exr"))
     (tmp_path / "scene.xml").write_text(f"""<scene version="3.0.0">
@@ -140,7 +140,7 @@ def test_gallery_plate_differs_in_aolp_only():
     """plate.xml with Mitsuba's normalmap and with ours, at the same seed: the
     same S0 (the same paths; float32 rounding), an AoLP that differs."""
     from mitsuba_pbrdf.figures.normalmap_plate import aolp_difference
-    from mitsuba_pbrdf.imaging import render_scene
+    from mitsuba_pbrdf.rendering import render_scene
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     images = {w: render_scene(os.path.join(root, "scenes", "gallery", "plate.xml"), spp=2,

@@ -56,7 +56,7 @@ def write_hammered_normal_map(path, **options) -> str:
 def aolp_difference(a, b, min_dolp=0.02):
     """Largest and median |AoLP(a) − AoLP(b)| (degrees, modulo 180°) over the
     pixels of two Stokes images where both DoLPs (luminance) exceed ``min_dolp``."""
-    from ..imaging.stokes import aolp, dolp, luminance_stokes
+    from ..stokes import aolp, dolp, luminance_stokes
 
     sa, sb = luminance_stokes(a), luminance_stokes(b)
     mask = (dolp(sa, axis=-1) > min_dolp) & (dolp(sb, axis=-1) > min_dolp)
@@ -68,7 +68,7 @@ def aolp_difference(a, b, min_dolp=0.02):
 def render_normalmap_plate(settings) -> str:
     """``normalmap.png``: plate.xml with each of :data:`WRAPPERS` (gallery
     settings, see :func:`mitsuba_pbrdf.figures.gallery.run_gallery`)."""
-    from ..imaging.panels import save_png
+    from ..pictures.png import save_png
     from .gallery import _PNG_COLOURS, _render, _subtitle, montage_figure
 
     images = {w: _render(settings, "plate.xml", f"plate_{w}", wrapper=w) for w, _ in WRAPPERS}

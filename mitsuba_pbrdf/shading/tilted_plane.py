@@ -139,7 +139,7 @@ class Comparison:
         :func:`light_towards`."""
         import mitsuba as mi
 
-        from ..imaging.stokes import from_mitsuba
+        from ..stokes import from_mitsuba
 
         normal = tilted_normal(tilt, azimuth)
         towards = light_towards(tilt, azimuth)
