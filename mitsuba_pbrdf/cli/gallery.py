@@ -49,7 +49,7 @@ def add_parser(subparsers):
     g.add_argument("--scenes", default=None, metavar="DIR",
                    help="folder of the gallery scenes (default: the packaged scenes/gallery)")
     g.add_argument("--only", default=None, metavar="ITEM,...",
-                   help="materials, roughness, polarizer, polcam, sheet, plot (default: all)")
+                   help="materials, roughness, polarizer, polcam, normalmap, sheet, plot (default: all)")
     g.add_argument("--spp", type=int, default=None, help="samples per pixel (default: each scene's)")
     g.add_argument("--scale", type=float, default=1.0,
                    help="image size factor (default: 1, i.e. 240x180 panels)")

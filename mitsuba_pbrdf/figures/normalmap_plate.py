@@ -64,18 +64,3 @@ def aolp_difference(a, b, min_dolp=0.02):
     diff = np.abs((diff + 90.0) % 180.0 - 90.0)[mask]
     return (float(diff.max()), float(np.median(diff))) if diff.size else (0.0, 0.0)
 
-
-def render_normalmap_plate(settings) -> str:
-    """``normalmap.png``: plate.xml with each of :data:`WRAPPERS` (gallery
-    settings, see :func:`mitsuba_pbrdf.figures.gallery.run_gallery`)."""
-    from ..pictures.png import save_png
-    from .gallery import _PNG_COLOURS, _render, _subtitle, montage_figure
-
-    images = {w: _render(settings, "plate.xml", f"plate_{w}", wrapper=w) for w, _ in WRAPPERS}
-    worst, median = aolp_difference(images["normalmap"], images["polarized_normalmap"])
-    fig = montage_figure(
-        [(label, images[w]) for w, label in WRAPPERS],
-        dolp_max=0.3,
-        title=f"Hammered plate (plate.xml; {_subtitle(images['normalmap'])}): same intensity\n"
-              f"and DoLP, AoLP off by up to {worst:.0f}° (median {median:.0f}°) where DoLP ≥ 0.02")
-    return save_png(fig, settings.out / "normalmap.png", dpi=100, colors=_PNG_COLOURS)
