@@ -105,6 +105,11 @@ def run_case(case: Case, callback=None) -> dict:
     scene = mi.load_dict(ns.plate_scene(truth, metal=case.metal, views=case.views,
                                         size=case.size))
     targets = ns.render_targets(scene, spp=case.target_spp, seed=10_000 + case.seed)
+    from mitsuba_pbrdf.stokes.image import dolp, from_mitsuba, luminance_stokes
+
+    lum = luminance_stokes(from_mitsuba(targets[0], scene.sensors()[0].film()))
+    plate_dolp = dolp(lum, axis=-1)
+    plate_dolp = float(np.median(plate_dolp[plate_dolp > 1e-4]))  # the sky's is 0
     observables = case.observables
     if observables.startswith("polcam"):
         targets = polcam_frames(targets, scene, EXPOSURES[observables.split("-")[1]],
@@ -122,4 +127,6 @@ def run_case(case: Case, callback=None) -> dict:
                                  callback=callback)
     return {"case": case, "result": result, "truth": truth,
             "error": result.error_stats(), "start": result.error_stats("start_error"),
-            "seconds": time.perf_counter() - t0, "peak_bytes": memory.above_start}
+            "seconds": time.perf_counter() - t0, "peak_bytes": memory.above_start,
+            "peak_rss": memory.peak,
+            "dolp": plate_dolp}

@@ -42,6 +42,9 @@ def cases(args):
     if not args.quick:
         out += [Case(metal=m, observables=o, views=3, **size)
                 for m in ("Cu", "Al") for o in ("intensity", "stokes")]
+    if args.long:
+        long = dict(size, iterations=args.long, spp=2 * args.spp, lr_decay=0.99)
+        out += [Case(metal="Cu", observables=o, views=1, **long) for o in ("intensity", "stokes")]
     return out
 
 
@@ -68,7 +71,7 @@ def figure(runs, path):
     from mitsuba_pbrdf.pictures.png import save_png
 
     shown = [r for r in runs if r["case"].views == 1 and r["case"].observables in
-             ("stokes", "intensity")]
+             ("stokes", "intensity") and r["case"].iterations == runs[0]["case"].iterations]
     fig, axes = plt.subplots(2, 1 + len(shown), figsize=(3.2 * (1 + len(shown)), 6.6))
     axes = np.atleast_2d(axes)
     enc = lambda n: np.clip((n + 1.0) / 2.0, 0, 1)  # noqa: E731
@@ -87,7 +90,7 @@ def figure(runs, path):
     ax = axes[1, 0]
     for r in runs:
         ax.semilogy(np.array(r["result"].loss) / r["result"].loss[0], lw=1,
-                    label=r["case"].label)
+                    label=f"{r['case'].label}, {r['case'].iterations} it")
     ax.set_xlabel("iteration")
     ax.set_ylabel("loss / first loss")
     ax.legend(fontsize=5)
@@ -108,6 +111,9 @@ def main(argv=None):
     p.add_argument("--spp", type=int, default=16)
     p.add_argument("--target-spp", type=int, default=256)
     p.add_argument("--skip-gradients", action="store_true")
+    p.add_argument("--long", type=int, default=0, metavar="N",
+                   help="also copper, one view, intensity and stokes with N iterations at twice "
+                        "the spp and a slower learning-rate decay (0.99)")
     p.add_argument("--variant", default="llvm_ad_spectral_polarized")
     args = p.parse_args(argv)
     if args.quick:
@@ -131,7 +137,7 @@ def main(argv=None):
     c0 = runs[0]["case"]
     lines = ["# Shape from polarization on metals", "",
              f"`python validation/shape_from_polarization.py"
-             f"{' --quick' if args.quick else ''}` (this file), `{args.variant}`, "
+             f"{''.join(' ' + a for a in (sys.argv[1:] if argv is None else argv))}` (this file), `{args.variant}`, "
              f"{platform.machine()}, {os.cpu_count()} cores shared with other jobs; "
              f"total {time.perf_counter() - t_start:.0f} s.", ""]
     if grad:
@@ -160,15 +166,23 @@ def main(argv=None):
               + ", ".join(f"{k}: full well at {v:g} x the brightest pixel"
                           for k, v in EXPOSURES.items()) + ".", "",
               "Angular error over the texels that received a gradient (degrees); memory: "
-              "peak resident memory of the process during the fit above its level before.", "",
-              "| metal | views | observables | start median | median | 90th pct | time | "
-              "peak memory |", "|---|---|---|---|---|---|---|---|"]
+              "peak resident memory of the whole process during the fit (all cases run in one "
+              "process, so it includes Mitsuba, the scenes and Dr.Jit's caches) and, after the "
+              "+, its growth during this fit (Dr.Jit reuses memory it already holds, so a case "
+              "after a larger one adds nothing).", "",
+              "| metal | views | observables | iterations x spp | start median | median | "
+              "90th pct | time | peak memory |", "|---|---|---|---|---|---|---|---|---|"]
     for r in runs:
         c = r["case"]
-        lines.append(f"| {c.metal} | {c.views} | {c.observables} | {r['start']['median']:.2f} | "
+        lines.append(f"| {c.metal} | {c.views} | {c.observables} | {c.iterations} x {c.spp} | "
+                     f"{r['start']['median']:.2f} | "
                      f"{r['error']['median']:.2f} | {r['error']['p90']:.2f} | "
-                     f"{r['seconds']:.0f} s | {r['peak_bytes'] / 2**20:.0f} MiB |")
-    lines += ["", f"![true and recovered normals, errors, losses](figures/{os.path.basename(FIGURE)})",
+                     f"{r['seconds']:.0f} s | {r['peak_rss'] / 2**20:.0f} MiB "
+                     f"+{r['peak_bytes'] / 2**20:.0f} |")
+    lines += ["", "Median DoLP of the view-0 target over the plate's pixels (luminance Stokes "
+              "vector; the sky seen directly is unpolarized): "
+              + ", ".join(sorted({f"{r['case'].metal} {r['dolp']:.3f}" for r in runs})) + ".",
+              "", f"![true and recovered normals, errors, losses](figures/{os.path.basename(FIGURE)})",
               "", "## Reading", "", "(see docs/inverse-rendering.md, Shape from polarization)", ""]
     write_text(REPORT, "\n".join(lines))
     figure(runs, FIGURE)
