@@ -183,7 +183,7 @@ def main(argv=None):
               "vector; the sky seen directly is unpolarized): "
               + ", ".join(sorted({f"{r['case'].metal} {r['dolp']:.3f}" for r in runs})) + ".",
               "", f"![true and recovered normals, errors, losses](figures/{os.path.basename(FIGURE)})",
-              "", "## Reading", "", "(see docs/inverse-rendering.md, Shape from polarization)", ""]
+              "", "## Reading", "", "The physical reading of these figures (why metals polarize little, what AoLP adds to S0, where the errors sit) is in [docs/inverse-rendering.md](../docs/inverse-rendering.md#shape-from-polarization-normal-maps).", ""]
     write_text(REPORT, "\n".join(lines))
     figure(runs, FIGURE)
     print(f"wrote {REPORT} and {FIGURE}")
