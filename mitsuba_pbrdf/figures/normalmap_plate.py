@@ -4,7 +4,10 @@ aluminium plate (``scenes/gallery/plate.xml``) rendered with Mitsuba's
 different AoLP inside the dimples (docs/normal-maps.md).
 
 ``write_hammered_normal_map`` makes the shipped normal map
-(``scenes/gallery/plate_normals.exr``)."""
+(``scenes/gallery/plate_normals.exr``); :func:`aolp_difference` is the figure
+the picture states. The picture itself is drawn by
+:func:`mitsuba_pbrdf.figures.gallery.render_normalmap_plate` (the gallery
+imports this module, never the other way round)."""
 
 from __future__ import annotations
 
