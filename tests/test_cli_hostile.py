@@ -337,7 +337,7 @@ def test_version_and_help_list_every_command(capsys):
         main(["--help"])
     out = capsys.readouterr().out
     for command in cli.COMMANDS:
-        name = command.__name__.rsplit(".", 1)[-1]
+        name = command.__name__.rsplit(".", 1)[-1].replace("_", "-")  # recover_normals: recover-normals
         assert re.search(rf"^\s+{name}\s", out, flags=re.M), name
 
 

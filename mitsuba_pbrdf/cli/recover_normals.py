@@ -51,7 +51,7 @@ def run(args) -> int:
     """``pbrdf recover-normals``."""
     import numpy as np
 
-    from ..inverse.normals import _check_options, find_normalmap
+    from ..inverse.normals import check_options, find_normalmap
     from ..outputs import write_json
     from ..registry import use_variant
     from ..rendering.progress import progress_reporter
@@ -62,7 +62,7 @@ def run(args) -> int:
         require_file(path, "target")
     if args.truth:
         require_file(args.truth, "--truth file")
-    _check_options(args.observables, args.parametrization, args.iterations, args.spp,
+    check_options(args.observables, args.parametrization, args.iterations, args.spp,
                    args.smoothness, args.lr)
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"--out: {args.out} is not a folder")

@@ -302,7 +302,9 @@ class _Texels:
         return mi.TensorXf(n.reshape(*self.shape, 3).astype(np.float32))
 
 
-def _check_options(observables, parametrization, iterations, spp, smoothness, lr):
+def check_options(observables, parametrization, iterations, spp, smoothness, lr):
+    """ParameterError naming the first bad option of :func:`recover_normals`
+    (checked before any scene is loaded; the command line calls it first)."""
     if observables not in OBSERVABLES:
         raise ParameterError("observables", f"must be one of {', '.join(OBSERVABLES)}, "
                                             f"got {observables!r}")
@@ -343,7 +345,7 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
     import drjit as dr
     import mitsuba as mi
 
-    _check_options(observables, parametrization, iterations, spp, smoothness, lr)
+    check_options(observables, parametrization, iterations, spp, smoothness, lr)
     scene = _load(scene)
     key, _ = find_normalmap(scene)
     sensors = scene.sensors()
