@@ -278,6 +278,27 @@ TABLE = [
      "--cores: must be a positive integer, got 0", "{tmp}/out/manifest.csv"),
     ("batch: a Slurm option without --slurm", ["batch", "{sweep}", "--partition", "debug"], 2,
      "--partition is a Slurm option: add --slurm", "{tmp}/out/manifest.csv"),
+    ("recover-normals: missing scene", ["recover-normals", "{tmp}/none.xml", "--targets",
+     "{exr}", "--out", "{tmp}/rn"], 2, "none.xml", "{tmp}/rn/normals.exr"),
+    ("recover-normals: not a scene", ["recover-normals", "{text}", "--targets", "{exr}",
+     "--out", "{tmp}/rn"], 2, "text.exr", "{tmp}/rn/normals.exr"),
+    ("recover-normals: no polarized_normalmap in the scene", ["recover-normals", "{scene}",
+     "--targets", "{exr}", "--out", "{tmp}/rn"], 2, "polarized_normalmap",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: unwritable --out", ["recover-normals", "{plate}", "--targets", "{exr}",
+     "--out", "/sys/rn"], 2, "cannot write /sys/rn", None),
+    ("recover-normals: bad --observables", ["recover-normals", "{plate}", "--targets", "{exr}",
+     "--out", "{tmp}/rn", "--observables", "colour"], 2,
+     "--observables: must be one of intensity, stokes, polcam", "{tmp}/rn/normals.exr"),
+    ("recover-normals: --iterations 0", ["recover-normals", "{plate}", "--targets", "{exr}",
+     "--out", "{tmp}/rn", "--iterations", "0"], 2, "--iterations: must be an integer >= 1",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: target of another size", ["recover-normals", "{plate}", "--targets",
+     "{exr}", "--out", "{tmp}/rn", "--iterations", "1"], 2, "--targets: target 0 must be",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: two targets, one sensor", ["recover-normals", "{plate}", "--targets",
+     "{exr}", "{exr}", "--out", "{tmp}/rn"], 2, "--targets: 2 given, the scene has 1 sensors",
+     "{tmp}/rn/normals.exr"),
 ]
 
 
@@ -315,9 +336,14 @@ def files(tmp_path):
 
     plain = write_exr(tmp_path / "plain.exr", {"Y": np.ones((4, 4), np.float32)})
     y_exr = write_stokes_exr(tmp_path / "y.exr", np.ones((4, 4, 4), np.float32) * [1, 0, 0, 0])
+    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+
+    flat = np.zeros((4, 4, 3), np.float32)
+    flat[..., 2] = 1.0
+    plate = write_plate_files(tmp_path, flat, size=8, spp=1)
     sweep = tmp_path / "sweep.toml"
     sweep.write_text(f'scene = "{scene}"\nout = "out"\n')
-    return dict(tmp=str(tmp_path), scene=str(scene), sweep=str(sweep), exr=good, plain_exr=plain,
+    return dict(tmp=str(tmp_path), scene=str(scene), sweep=str(sweep), exr=good, plate=plate, plain_exr=plain,
                 y_exr=y_exr,
                 **nist_files(tmp_path),
                 odd_exr=stokes_exr(tmp_path / "odd.exr", h=13),
@@ -339,7 +365,7 @@ def one_line_error(capfd, command):
 def test_hostile_input(case, argv, status, text, absent, files, capfd, monkeypatch):
     monkeypatch.chdir(files["tmp"])
     argv = [a.format(**files) for a in argv]
-    if argv[0] == "render" and "-D" not in argv and "--spp" not in argv:
+    if argv[0] in ("render", "recover-normals") and "-D" not in argv and "--spp" not in argv:
         argv += ["--spp", "1"]
     assert main(argv) == status
     out, line = one_line_error(capfd, argv[0])
@@ -431,7 +457,7 @@ def test_version_and_help_list_every_command(capsys):
         main(["--help"])
     out = capsys.readouterr().out
     for command in cli.COMMANDS:
-        name = command.__name__.rsplit(".", 1)[-1]
+        name = command.__name__.rsplit(".", 1)[-1].replace("_", "-")  # recover_normals: recover-normals
         assert re.search(rf"^\s+{name}\s", out, flags=re.M), name
 
 
@@ -591,3 +617,38 @@ def test_progress_lines_when_stderr_is_not_a_terminal(monkeypatch, capsys):
     with progress.progress_reporter(4, "one pass", "bar", steps=1) as p:
         p.update(4)
     assert capsys.readouterr().err == ""  # one step: nothing to show
+
+
+def test_ctrl_c_during_recover_normals_leaves_no_output(files, capfd, monkeypatch, tmp_path):
+    """Ctrl-C while recover-normals renders an iteration: `interrupted`, exit
+    130, and none of its three outputs (they are written after the fit)."""
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+    from mitsuba_pbrdf.stokes.image import from_mitsuba
+
+    folder = tmp_path / "plate"
+    folder.mkdir()
+    flat = np.zeros((4, 4, 3), np.float32)
+    flat[..., 2] = 1.0
+    plate = write_plate_files(folder, flat, size=8, spp=1)
+    scene = mi.load_file(plate)
+    target = write_stokes_exr(folder / "t.exr", from_mitsuba(mi.render(scene, spp=4),
+                                                             scene.sensors()[0].film()))
+    calls = []
+    render = mi.render
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:  # the second iteration
+            raise KeyboardInterrupt
+        return render(*args, **kwargs)
+
+    monkeypatch.setattr(mi, "render", interrupted)
+    out_dir = folder / "out"
+    assert main(["recover-normals", plate, "--targets", target, "--out", str(out_dir),
+                 "--iterations", "5", "--spp", "1", "--no-progress"]) == 130
+    out, err = capfd.readouterr()
+    assert err.strip() == "pbrdf recover-normals: interrupted" and not out
+    assert len(calls) == 2
+    assert not out_dir.exists() or not os.listdir(out_dir)

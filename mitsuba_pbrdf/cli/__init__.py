@@ -15,6 +15,9 @@
     pbrdf fit DATA.csv|TABLE.pbsdf [--material M] [--model three|two|both] [--backend reference|drjit] ...
     pbrdf export --out FILE.pbsdf [--material M | --eta N --k K] [--sigma S] ... [--grid default|kaist|PxDxH]
     pbrdf batch SWEEP.toml [--workers N | --scheduler ADDRESS] [--drjit-threads N]
+    pbrdf recover-normals SCENE.xml --targets EXR... --out DIR [--observables intensity|stokes|polcam]
+                          [--parametrization normals|height] [--smoothness W] [--iterations N]
+                          [--spp N] [--fit-roughness] [--truth NORMALS.exr]
 
 ``render`` writes ``<out>.exr`` (the Stokes image, named float32 channels
 ``R, G, B, S0.R ... S3.B``) and ``<out>.png`` (by default intensity and DoLP
@@ -28,7 +31,9 @@ model's pBRDF with the NumPy reference evaluator (no variant needed);
 ``gallery`` renders ``scenes/gallery`` and draws README's pictures; ``fit``
 fits the model to measurements (CSV) or a ``.pbsdf`` table; ``export``
 tabulates the model into a ``.pbsdf`` table for ``measured_polarized``;
-``batch`` renders a sweep file's parameter grid on Dask (``docs/batch.md``).
+``batch`` renders a sweep file's parameter grid on Dask (``docs/batch.md``);
+``recover-normals`` fits a ``polarized_normalmap``'s normals to target images
+(``docs/inverse-rendering.md``).
 Errors (missing file, bad scene, unknown variant, bad parameter, unwritable
 output) print one line and exit with status 2; Ctrl-C prints ``interrupted``
 and exits with status 130, leaving no partial file (:mod:`.common`).
@@ -44,11 +49,11 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import batch, export, fit, gallery, plot, polcam, render, view
+from . import batch, export, fit, gallery, plot, polcam, recover_normals, render, view
 from .common import PROG, run_command, version_text
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
-COMMANDS = (render, view, polcam, plot, gallery, fit, export, batch)
+COMMANDS = (render, view, polcam, plot, gallery, fit, export, batch, recover_normals)
 
 
 def build_parser() -> argparse.ArgumentParser:

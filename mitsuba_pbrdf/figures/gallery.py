@@ -423,6 +423,21 @@ def render_polcam(settings: _Settings) -> str:
     return save_png(fig, settings.out / "polcam.png", dpi=100, colors=_PNG_COLOURS)
 
 
+def render_normalmap_plate(settings: _Settings) -> str:
+    """``normalmap.png``: plate.xml with each of the normal-map wrappers of
+    :mod:`.normalmap_plate` (Mitsuba's and the polarized one)."""
+    from .normalmap_plate import WRAPPERS, aolp_difference
+
+    images = {w: _render(settings, "plate.xml", f"plate_{w}", wrapper=w) for w, _ in WRAPPERS}
+    worst, median = aolp_difference(images["normalmap"], images["polarized_normalmap"])
+    fig = montage_figure(
+        [(label, images[w]) for w, label in WRAPPERS],
+        dolp_max=0.3,
+        title=f"Hammered plate (plate.xml; {_subtitle(images['normalmap'])}): same intensity\n"
+              f"and DoLP, AoLP off by up to {worst:.0f}° (median {median:.0f}°) where DoLP ≥ 0.02")
+    return save_png(fig, settings.out / "normalmap.png", dpi=100, colors=_PNG_COLOURS)
+
+
 def render_stokes_sheet(settings: _Settings) -> str:
     """``stokes_sheet.png``: all panels of scenes/default.xml."""
     scene = settings.scenes.parent / "default.xml"

@@ -1,0 +1,157 @@
+"""``pbrdf recover-normals``: shape from polarization, a thin layer over
+:func:`mitsuba_pbrdf.inverse.normals.recover_normals`.
+
+Reads the scene (one shape's BSDF a ``polarized_normalmap``) and one target
+per sensor: Stokes EXRs (``pbrdf render``) for ``--observables intensity`` or
+``stokes``, raw mono mosaic EXRs (``pbrdf polcam``'s ``_mosaic.exr``, channel
+``Y``) for ``polcam``. Writes ``DIR/normals.exr`` (channels X, Y, Z: unit
+normals in the shape's tangent frame), ``DIR/normals.png`` (the usual
+(n + 1) / 2 colour encoding) and ``DIR/recovery.json`` (loss per iteration,
+options, angular errors with ``--truth``), each atomically, after checking
+every input and that the folder can take them."""
+
+from __future__ import annotations
+
+import os
+
+from .common import (CliError, check_outputs, chosen_variant, progress_options, require_file,
+                     show_progress, variant_help)
+
+OUTPUTS = ("normals.exr", "normals.png", "recovery.json")
+
+
+def _targets(paths, scene, observables):
+    from ..inverse.normals import film_channels, film_target
+    from ..stokes.exr import read_exr_channels, read_stokes_exr
+
+    out = []
+    for i, path in enumerate(paths):
+        if observables == "polcam":
+            channels = read_exr_channels(path)
+            if "Y" not in channels:
+                raise CliError(f"{path}: no channel Y (a raw mosaic written by pbrdf polcam)")
+            out.append(channels["Y"])
+        else:
+            out.append(film_target(read_stokes_exr(path), film_channels(scene, i)))
+    return out
+
+
+def _truth(path):
+    import numpy as np
+
+    from ..stokes.exr import read_exr_channels
+
+    channels = read_exr_channels(path)
+    if not all(c in channels for c in "XYZ"):
+        raise CliError(f"--truth: {path} needs channels X, Y, Z (as normals.exr has)")
+    return np.stack([channels[c] for c in "XYZ"], axis=-1)
+
+
+def run(args) -> int:
+    """``pbrdf recover-normals``."""
+    import numpy as np
+
+    from ..inverse.normals import check_options, find_normalmap
+    from ..outputs import write_json
+    from ..registry import use_variant
+    from ..rendering.progress import progress_reporter
+    from ..rendering.render import load_scene, require_polarized
+
+    require_file(args.scene, "scene")
+    for path in args.targets:
+        require_file(path, "target")
+    if args.truth:
+        require_file(args.truth, "--truth file")
+    check_options(args.observables, args.parametrization, args.iterations, args.spp,
+                   args.smoothness, args.lr)
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise CliError(f"--out: {args.out} is not a folder")
+    paths = {name: os.path.join(args.out, name) for name in OUTPUTS}
+    check_outputs(*[("--out", p) for p in paths.values()])
+    variant = chosen_variant(args)
+    require_polarized(variant)
+    use_variant(variant)
+
+    scene = load_scene(args.scene)
+    find_normalmap(scene)  # before reading the targets: the scene's own error first
+    if len(args.targets) != len(scene.sensors()):
+        raise CliError(f"--targets: {len(args.targets)} given, the scene has "
+                       f"{len(scene.sensors())} sensors (one target per sensor)")
+    targets = _targets(args.targets, scene, args.observables)
+    truth = _truth(args.truth) if args.truth else None
+
+    from ..inverse.normals import recover_normals
+
+    with progress_reporter(args.iterations, "recover-normals", show_progress(args),
+                           steps=args.iterations, unit="it") as bar:
+        result = recover_normals(scene, targets, observables=args.observables,
+                                 parametrization=args.parametrization,
+                                 smoothness=args.smoothness, iterations=args.iterations,
+                                 spp=args.spp, lr=args.lr, fit_roughness=args.fit_roughness,
+                                 truth=truth, seed=args.seed,
+                                 callback=lambda it, loss: bar.update(1))
+
+    from ..pictures.png import save_png
+    from ..stokes.exr import write_exr
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    normals = result.normals.astype(np.float32)
+    write_exr(paths["normals.exr"], {c: normals[..., i] for i, c in enumerate("XYZ")},
+              {"source": os.path.basename(args.scene), "frame": "tangent (x = dp_du, z = n)"})
+    fig = plt.figure(figsize=(3, 3))
+    fig.figimage((normals + 1.0) / 2.0, resize=True)
+    save_png(fig, paths["normals.png"], dpi=100)
+    plt.close(fig)
+    summary = {"observables": args.observables, "parametrization": args.parametrization,
+               "iterations": args.iterations, "spp": args.spp, "smoothness": args.smoothness,
+               "lr": args.lr, "seconds": result.seconds, "loss": result.loss,
+               "visible_texels": int(result.visible.sum())}
+    if truth is not None:
+        summary["angular_error_deg"] = result.error_stats()
+        summary["start_error_deg"] = result.error_stats("start_error")
+    if result.roughness is not None:
+        summary["roughness"] = result.roughness.tolist()
+    write_json(paths["recovery.json"], summary)
+    print(f"wrote {', '.join(paths.values())}")
+    print(f"loss {result.loss[0]:.4g} -> {result.loss[-1]:.4g} in {result.seconds:.1f} s"
+          + (f"; angular error median {summary['angular_error_deg']['median']:.2f} deg "
+             f"(start {summary['start_error_deg']['median']:.2f})" if truth is not None else ""))
+    return 0
+
+
+def add_parser(subparsers):
+    p = subparsers.add_parser(
+        "recover-normals", help="recover a polarized_normalmap's normals from target images",
+        description="Shape from polarization: fit the normal map of the scene's one "
+                    "polarized_normalmap to one target image per sensor by polarized path "
+                    "replay (stokes_prb) and Adam. See docs/inverse-rendering.md.")
+    p.add_argument("scene", metavar="SCENE.xml",
+                   help="Mitsuba scene; one shape's BSDF a polarized_normalmap over a raw bitmap")
+    p.add_argument("--targets", nargs="+", required=True, metavar="EXR",
+                   help="one target per sensor, in sensor order: Stokes EXRs (intensity, stokes) "
+                        "or raw mosaic EXRs from pbrdf polcam (polcam)")
+    p.add_argument("--out", metavar="DIR", required=True,
+                   help="output folder (created if missing): normals.exr, normals.png, "
+                        "recovery.json (replaced)")
+    p.add_argument("--observables", default="stokes", metavar="intensity|stokes|polcam",
+                   help="what the fit compares: S0, S0..S2, or the raw IMX250MZR mosaic "
+                        "(default: stokes)")
+    p.add_argument("--parametrization", default="normals", metavar="normals|height",
+                   help="a free unit normal per texel, or a height field (integrable) "
+                        "(default: normals)")
+    p.add_argument("--smoothness", type=float, default=0.0,
+                   help="weight of the neighbouring-normal difference penalty (default: 0)")
+    p.add_argument("--iterations", type=int, default=100, help="Adam steps (default: 100)")
+    p.add_argument("--spp", type=int, default=16,
+                   help="samples per pixel of each iteration's render (default: 16)")
+    p.add_argument("--lr", type=float, default=0.02, help="Adam learning rate (default: 0.02)")
+    p.add_argument("--fit-roughness", action="store_true",
+                   help="also fit the wrapped pbrdf's sigma map (must be a bitmap)")
+    p.add_argument("--truth", metavar="NORMALS.exr", default=None,
+                   help="true normals (channels X, Y, Z) for the angular error")
+    p.add_argument("--seed", type=int, default=0, help="seed of the iterations' renders")
+    p.add_argument("--variant", default=None, help=variant_help())
+    progress_options(p)
+    p.set_defaults(func=run)
