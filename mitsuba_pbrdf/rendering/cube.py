@@ -52,7 +52,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..stokes.image import StokesImage
 from .bands import SpectralBands
-from .mitsuba_errors import scene_load_errors
+from .scene_text import load_scene_text
 
 __all__ = ["scene_without_stokes", "load_cube_scene", "band_counts", "check_cube_spp",
            "cube_pass", "cube_image"]
@@ -91,19 +91,7 @@ def scene_without_stokes(scene_path) -> str:
 def load_cube_scene(scene_path, params):
     """``mi.load_string`` of :func:`scene_without_stokes`, resolving relative
     paths from the scene's folder as ``mi.load_file`` does."""
-    import mitsuba as mi
-
-    text = scene_without_stokes(scene_path)
-    resolver = mi.file_resolver()
-    saved = [resolver[i] for i in range(len(resolver))]
-    resolver.prepend(os.path.dirname(os.path.abspath(os.fspath(scene_path))))
-    try:
-        with scene_load_errors():
-            return mi.load_string(text, **{str(k): str(v) for k, v in (params or {}).items()})
-    finally:
-        resolver.clear()
-        for p in saved:
-            resolver.append(p)
+    return load_scene_text(scene_without_stokes(scene_path), scene_path, params)
 
 
 def band_counts(n_bands: int, total_spp: int) -> np.ndarray:

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..stokes.image import StokesImage
-from .mitsuba_errors import scene_load_errors
+from .scene_text import load_scene_text
 
 __all__ = ["WavelengthBand", "parse_wavelength", "require_spectral", "band_response", "BandResponse",
            "scene_with_band", "band_image", "LINE_WIDTH"]
@@ -180,19 +180,7 @@ def load_band_scene(scene_path, params, response: BandResponse):
     """``mi.load_string`` of :func:`scene_with_band`, resolving the scene's
     relative paths (includes, textures) from its folder, as ``mi.load_file``
     does. Raises what :func:`~mitsuba_pbrdf.rendering.render.load_scene` raises."""
-    import mitsuba as mi
-
-    text = scene_with_band(scene_path, response)
-    resolver = mi.file_resolver()
-    saved = [resolver[i] for i in range(len(resolver))]
-    resolver.prepend(os.path.dirname(os.path.abspath(os.fspath(scene_path))))
-    try:
-        with scene_load_errors():
-            return mi.load_string(text, **{str(k): str(v) for k, v in (params or {}).items()})
-    finally:
-        resolver.clear()
-        for p in saved:
-            resolver.append(p)
+    return load_scene_text(scene_with_band(scene_path, response), scene_path, params)
 
 
 def band_image(image: StokesImage, response: BandResponse) -> StokesImage:
