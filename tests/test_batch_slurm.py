@@ -234,9 +234,11 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     from mitsuba_pbrdf.batch.runner import run_sweep
     from mitsuba_pbrdf.rendering.render import render_scene
 
-    # 400 renders of 1024 spp at 16 x 16 px: over 4 minutes for 2 workers on 2 cores,
-    # so the walltime comes first (the sweep is interrupted long before its end)
-    sweep = load_sweep(write_sweep(tmp_path, grid(400, 1024)))
+    # 2000 renders of 1024 spp at 16 x 16 px, so the walltime (60-90 s) comes first
+    # however fast the machine: 400 of them took only about 70 s on 2 otherwise idle
+    # cores (the sweep ended before the walltime); the sweep is interrupted 8 renders
+    # after the walltime, so its length costs nothing
+    sweep = load_sweep(write_sweep(tmp_path, grid(2000, 1024)))
     options = SlurmOptions(jobs=2, cores=1, memory="1GB", walltime="1", start_timeout=120)
     seen = {}
 
