@@ -125,9 +125,18 @@ def main(argv=None):
         single_rows.append([f"m{i}{j}, m{j}{i}", f"m{i}{j} = {sign}m{j}{i}", minus, plus,
                             noise_diff])
 
+    # 6. the in-plane diagonal, which a one-sided flip of S2, S3 would change
+    diag_rows = []
+    in_plane = np.abs(np.sin(np.radians(d))) < 1e-3
+    for w in wavelengths:
+        rows = in_plane if w is None else in_plane & (data.wavelength == w)
+        diag_rows.append([name(w), int(rows.sum()), np.mean(N[rows, 1, 1] > 0),
+                          np.mean(N[rows, 2, 2] < 0)]
+                         + [np.median(N[rows, i, i]) for i in (1, 2, 3)])
+
     geometry = geometry_table(data, pairs)
     text = _report(args, data, pairs, mirror, counts, geometry, recip_rows, noise_rows,
-                   reading_rows, sign_rows, single_rows, same, wavelengths)
+                   reading_rows, sign_rows, single_rows, same, wavelengths, diag_rows)
     common.write_markdown("ptfe_reciprocity", text)
     return 0
 
@@ -139,7 +148,7 @@ def _select(data, w):
 
 
 def _report(args, data, pairs, mirror, counts, geometry, recip_rows, noise_rows, reading_rows,
-            sign_rows, single_rows, same, wavelengths):
+            sign_rows, single_rows, same, wavelengths, diag_rows):
     per_w = len(by_wavelength(data, pairs, data.wavelength[0]))
     wl = [("all λ" if w is None else f"{w:g} nm") for w in wavelengths]
     recip_head = ["λ (nm)", "pairs"] + [f"{lab} {s}" for lab in LABELS for s in ("median", "max")]
@@ -211,13 +220,17 @@ def _report(args, data, pairs, mirror, counts, geometry, recip_rows, noise_rows,
         "(√2 σ, σ pooled from the mirror pairs):",
         common.table(["elements", "reciprocity + mirror demand", "RMS m_ij − m_ji",
                       "RMS m_ij + m_ji", "noise of a difference"], single_rows),
+        "The diagonal of the rows in the plane of incidence (normalized by M00), which a "
+        "reading with one side's S2 and S3 flipped would change in m22 and m33:",
+        common.table(["λ (nm)", "in-plane rows", "share m11 > 0", "share m22 < 0",
+                      "median m11", "median m22", "median m33"], diag_rows),
         "## Reading",
-        _reading(recip_rows, noise_rows, reading_rows, sign_rows),
+        _reading(recip_rows, noise_rows, reading_rows, sign_rows, diag_rows),
     ]
     return "\n\n".join(parts)
 
 
-def _reading(recip_rows, noise_rows, reading_rows, sign_rows):
+def _reading(recip_rows, noise_rows, reading_rows, sign_rows, diag_rows):
     r, n = recip_rows[-1], noise_rows[-1]
     ours = reading_rows[0]
     by = {row[0]: row for row in reading_rows}
@@ -252,28 +265,31 @@ def _reading(recip_rows, noise_rows, reading_rows, sign_rows):
         "this file the whole-matrix figure does not tell the readings apart** (section 3's "
         "whole-matrix columns).",
         f"* **The noise-scaled figure does, and it does not favour the project's reading.** "
-        f"The χ² per term of the project's reading is {f(ours[4 + len(recip_rows) - 1])} over "
-        "all wavelengths, about what the mirror pairs' noise predicts; reading the incident "
-        "basis on the direction to the source (S2 and S3 of one side flipped) gives "
-        f"{f(by['incident s from the source'][4 + len(recip_rows) - 1])}, and the scan over "
-        f"T puts diag(1, 1, 1, −1) first at every wavelength ({', '.join(f(x) for x in d_row[1:-1])}"
-        f" at {', '.join(x[0] for x in recip_rows[:-1])} nm). The residual sits in m02/m20 and "
-        "m13/m31 of the rows with θi = θr out of the plane: the data have m02 ≈ −m20 and "
-        "m13 ≈ +m31 (section 3's last table), where reciprocity and mirror symmetry demand the "
-        "opposite signs in the project's frames. Each of those RMS is 1.3-1.5 times "
-        "the noise of a difference, but the pattern is the same at every wavelength.",
-        "* **The diagonal argues the other way.** Flipping S2 and S3 on one side also flips "
-        "m22 and m33. In the project's reading the in-plane rows have m11 > 0 and m22, m33 < 0 "
-        "(at θi = 0.001°, θr = 30°: m11, m22, m33 = +0.037, −0.033, −0.015 of M00 at 532 nm), a "
-        "mirror's pattern in s/p bases (diag(1, 1, −1, −1)), which the fitted Fresnel lobe "
-        "reproduces (`validation/fit_ptfe.md`); the flipped reading would turn it into "
-        "diag(1, +, +, +), which no reflecting facet gives. So the off-plane residual is "
-        "either a sign the project reads wrongly on one side only where the matrix is off the "
-        "plane (a convention of NIST's out-of-plane bases this study cannot settle), or a "
-        "systematic error of the measurement in m02/m20 and m13/m31 (about 0.02 of M00). "
-        "**Open**: Germer (2017) states the convention of the data's bases; checking it "
-        "there, or against a second NIST file with strong out-of-plane polarization, would "
-        "decide.",
+        f"The χ² per term of the project's reading is {f(ours[8])} over all wavelengths, near "
+        f"the 1 that the mirror pairs' noise predicts, but {', '.join(f(x) for x in ours[4:8])} "
+        f"at {', '.join(x[0] for x in recip_rows[:-1])} nm: at 532 and 633 nm well above the "
+        "±10 % spread of noise alone. Reading the incident basis on the direction to the source "
+        "(S2 and S3 of one side flipped) gives "
+        f"{f(by['incident s from the source'][8])}, and the scan over T puts diag(1, 1, 1, −1) "
+        f"first at every wavelength ({', '.join(f(x) for x in d_row[1:-1])}). The residual "
+        "sits in m02/m20 and m13/m31 of the rows with θi = θr out of the plane: the data have "
+        "m02 ≈ −m20 and m13 ≈ +m31 (section 3's last table but one), where reciprocity and "
+        "mirror symmetry demand the opposite signs in the project's frames. Each of those RMS "
+        "is 1.3-1.5 times the noise of a difference; the scan's preference holds at every "
+        "wavelength.",
+        f"* **The diagonal argues the other way.** Flipping S2 and S3 on one side also flips "
+        f"m22 and m33. In the project's reading every in-plane row has m11 > 0 (share "
+        f"{f(diag_rows[-1][2])}) and most have m22 < 0 (share {f(diag_rows[-1][3])}; median "
+        f"m11, m22 {f(diag_rows[-1][4])}, {f(diag_rows[-1][5])}; m33 is near 0, median "
+        f"{f(diag_rows[-1][6])}): a mirror's pattern in s/p bases (a mirror is "
+        "diag(1, 1, −1, −1) there), which the fitted Fresnel lobe reproduces "
+        "(`validation/fit_ptfe.md`). The flipped reading would make m22 > 0 where m11 > 0 in "
+        "the plane of incidence, which no reflecting facet gives. So the off-plane residual is "
+        "either a sign the project reads wrongly on one side only out of the plane (a "
+        "convention of NIST's out-of-plane bases this study cannot settle), or a systematic "
+        "error of the measurement in m02/m20 and m13/m31 (about 0.02 of M00). **Open**: "
+        "Germer (2017) states the convention of the data's bases; checking it there, or "
+        "against a second NIST file with strong out-of-plane polarization, would decide.",
     ])
 
 
