@@ -124,3 +124,24 @@ def test_batch_job_renders_a_cube(tmp_path):
     assert image.metadata["band_edges_nm"] == "600-620,620-640,640-660,660-680"
     mosaic = read_exr_channels(os.path.join(sweep.out, f"{sweep.jobs[0].name}_mosaic.exr"))
     assert sorted(mosaic) == sorted(image.bands)
+
+
+def test_view_cube_warns_about_picture_options_the_contact_sheet_ignores(tmp_path, capfd):
+    """``view --cube`` draws S0 (each band at its own exposure), DoLP and AoLP:
+    --panels, --exposure and --stokes-scale are named in one warning line each,
+    the options the sheet uses (--dolp-max, --min-dolp, --dolp-cmap) in none,
+    and the sheet is still drawn."""
+    exr = write_stokes_exr(tmp_path / "cube.exr", known_cube())
+    out = tmp_path / "c.png"
+    assert main(["view", exr, "--cube", "--panels", "intensity", "--exposure", "1",
+                 "--stokes-scale", "separate", "--dolp-max", "0.5", "--min-dolp", "0.1",
+                 "--dolp-cmap", "gray", "--out", str(out)]) == 0
+    err = [line for line in capfd.readouterr().err.splitlines() if "warning" in line]
+    why = ("has no effect on the contact sheet of a cube (it draws S0, DoLP and AoLP of "
+           "every band; it uses --dolp-max, --min-dolp, --dolp-cmap)")
+    assert err == [f"pbrdf view: warning: {option} {why}"
+                   for option in ("--panels", "--exposure", "--stokes-scale")]
+    assert out.stat().st_size > 0
+    assert main(["view", exr, "--spectrum", "3,2", "--dolp-max", "0.5", "--out",
+                 str(out)]) == 0
+    assert "warning" not in capfd.readouterr().err
