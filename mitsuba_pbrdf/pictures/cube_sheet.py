@@ -23,8 +23,8 @@ from ..errors import ParameterError
 from ..stokes.image import StokesImage
 from .png import save_png
 
-__all__ = ["Region", "parse_region", "stokes_spectrum", "band_centres", "cube_sheet_figure",
-           "save_cube_sheet", "write_spectrum_csv"]
+__all__ = ["Region", "SHEET_OPTIONS", "parse_region", "stokes_spectrum", "band_centres",
+           "cube_sheet_figure", "save_cube_sheet", "write_spectrum_csv"]
 
 
 @dataclass(frozen=True)
