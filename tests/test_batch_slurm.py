@@ -347,6 +347,47 @@ def test_a_job_that_never_starts_names_the_partition_and_the_reason(tmp_path, sl
     assert all(r["status"] == "pending" for r in rows_of(load_sweep(path)))
 
 
+def test_worker_jobs_lost_before_any_render_stop_at_the_cap(tmp_path, slurm, capfd):
+    """Each worker job is cancelled as soon as its worker joins, before it
+    renders (its first render imports Mitsuba: seconds; the cancellation
+    comes within 50 ms of the log line). With ``--max-resubmissions 2`` the
+    one worker job is replaced twice, then nothing more is submitted: one
+    line naming the cap and the last job's cancellation, exit 2, the rows
+    pending, the queue empty. (Without the cap: a new job every few seconds;
+    the test stops cancelling after 6, and the sweep would then end done.)"""
+    import re
+
+    path = write_sweep(tmp_path, grid(3, 64))
+    logs = tmp_path / "out" / "slurm-logs"
+    cancelled, stop = [], threading.Event()
+
+    def cancel_on_join():
+        while not stop.wait(0.05):
+            for log in logs.glob("*.err") if logs.is_dir() else []:
+                job = re.search(r"-(\d+)\.err$", log.name).group(1)
+                if (job not in cancelled and len(cancelled) < 6  # then let it render
+                        and "Registered to" in log.read_text(errors="replace")):
+                    slurm.run("scancel", job, check=False)
+                    cancelled.append(job)
+
+    watcher = threading.Thread(target=cancel_on_join, daemon=True)
+    watcher.start()
+    try:
+        assert main(["batch", str(path), "--slurm", "--jobs", "1", "--cores", "1", "--memory",
+                     "1GB", "--max-resubmissions", "2", "--start-timeout", "120",
+                     "--no-progress"]) == 2
+    finally:
+        stop.set()
+        watcher.join()
+    err = one_line_error(capfd)
+    assert len(cancelled) == 3, cancelled  # the first job and its 2 replacements
+    assert (f"the Slurm worker jobs were lost and replaced 2 times each (max_resubmissions, "
+            f"--max-resubmissions) with no render done in between; the last one: Slurm job "
+            f"{cancelled[-1]} was cancelled; submitting no more") in err
+    assert {r["status"] for r in rows_of(load_sweep(path))} == {"pending"}
+    assert slurm.jobs() == []
+
+
 def test_ctrl_c_cancels_its_worker_jobs_and_nothing_else(tmp_path, slurm, capsys):
     """SIGINT to the process group of ``pbrdf batch --slurm`` once an output
     exists: exit status 130, one line, a manifest whose done rows name valid
