@@ -17,7 +17,6 @@ The option checks at the top need no Slurm.
 import importlib.util
 import os
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -32,6 +31,7 @@ from mitsuba_pbrdf.batch.slurm_options import (SlurmError, SlurmOptions, format_
 from mitsuba_pbrdf.batch.sweep import SweepError, load_sweep
 from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.stokes.exr import read_stokes_exr
+from proof.interrupt import interrupt_once_output_exists
 from proof.single_node_slurm import SingleNodeSlurm, missing
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -398,20 +398,10 @@ def test_ctrl_c_cancels_its_worker_jobs_and_nothing_else(tmp_path, slurm, capsys
     try:
         path = write_sweep(tmp_path, grid(6, 512))
         sweep = load_sweep(path)
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "mitsuba_pbrdf", "batch", str(path), "--jobs", "1", *argv],
-            env=slurm.env(dict(os.environ, PYTHONPATH=os.pathsep.join(
-                [str(ROOT), os.environ.get("PYTHONPATH", "")]))),
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
-        deadline = time.time() + 120
-        while time.time() < deadline and proc.poll() is None:
-            if list(Path(sweep.out).glob("*.exr")):
-                break
-            time.sleep(0.05)
-        os.killpg(proc.pid, signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
-        assert proc.returncode == 130, err
-        assert err.strip().splitlines()[-1] == "pbrdf batch: interrupted", err
+        done = interrupt_once_output_exists(["batch", str(path), "--jobs", "1", *argv],
+                                            sweep.out, env=slurm.env())
+        assert done.returncode == 130, done.stderr
+        assert done.stderr.strip().splitlines()[-1] == "pbrdf batch: interrupted", done.stderr
         rows = rows_of(sweep)
         # the first file exists; its row may still be pending (the result was on its way)
         assert len(rows) == 6 and {r["status"] for r in rows} <= {"done", "pending"}
