@@ -169,17 +169,19 @@ def test_slurm_that_does_not_answer_is_one_line(tmp_path, capfd, monkeypatch):
     assert not list((tmp_path / "out").glob("*.exr"))
 
 
-def test_benchmark_section_replaces_its_own_and_keeps_the_rest(tmp_path):
-    """benchmarks/batch_slurm.py writes its section of batch.md, which
-    batch_throughput.py writes too: each keeps the other's part."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    import batch_slurm
+def test_benchmark_section_replaces_its_own_and_keeps_the_rest(tmp_path, capsys):
+    """benchmarks/batch_slurm.py writes the ``## On Slurm`` section of
+    batch.md, batch_throughput.py the rest (proof/batch_report.py): each
+    keeps the other's part."""
+    from proof.batch_report import write_batch_md
 
     target = tmp_path / "batch.md"
-    target.write_text("# throughput\n\ntable\n")
-    batch_slurm.write_section(target, "## On Slurm\n\nfirst\n")
-    batch_slurm.write_section(target, "## On Slurm\n\nsecond\n")
+    write_batch_md(tmp_path, "# throughput\n\ntable\n")
+    write_batch_md(tmp_path, "## On Slurm\n\nfirst\n", slurm=True)
+    write_batch_md(tmp_path, "## On Slurm\n\nsecond\n", slurm=True)
     assert target.read_text() == "# throughput\n\ntable\n\n## On Slurm\n\nsecond\n"
+    write_batch_md(tmp_path, "# throughput\n\nnew table\n")
+    assert target.read_text() == "# throughput\n\nnew table\n\n## On Slurm\n\nsecond\n"
 
 
 # ---------------------------------------------------------------- a real Slurm
