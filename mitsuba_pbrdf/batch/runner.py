@@ -133,27 +133,35 @@ def _remove_stale_temporaries(sweep: Sweep):
 
 
 class _Stopper:
-    """Cancels the sweep's futures (once submitted) when the Slurm worker jobs
-    reach their cap on replacements (:mod:`mitsuba_pbrdf.batch.slurm_keeper`);
-    :meth:`stop` is called from the keeper's thread."""
+    """Cancels the sweep's outstanding futures (once submitted) when the Slurm
+    worker jobs reach their cap on replacements
+    (:mod:`mitsuba_pbrdf.batch.slurm_keeper`); :meth:`stop` is called from the
+    keeper's thread. *futures* is the runner's own dict of outstanding futures
+    (not a copy: those already collected are neither kept nor cancelled)."""
 
     def __init__(self):
         self._lock = threading.Lock()
-        self._client, self._futures, self.stopped = None, (), False
+        self._client, self._futures, self.stopped = None, {}, False
 
-    def arm(self, client, futures):
+    def arm(self, client, futures: dict):
         with self._lock:
-            self._client, self._futures = client, tuple(futures)
+            self._client, self._futures = client, futures
             stopped = self.stopped
         if stopped:
-            client.cancel(list(self._futures))
+            self._cancel(client, futures)
 
     def stop(self):
         with self._lock:
             self.stopped = True
             client, futures = self._client, self._futures
         if client is not None:
-            client.cancel(list(futures))
+            self._cancel(client, futures)
+
+    @staticmethod
+    def _cancel(client, futures: dict):
+        outstanding = list(futures)  # one step under the GIL, while the runner pops
+        if outstanding:
+            client.cancel(outstanding)
 
 
 @contextlib.contextmanager
