@@ -63,6 +63,21 @@ def test_height_normals_match_numpy_twin():
     np.testing.assert_allclose(got, normals_from_heights(heights), atol=1e-5)
 
 
+def test_learning_rates_decay_to_lr_end_at_the_last_iteration():
+    """The default schedule ends at lr * lr_end whatever the iteration count
+    (geometric, so each step's ratio is the same); lr_decay overrides it."""
+    from mitsuba_pbrdf.inverse.normals import LR_END, learning_rates
+
+    for n in (1, 2, 40, 300):
+        rates = learning_rates(0.05, n)
+        assert len(rates) == n and rates[0] == 0.05
+        if n > 1:
+            np.testing.assert_allclose(rates[-1], 0.05 * LR_END, rtol=1e-12)
+            np.testing.assert_allclose(rates[1:] / rates[:-1], LR_END ** (1 / (n - 1)),
+                                       rtol=1e-12)
+    np.testing.assert_allclose(learning_rates(0.05, 3, lr_decay=0.97), [0.05, 0.0485, 0.047045])
+
+
 @pytest.fixture(scope="module")
 def small_problem():
     import mitsuba as mi
@@ -75,6 +90,91 @@ def small_problem():
     flat = np.zeros_like(truth)
     flat[..., 2] = 1.0
     return truth, ns.plate_scene(flat, size=32), targets
+
+
+def _view_gradient_setup(views=2):
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.inverse import normal_scenes as ns
+    from mitsuba_pbrdf.inverse.normals import _Texels, find_normalmap, observable_loss
+
+    truth = ns.true_normals(6)
+    scene = mi.load_dict(ns.plate_scene(truth, metal="Al", views=views, size=12))
+    targets = ns.render_targets(scene, spp=16)
+    flat = np.zeros_like(truth)
+    flat[..., 2] = 1.0
+    scene = mi.load_dict(ns.plate_scene(flat, metal="Al", views=views, size=12))
+    key, _ = find_normalmap(scene)
+    params = mi.traverse(scene)
+    integrator = mi.load_dict({"type": "stokes_prb", "max_depth": 3})
+    losses = [observable_loss(scene, t, "stokes", sensor=i) for i, t in enumerate(targets)]
+    texels = _Texels("normals", flat.astype(np.float32))
+
+    def view_loss(variable, view, smoothness=0.0):
+        normals = texels.normals(variable)
+        params[key] = texels.texels(normals)
+        params.update()
+        value = losses[view](mi.render(scene, params, sensor=view, integrator=integrator,
+                                       spp=4, seed=3 + view))
+        return value + smoothness * texels.smoothness(normals) if smoothness else value
+
+    return texels, view_loss
+
+
+def test_multi_view_gradient_is_the_sum_of_the_views_gradients():
+    """summed_gradients leaves on the texels the sum of every view's gradient,
+    each computed on its own with a fresh variable (the same seeds, so equal up
+    to float32 summation order: 1e-5 of the largest entry). A plain loop of
+    dr.backward calls does not: after the second view the variable holds the
+    second view's gradient alone (asserted, so that the workaround is dropped
+    once Mitsuba/Dr.Jit accumulate here)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.inverse.normals import summed_gradients
+
+    texels, view_loss = _view_gradient_setup()
+    separate = []
+    for view in range(2):
+        x = mi.TensorXf(texels.start)
+        dr.enable_grad(x)
+        dr.backward(view_loss(x, view))
+        separate.append(np.array(dr.grad(x), np.float64))
+    assert min(np.abs(g).max() for g in separate) > 1e-4  # both views see the plate
+    x = mi.TensorXf(texels.start)
+    dr.enable_grad(x)
+    values, norms = summed_gradients([lambda v=v: view_loss(x, v) for v in range(2)], [x])
+    total = separate[0] + separate[1]
+    np.testing.assert_allclose(np.array(dr.grad(x)), total, atol=1e-5 * np.abs(total).max())
+    np.testing.assert_allclose(norms, [np.linalg.norm(g) for g in separate], rtol=1e-5)
+    y = mi.TensorXf(texels.start)
+    dr.enable_grad(y)
+    for view in range(2):
+        dr.backward(view_loss(y, view))
+    np.testing.assert_allclose(np.array(dr.grad(y)), separate[1],
+                               atol=1e-5 * np.abs(separate[1]).max())
+
+
+def test_smoothness_gradient_adds_to_the_render_gradient():
+    """The smoothness term's gradient survives the render's backward pass: the
+    gradient of (view loss + w * smoothness) equals the view's gradient plus w
+    times the smoothness gradient, each computed alone (float32: 1e-5)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    texels, view_loss = _view_gradient_setup(views=1)
+    bumped = texels.start.numpy() + np.random.default_rng(1).normal(
+        0.0, 0.05, (*texels.shape, 3)).astype(np.float32)
+    grads = []
+    for make in (lambda x: view_loss(x, 0), lambda x: texels.smoothness(texels.normals(x)),
+                 lambda x: view_loss(x, 0, smoothness=0.3)):
+        x = mi.TensorXf(bumped)
+        dr.enable_grad(x)
+        dr.backward(make(x))
+        grads.append(np.array(dr.grad(x), np.float64))
+    assert np.abs(grads[1]).max() > 1e-4
+    expected = grads[0] + 0.3 * grads[1]
+    np.testing.assert_allclose(grads[2], expected, atol=1e-5 * np.abs(expected).max())
 
 
 def test_study_at_small_size_beats_the_flat_start():
@@ -129,6 +229,8 @@ def test_bad_inputs_name_the_parameter(small_problem):
         (dict(scene=scene, targets=targets, parametrization="mesh"), "parametrization"),
         (dict(scene=scene, targets=targets, iterations=0), "iterations"),
         (dict(scene=scene, targets=targets, smoothness=float("nan")), "smoothness"),
+        (dict(scene=scene, targets=targets, lr_end=0.0), "lr_end"),
+        (dict(scene=scene, targets=targets, lr_decay=1.5), "lr_decay"),
         (dict(scene=scene, targets=targets + targets), "targets"),
         (dict(scene=scene, targets=targets, observables="polcam"),
          "targets"),

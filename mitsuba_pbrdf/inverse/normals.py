@@ -36,6 +36,8 @@ OBSERVABLES = ("intensity", "stokes", "polcam")
 PARAMETRIZATIONS = ("normals", "height")
 #: Bounds of a fitted roughness map (pbrdf's sigma; as inverse.svbrdf).
 SIGMA_BOUNDS = (0.03, 0.6)
+#: Learning rate at the last iteration as a fraction of the first (the default schedule).
+LR_END = 0.1
 #: Smallest z of a fitted normal (about 87° from the unperturbed normal).
 MIN_Z = 0.05
 
@@ -230,6 +232,38 @@ def observable_loss(scene, target, observables, sensor=0):
     return loss
 
 
+def summed_gradients(view_losses, variables):
+    """Back-propagate every view's loss on its own and leave the sum of the
+    views' gradients on *variables* (Dr.Jit arrays with gradients enabled).
+
+    view_losses: callables, each building its view's loss (an ``mi.Float``
+    of one entry) on a fresh graph from *variables*. Returns the losses'
+    values and the norm of each view's gradient of ``variables[0]``. The
+    gradients are read after each view and summed here because a backward
+    pass through ``mi.render`` with ``stokes_prb`` (whose replay calls
+    ``dr.backward_from`` inside the render's custom operation) leaves the
+    variables holding that view's gradient alone: the previous views' are
+    replaced, not added to (tests/test_normal_recovery.py), so a loop of
+    ``dr.backward`` calls fits the last view only."""
+    import drjit as dr
+
+    sums, values, norms = [None] * len(variables), [], []
+    for view_loss in view_losses:
+        for var in variables:
+            dr.clear_grad(var)
+        value = view_loss()
+        dr.backward(value)
+        values.append(float(value[0]))
+        grads = [dr.grad(var) for var in variables]
+        dr.eval(grads)
+        norms.append(float(np.linalg.norm(np.array(grads[0], np.float64))))
+        sums = [g if total is None else total + g for total, g in zip(sums, grads)]
+        dr.eval(sums)
+    for var, total in zip(variables, sums):
+        dr.set_grad(var, total)
+    return values, norms
+
+
 class _Texels:
     """The fitted variables and the normal-map tensor they make (Dr.Jit)."""
 
@@ -302,7 +336,8 @@ class _Texels:
         return mi.TensorXf(n.reshape(*self.shape, 3).astype(np.float32))
 
 
-def check_options(observables, parametrization, iterations, spp, smoothness, lr):
+def check_options(observables, parametrization, iterations, spp, smoothness, lr, lr_end=LR_END,
+                  lr_decay=None):
     """ParameterError naming the first bad option of :func:`recover_normals`
     (checked before any scene is loaded; the command line calls it first)."""
     if observables not in OBSERVABLES:
@@ -318,12 +353,26 @@ def check_options(observables, parametrization, iterations, spp, smoothness, lr)
         if not (np.isfinite(value) and value >= 0) or (name == "lr" and value == 0):
             raise ParameterError(name, f"must be a finite number {'> 0' if name == 'lr' else '>= 0'}"
                                        f", got {value!r}")
+    for name, value in (("lr_end", lr_end), ("lr_decay", lr_decay)):
+        if value is not None and not (np.isfinite(value) and 0 < value <= 1):
+            raise ParameterError(name, f"must be a number in (0, 1], got {value!r}")
+
+
+def learning_rates(lr, iterations, lr_end=LR_END, lr_decay=None) -> np.ndarray:
+    """The learning rate of every iteration: ``lr * lr_decay**it`` when
+    *lr_decay* is given, else a geometric decay from *lr* at the first
+    iteration to ``lr * lr_end`` at the last, whatever the number of
+    iterations (so a longer fit does not freeze early)."""
+    if lr_decay is None:
+        lr_decay = lr_end ** (1.0 / max(iterations - 1, 1))
+    return lr * lr_decay ** np.arange(iterations, dtype=np.float64)
 
 
 def recover_normals(scene, targets, *, observables: str = "stokes",
                     parametrization: str = "normals", smoothness: float = 0.0,
                     iterations: int = 100, spp: int = 16, lr: float = 0.02,
-                    lr_decay: float = 0.99, fit_roughness: bool = False, truth=None,
+                    lr_end: float = LR_END, lr_decay: Optional[float] = None,
+                    fit_roughness: bool = False, truth=None,
                     start=None, max_depth: int = 3, seed: int = 0,
                     callback: Optional[Callable[[int, float], None]] = None) -> NormalRecovery:
     """Fit the normal map of *scene*'s ``polarized_normalmap`` to *targets*.
@@ -340,12 +389,17 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
     must then be a bitmap (kept within SIGMA_BOUNDS). truth: (H, W, 3) unit
     normals, for the angular errors. callback(iteration, loss) after each step.
     Adam (``mi.ad.Adam``), one render and one ``dr.backward`` per view per
-    iteration, learning rate ``lr * lr_decay**iteration``.
+    iteration; learning rate from *lr* down to ``lr * lr_end`` at the last
+    iteration, geometrically (or ``lr * lr_decay**iteration`` when *lr_decay*
+    is given): :func:`learning_rates`. ``info["view_loss"]`` and
+    ``info["view_gradient_norm"]``: (iterations, views) data loss of each view
+    and the norm of its texel gradient.
     """
     import drjit as dr
     import mitsuba as mi
 
-    check_options(observables, parametrization, iterations, spp, smoothness, lr)
+    check_options(observables, parametrization, iterations, spp, smoothness, lr, lr_end, lr_decay)
+    rates = learning_rates(lr, iterations, lr_end, lr_decay)
     scene = _load(scene)
     key, _ = find_normalmap(scene)
     sensors = scene.sensors()
@@ -376,7 +430,7 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
             raise ParameterError("fit_roughness", "needs the wrapped pbrdf's sigma to be a "
                                                   "bitmap texture")
 
-    opt = mi.ad.Adam(lr=lr)
+    opt = mi.ad.Adam(lr=float(rates[0]))
     opt["texels"] = texels.start
     if sigma_key:
         opt["sigma"] = params[sigma_key]
@@ -389,35 +443,47 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
         params.update()
         return normals
 
-    history, touched = [], np.zeros(shape[:2], bool)
+    history, view_loss, view_grad, touched = [], [], [], np.zeros(shape[:2], bool)
     t0 = time.perf_counter()
     for it in range(iterations):
-        total = 0.0
-        for view, loss in enumerate(losses):
+        penalty = [0.0]
+
+        def view_value(view, it=it):
             normals = apply()
             image = mi.render(scene, params, sensor=view, integrator=integrator, spp=spp,
                               seed=seed + 7919 * it + 31 * view)
-            value = loss(image)
+            value = losses[view](image)
             if smoothness > 0 and view == 0:
+                penalty[0] = smoothness * float(texels.smoothness(dr.detach(normals))[0])
                 value = value + smoothness * texels.smoothness(normals)
-                total -= smoothness * float(texels.smoothness(dr.detach(normals))[0])
-            dr.backward(value)
-            total += float(value[0])
-        grad = np.array(dr.grad(opt["texels"]))
-        touched |= (np.abs(grad).reshape(*shape[:2], -1).sum(axis=2) != 0)
+            return value
+
+        variables = [opt["texels"]] + ([opt["sigma"]] if sigma_key else [])
+        values, grad_norms = summed_gradients(
+            [lambda v=v: view_value(v) for v in range(len(losses))], variables)
+        per_view = [values[0] - penalty[0]] + values[1:]
+        total = float(sum(per_view))
+        before = np.array(dr.grad(opt["texels"]), np.float64)
+        touched |= (np.abs(before).reshape(*shape[:2], -1).sum(axis=2) != 0)
         opt.step()
         opt["texels"] = texels.project(opt["texels"])
         if sigma_key:
             opt["sigma"] = dr.clip(opt["sigma"], *SIGMA_BOUNDS)
-        opt.set_learning_rate(lr * lr_decay ** (it + 1))
+        if it + 1 < iterations:
+            opt.set_learning_rate(float(rates[it + 1]))
         history.append(total)
+        view_loss.append(per_view)
+        view_grad.append(grad_norms)
         if callback is not None:
             callback(it, total)
     normals = np.array(texels.normals(dr.detach(opt["texels"])), np.float64).T.reshape(shape)
     normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
     apply()
     out = NormalRecovery(normals=normals, loss=history, visible=touched,
-                         seconds=time.perf_counter() - t0)
+                         seconds=time.perf_counter() - t0,
+                         info={"view_loss": np.array(view_loss),
+                               "view_gradient_norm": np.array(view_grad),
+                               "learning_rates": rates})
     if parametrization == "height":
         out.heights = np.array(opt["texels"], np.float64)
     if sigma_key:
