@@ -120,6 +120,12 @@ def write_report(store, report, figure_path, experiments, preamble=(), reading=(
              "jobs, under `nice`); see the script's docstring for the plate and the options "
              "every experiment shares.", "", *preamble, "", *table(runs, experiments), "",
              f"![experiments](figures/{os.path.basename(figure_path)})", ""]
+    coverage = os.path.join(store, "coverage.md")
+    if os.path.isfile(coverage):
+        with open(coverage) as f:
+            lines += ["## Where the errors sit", "",
+                      "`python validation/sfp_accuracy.py coverage`.", "",
+                      *f.read().splitlines(), ""]
     views = os.path.join(store, "views.md")
     if os.path.isfile(views):
         with open(views) as f:
@@ -135,3 +141,48 @@ def write_report(store, report, figure_path, experiments, preamble=(), reading=(
     write_text(report, "\n".join(lines))
     figure(runs, figure_path)
     print(f"wrote {report} and {figure_path}")
+
+
+def texel_coverage(texels=16, size=48, supersample=8):
+    """(texels, texels) pixels of view 0 of the plate (proof/sfp_study.py's
+    scene) whose footprint falls in each texel: camera rays on a grid of
+    ``supersample`` x ``supersample`` per pixel, hits binned by uv. A variant
+    must be set."""
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.inverse import normal_scenes as ns
+
+    scene = mi.load_dict(ns.plate_scene(ns.true_normals(texels), size=size))
+    n = size * supersample
+    y, x = np.meshgrid((np.arange(n) + 0.5) / n, (np.arange(n) + 0.5) / n, indexing="ij")
+    ray, _ = scene.sensors()[0].sample_ray(0.0, 0.5, mi.Point2f(x.ravel(), y.ravel()),
+                                           mi.Point2f(0.5, 0.5))
+    si = scene.ray_intersect(ray)
+    valid = np.array(si.is_valid())
+    uv = np.array(si.uv)[:, valid]
+    rows = np.clip((uv[1] * texels).astype(int), 0, texels - 1)
+    cols = np.clip((uv[0] * texels).astype(int), 0, texels - 1)
+    count = np.zeros((texels, texels))
+    np.add.at(count, (rows, cols), 1.0 / supersample ** 2)
+    return count
+
+
+def coverage_lines(store, names, coverage):
+    """Table rows: where the errors of the runs *names* sit (few or many
+    pixels per texel, border or interior, steep or gentle true normals)."""
+    from mitsuba_pbrdf.inverse import normal_scenes as ns
+
+    tilt = np.degrees(np.arccos(ns.true_normals(coverage.shape[0])[..., 2]))
+    border = np.zeros(coverage.shape, bool)
+    border[[0, -1], :] = border[:, [0, -1]] = True
+    few = coverage < np.median(coverage)
+    lines = [f"Pixels of view 0 per texel: {coverage.min():.1f} to {coverage.max():.1f}, "
+             f"median {np.median(coverage):.1f} (48 x 48 pixels, 16 x 16 texels). Median error "
+             "(degrees) of the visible texels by group:", "",
+             "| experiment | fewer pixels than the median | more | border | interior | "
+             "true tilt > 15° | true tilt < 8° |", "|---|---|---|---|---|---|---|"]
+    for r in load_runs(store, names):
+        e, vis = r["error"], r["visible"]
+        cells = [np.median(e[vis & m]) for m in (few, ~few, border, ~border, tilt > 15, tilt < 8)]
+        lines.append(f"| {r['name']} | " + " | ".join(f"{c:.2f}" for c in cells) + " |")
+    return lines

@@ -3,6 +3,7 @@ validation/shape_from_polarization.md's reading (issue 20).
 
     python validation/sfp_accuracy.py run NAME [NAME ...]   # one experiment each
     python validation/sfp_accuracy.py views                  # each view's gradient: FD, noise
+    python validation/sfp_accuracy.py coverage               # where the errors sit
     python validation/sfp_accuracy.py report                 # the report from the stored runs
     python validation/sfp_accuracy.py list
 
@@ -108,6 +109,10 @@ EXPERIMENTS = {
 }
 
 
+#: Runs whose errors `coverage` splits by texel group.
+COVERAGE_RUNS = ("t4096-200x128", "truth-4096target-128spp", "end0.1-200x32",
+                 "intensity-t4096-200x128", "96px-t4096-200x32")
+
 READING = [
     "## Reading", "",
     "* **Noise in the targets is the floor at 256 spp.** Started at the true map, a fit against "
@@ -138,7 +143,19 @@ READING = [
     "view 0's loss rising from 0.10 to 0.35 while view 2's stayed flat; copper did the same "
     "(4.63°, 13 x). A loop of `dr.backward` through `mi.render` with `stokes_prb` leaves the "
     "texels holding the last view's gradient only (tests/test_normal_recovery.py asserts it); "
-    "`summed_gradients` now reads and sums the views' gradients.",
+    "`summed_gradients` now reads and sums the views' gradients. With it, aluminium from "
+    "three views at 40 x 16 spp reaches 3.03° (9.58° before; 8.40° from one view). Each "
+    "view's gradient itself was right (the `views` table: it matches finite differences), "
+    "and neither the loss summation nor Adam's state nor the learning rate was the cause.",
+    "* **Parametrization, smoothness, resolution are not the limit.** A height field "
+    "(integrable, half the unknowns) converges more slowly at the same schedule: 3.73° with a "
+    "loss 5.7 x the truth's after 200 x 128 spp (the low-frequency heights need many small "
+    "steps). A smoothness weight of 1e-3 gives 1.42° against 1.49° without (within one run's "
+    "scatter). 96 x 96 pixels (about 15 per texel instead of 4) at the same samples per "
+    "iteration gives 1.38°. The errors do not sit where few pixels see a texel, nor at the "
+    "border (`coverage` table): they sit on the steep texels (true tilt above 15°), farthest "
+    "from the flat start and reflecting the sky's dim lower part, and that excess vanishes "
+    "from the truth (a convergence effect, not a floor).",
 ]
 
 
@@ -199,7 +216,8 @@ def run(name):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("action", choices=("run", "views", "report", "list"))
+    p.add_argument("action", nargs="?", default="report",
+                   choices=("run", "views", "coverage", "report", "list"))
     p.add_argument("names", nargs="*")
     p.add_argument("--variant", default="llvm_ad_spectral_polarized")
     args = p.parse_args(argv)
@@ -213,6 +231,14 @@ def main(argv=None):
         return
     import mitsuba_pbrdf
     mitsuba_pbrdf.use_variant(args.variant)
+    if args.action == "coverage":
+        from mitsuba_pbrdf.outputs import write_text
+        from proof.sfp_accuracy_report import coverage_lines, texel_coverage
+
+        lines = coverage_lines(STORE, COVERAGE_RUNS, texel_coverage())
+        write_text(os.path.join(STORE, "coverage.md"), "\n".join(lines) + "\n")
+        print("\n".join(lines))
+        return
     if args.action == "views":
         from mitsuba_pbrdf.outputs import write_text
         from proof.sfp_view_gradients import gradient_noise, view_gradients

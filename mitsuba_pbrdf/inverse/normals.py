@@ -31,13 +31,12 @@ from typing import Callable, List, Optional
 import numpy as np
 
 from ..errors import ParameterError
+from .fit_steps import LR_END, learning_rates, summed_gradients  # noqa: F401 (re-exported)
 
 OBSERVABLES = ("intensity", "stokes", "polcam")
 PARAMETRIZATIONS = ("normals", "height")
 #: Bounds of a fitted roughness map (pbrdf's sigma; as inverse.svbrdf).
 SIGMA_BOUNDS = (0.03, 0.6)
-#: Learning rate at the last iteration as a fraction of the first (the default schedule).
-LR_END = 0.1
 #: Smallest z of a fitted normal (about 87° from the unperturbed normal).
 MIN_Z = 0.05
 
@@ -232,38 +231,6 @@ def observable_loss(scene, target, observables, sensor=0):
     return loss
 
 
-def summed_gradients(view_losses, variables):
-    """Back-propagate every view's loss on its own and leave the sum of the
-    views' gradients on *variables* (Dr.Jit arrays with gradients enabled).
-
-    view_losses: callables, each building its view's loss (an ``mi.Float``
-    of one entry) on a fresh graph from *variables*. Returns the losses'
-    values and the norm of each view's gradient of ``variables[0]``. The
-    gradients are read after each view and summed here because a backward
-    pass through ``mi.render`` with ``stokes_prb`` (whose replay calls
-    ``dr.backward_from`` inside the render's custom operation) leaves the
-    variables holding that view's gradient alone: the previous views' are
-    replaced, not added to (tests/test_normal_recovery.py), so a loop of
-    ``dr.backward`` calls fits the last view only."""
-    import drjit as dr
-
-    sums, values, norms = [None] * len(variables), [], []
-    for view_loss in view_losses:
-        for var in variables:
-            dr.clear_grad(var)
-        value = view_loss()
-        dr.backward(value)
-        values.append(float(value[0]))
-        grads = [dr.grad(var) for var in variables]
-        dr.eval(grads)
-        norms.append(float(np.linalg.norm(np.array(grads[0], np.float64))))
-        sums = [g if total is None else total + g for total, g in zip(sums, grads)]
-        dr.eval(sums)
-    for var, total in zip(variables, sums):
-        dr.set_grad(var, total)
-    return values, norms
-
-
 class _Texels:
     """The fitted variables and the normal-map tensor they make (Dr.Jit)."""
 
@@ -357,15 +324,6 @@ def check_options(observables, parametrization, iterations, spp, smoothness, lr,
         if value is not None and not (np.isfinite(value) and 0 < value <= 1):
             raise ParameterError(name, f"must be a number in (0, 1], got {value!r}")
 
-
-def learning_rates(lr, iterations, lr_end=LR_END, lr_decay=None) -> np.ndarray:
-    """The learning rate of every iteration: ``lr * lr_decay**it`` when
-    *lr_decay* is given, else a geometric decay from *lr* at the first
-    iteration to ``lr * lr_end`` at the last, whatever the number of
-    iterations (so a longer fit does not freeze early)."""
-    if lr_decay is None:
-        lr_decay = lr_end ** (1.0 / max(iterations - 1, 1))
-    return lr * lr_decay ** np.arange(iterations, dtype=np.float64)
 
 
 def recover_normals(scene, targets, *, observables: str = "stokes",
