@@ -81,7 +81,8 @@ def figure(runs, path):
     ax.axvline(1.0, color="k", lw=0.5)
     ax.set_xlabel("loss at 1024 spp of the fit / of the truth")
     ax.set_ylabel("median angular error (deg)")
-    ax.set_title("(c) converged (left of 1) vs not; error")
+    ax.set_xscale("log")
+    ax.set_title("(c) error vs loss of the fit / the truth's (<= 1: at the floor)")
     ax = axes[1, 0]
     for n in ("al3-truth-40x16", "al3-truth-fixed-40x16"):
         if n in by:

@@ -62,19 +62,10 @@ EXPERIMENTS = {
     "old-200x32": ("the old --long row: lr 0.05 x 0.99^it", dict(lr_decay=0.99)),
     "old-200x32-097": ("lr 0.05 x 0.97^it: frozen after ~100 iterations", dict(lr_decay=0.97)),
     "end0.1-200x32": ("lr 0.05 down to 0.005 at the last iteration", dict()),
-    "end0.1-200x128": ("the same at 128 spp", dict(spp=128)),
-    "end0.1-400x32": ("400 iterations", dict(iterations=400)),
-    "lr0.02-200x32": ("lr 0.02 down to 0.002", dict(lr=0.02)),
-    "end0.03-200x32": ("lr 0.05 down to 0.0015", dict(lr_end=0.03)),
     "end0.1-40x16": ("the 40-iteration rows with the new schedule", dict(iterations=40, spp=16)),
     "old-40x16": ("the 40-iteration rows as they were", dict(iterations=40, spp=16,
                                                             lr_decay=0.97)),
-    "end0.1-200x32-t1024": ("targets at 1024 spp", dict(target_spp=1024)),
-    "end0.1-200x128-t4096": ("targets at 4096 spp, 128 spp", dict(spp=128, target_spp=4096)),
-    "intensity-end0.1-200x32": ("intensity only, new schedule", dict(observables="intensity")),
     "t4096-200x128": ("targets at 4096 spp, 128 spp", dict(spp=128, target_spp=4096)),
-    "t4096-400x128": ("targets at 4096 spp, 400 iterations at 128 spp",
-                      dict(iterations=400, spp=128, target_spp=4096)),
     "intensity-t4096-200x128": ("intensity only, targets at 4096 spp, 128 spp",
                                 dict(observables="intensity", spp=128, target_spp=4096)),
     # (c) parametrization and smoothness
@@ -82,7 +73,6 @@ EXPERIMENTS = {
                              dict(parametrization="height", spp=128, target_spp=4096)),
     "smooth1e-3-t4096-200x128": ("smoothness 1e-3, targets at 4096 spp",
                                  dict(smoothness=1e-3, spp=128, target_spp=4096)),
-    "smooth1e-3-200x32": ("smoothness 1e-3, targets at 256 spp", dict(smoothness=1e-3)),
     # (d) resolution
     "96px-t4096-200x32": ("96 x 96 pixels at 32 spp (the samples of 48 x 48 at 128), "
                           "targets at 4096 spp", dict(size=96, target_spp=4096)),
