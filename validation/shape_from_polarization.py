@@ -4,6 +4,8 @@ images, from one and three views.
 
     python validation/shape_from_polarization.py            # the report's size
     python validation/shape_from_polarization.py --quick    # fewer cases and iterations
+    python validation/shape_from_polarization.py --long 200 # + copper, one view, 200 x 128
+                                                            #   spp, targets at 4096 spp
 
 Writes ``validation/shape_from_polarization.md`` and
 ``validation/figures/shape_from_polarization.png``. Section 1 checks the
@@ -12,8 +14,11 @@ texel gradients (proof/normal_map_gradients.py): ``stokes_prb`` against
 differences, for ``polarized_normalmap`` and ``polarized_bumpmap``. Section 2
 runs proof/sfp_study.py's cases: the plate (mitsuba_pbrdf.inverse.normal_scenes)
 under an environment map and an area light, targets at high spp, a flat
-start, Adam on the unit normals with ``stokes_prb``; error = angle between
-recovered and true normals over the texels that received a gradient.
+start, Adam on the unit normals with ``stokes_prb``, the learning rate
+decaying geometrically to a tenth; error = angle between recovered and true
+normals over the texels that received a gradient. ``--long`` adds the fits
+that reach the 2-degree goal and their noise floor (the same fits started at
+the true map); validation/sfp_accuracy.py holds the experiments behind them.
 """
 
 import argparse
