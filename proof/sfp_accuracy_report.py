@@ -92,10 +92,8 @@ def figure(runs, path):
     ax.set_title("(d) aluminium: each view's loss / its first")
     ax.set_xlabel("iteration")
     ax.legend(fontsize=6)
-    best = min((r for r in runs if _options(r)["start"] == "flat" and _options(r)["views"] == 1
-                and _options(r)["observables"] == "stokes" and _options(r)["metal"] == "Cu"),
-               key=lambda r: float(r["median"]), default=None)
-    for ax, r, title in ((axes[1, 1], best, "best one-view Stokes fit"),
+    best = by.get("t4096-200x128")
+    for ax, r, title in ((axes[1, 1], best, "one view, Stokes, flat start"),
                          (axes[1, 2], by.get("truth-128spp"), "start at truth, 128 spp")):
         if r is None:
             ax.axis("off")
