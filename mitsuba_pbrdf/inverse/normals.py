@@ -50,7 +50,8 @@ class NormalRecovery:
     ``visible`` (H, W) texels that received a gradient; ``angular_error``
     (H, W) degrees against ``truth`` (None without one) and ``start_error``
     the same for the starting map; ``roughness`` the fitted map or None;
-    ``seconds`` the fit's wall time."""
+    ``seconds`` the fit's wall time; ``info`` per iteration: ``view_loss``
+    and ``view_gradient_norm`` (iterations, views), ``learning_rates``."""
 
     normals: np.ndarray
     loss: List[float]
