@@ -19,9 +19,7 @@ from a job script, the worker jobs' cancellation at the end.
 
 from __future__ import annotations
 
-import argparse
 import os
-import platform
 import shutil
 import statistics
 import sys
@@ -35,12 +33,12 @@ sys.path[:0] = [str(ROOT), str(HERE)]
 
 from batch_throughput import write_sweep  # noqa: E402
 
-from mitsuba_pbrdf.batch.manifest import read_manifest  # noqa: E402
 from mitsuba_pbrdf.batch.runner import run_sweep  # noqa: E402
 from mitsuba_pbrdf.batch.slurm_options import SlurmOptions  # noqa: E402
 from mitsuba_pbrdf.batch.sweep import load_sweep  # noqa: E402
+from proof.batch_report import (SLURM_SECTION, bench_parser, busy_seconds,  # noqa: E402
+                                command_line, write_batch_md)
 
-SECTION = "## On Slurm"
 LABELS = ("local cluster, 2 workers", "Slurm, 2 worker jobs of 1 core")
 
 
@@ -53,28 +51,14 @@ def one_run(label: str, sweep) -> dict:
         summary = run_sweep(sweep, slurm=SlurmOptions(jobs=2, cores=1, memory="2GB",
                                                       walltime="00:30:00"), progress=False)
     wall = time.perf_counter() - t
-    assert summary.done == len(sweep.jobs), summary.failures
-    busy = sum(float(r["seconds"]) for r in read_manifest(sweep.manifest).values())
-    return {"wall": wall, "busy": busy}
-
-
-def write_section(path: Path, section: str):
-    """Put *section* in place of the file's ``## On Slurm`` section (or append it)."""
-    text = path.read_text() if path.exists() else ""
-    head = text.split(f"\n{SECTION}\n")[0].rstrip("\n")
-    path.write_text((head + "\n\n" if head else "") + section)
+    return {"wall": wall, "busy": busy_seconds(summary, sweep)}
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--jobs", type=int, default=12)
-    parser.add_argument("--spp", type=int, default=32)
-    parser.add_argument("--width", type=int, default=96)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--quick", action="store_true")
+    parser = bench_parser(__doc__.split("\n\n")[0],
+                          "2 jobs, 16 x 12 px, 4 spp, 1 repeat, no warm-up", HERE)
     parser.add_argument("--running", action="store_true",
                         help="use the Slurm that SLURM_CONF names instead of starting one")
-    parser.add_argument("--out", default=str(HERE), help="folder of batch.md")
     args = parser.parse_args(argv)
     warm = not args.quick
     if args.quick:
@@ -112,11 +96,9 @@ def main(argv=None) -> int:
     n = args.jobs
     walls = {label: [r["wall"] for r in runs[label]] for label in LABELS}
     local = statistics.median(walls[LABELS[0]])
-    command = "python benchmarks/batch_slurm.py" + (" --quick" if args.quick else "")
     lines = [
-        SECTION, "",
-        f"`{command}` on {os.cpu_count()} cores ({platform.machine()}, Python "
-        f"{platform.python_version()}, load average {load[0]:.1f} before, {load[1]:.1f} after; "
+        SLURM_SECTION, "",
+        command_line("batch_slurm.py", args.quick, os.cpu_count(), load) + "; "
         "single-node Slurm 22.05 of the tests): the same sweep of "
         f"{n} jobs ({args.width} x {args.width * 3 // 4} px, {args.spp} spp) run whole, "
         "cluster start included, as `pbrdf batch` runs it: on a local cluster of 2 worker "
@@ -143,10 +125,7 @@ def main(argv=None) -> int:
         "scheduling, the manifest, the worker jobs' cancellation.",
         "",
     ]
-    section = "\n".join(lines)
-    os.makedirs(args.out, exist_ok=True)
-    write_section(Path(args.out, "batch.md"), section)
-    print(section)
+    write_batch_md(args.out, "\n".join(lines), slurm=True)
     return 0
 
 

@@ -18,10 +18,8 @@ submission, scheduling, result transfer, the manifest and the progress.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import os
-import platform
 import resource
 import shutil
 import statistics
@@ -36,9 +34,10 @@ sys.path.insert(0, str(ROOT))
 
 from mitsuba_pbrdf.batch.cluster import available_cores, connect  # noqa: E402
 from mitsuba_pbrdf.batch.job import JobTask, run_job, set_drjit_threads  # noqa: E402
-from mitsuba_pbrdf.batch.manifest import read_manifest  # noqa: E402
 from mitsuba_pbrdf.batch.runner import run_sweep  # noqa: E402
 from mitsuba_pbrdf.batch.sweep import load_sweep  # noqa: E402
+from proof.batch_report import bench_parser, busy_seconds, command_line  # noqa: E402
+from proof.batch_report import write_batch_md  # noqa: E402
 
 SPHERE = ROOT / "scenes" / "gallery" / "sphere.xml"
 MATERIALS = ["Al", "Cu", "Au", "Ag"]
@@ -78,9 +77,7 @@ def plain_loop(sweep, out: str, threads: int):
 def on_dask(sweep, address: str, threads: int):
     """The sweep on the cluster at *address*: (wall, busy) seconds."""
     summary = run_sweep(sweep, scheduler=address, drjit_threads=threads, progress=False)
-    assert summary.done == len(sweep.jobs), summary.failures
-    busy = sum(float(row["seconds"]) for row in read_manifest(sweep.manifest).values())
-    return summary.seconds, busy
+    return summary.seconds, busy_seconds(summary, sweep)
 
 
 def worker_rss(client) -> list:
@@ -90,13 +87,7 @@ def worker_rss(client) -> list:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--jobs", type=int, default=12)
-    parser.add_argument("--spp", type=int, default=32)
-    parser.add_argument("--width", type=int, default=96)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--quick", action="store_true", help="4 jobs, 32 x 24 px, 4 spp, 1 repeat")
-    parser.add_argument("--out", default=str(HERE), help="folder for batch.md")
+    parser = bench_parser(__doc__.split("\n\n")[0], "4 jobs, 32 x 24 px, 4 spp, 1 repeat", HERE)
     args = parser.parse_args(argv)
     if args.quick:
         args.jobs, args.spp, args.width, args.repeats = 4, 4, 32, 1
@@ -153,12 +144,10 @@ def main(argv=None) -> int:
 
     n = args.jobs
     loop = statistics.median(walls[labels[0]]) / n
-    command = "python benchmarks/batch_throughput.py" + (" --quick" if args.quick else "")
     lines = [
         "# `pbrdf batch` throughput",
         "",
-        f"`{command}` on {cores} cores ({platform.machine()}, Python "
-        f"{platform.python_version()}, load average {load[0]:.1f} before, {load[1]:.1f} after): "
+        command_line("batch_throughput.py", args.quick, cores, load) + "): "
         f"{n} jobs of the gallery sphere, {args.width} x {args.width * 3 // 4} px, {args.spp} "
         "spp, variant `llvm_ad_spectral_polarized`. Each configuration first renders the sweep "
         "once (warm-up: imports, kernel compilation or loading from Dr.Jit's on-disk cache), "
@@ -189,13 +178,7 @@ def main(argv=None) -> int:
         "holds Dask and both clusters' scheduler).",
         "",
     ]
-    text = "\n".join(lines)
-    os.makedirs(args.out, exist_ok=True)
-    target = Path(args.out, "batch.md")
-    if target.exists() and "\n## On Slurm\n" in target.read_text():  # batch_slurm.py's
-        text += "\n## On Slurm\n" + target.read_text().split("\n## On Slurm\n", 1)[1]
-    target.write_text(text)
-    print(text)
+    write_batch_md(args.out, "\n".join(lines))
     return 0
 
 

@@ -15,7 +15,11 @@ imports it (tests/test_layout.py checks that).
 * :mod:`.render_gradients`: gradients of a linear functional of a render, to
   compare integrators;
 * :mod:`.plugin_snapshot`: bit-for-bit record and comparison of the plugin's
-  outputs (``python proof/plugin_snapshot.py``).
+  outputs (``python proof/plugin_snapshot.py``);
+* :mod:`.interrupt`: Ctrl-C for real (SIGINT to a ``pbrdf`` process group once
+  an output exists), for the tests of ``pbrdf batch``;
+* :mod:`.batch_report`: what the two ``pbrdf batch`` benchmarks share (options,
+  seconds inside jobs from the manifest, batch.md's two parts).
 
 It is importable from the repository root: pytest's ``pythonpath`` holds
 ``.``, and each ``validation/<study>.py`` puts the root on ``sys.path``.

@@ -13,7 +13,6 @@ cost ~10-20 s on 2 cores).
 import csv
 import os
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -26,6 +25,7 @@ from mitsuba_pbrdf.batch.manifest import read_manifest
 from mitsuba_pbrdf.batch.sweep import SweepError, job_seed, load_sweep
 from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.stokes.exr import read_stokes_exr
+from proof.interrupt import interrupt_once_output_exists
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SPHERE = SCENES / "gallery" / "sphere.xml"
@@ -311,21 +311,10 @@ def test_ctrl_c_leaves_a_consistent_manifest(tmp_path):
     body = TINY.replace("spp = 4", "spp = 64") + 'sigma = [0.05, 0.1, 0.15, 0.2, 0.25, 0.3]\n'
     path = write_sweep(tmp_path, body)
     sweep = load_sweep(path)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(Path(__file__).resolve().parents[1]), os.environ.get("PYTHONPATH", "")]))
-    proc = subprocess.Popen([sys.executable, "-m", "mitsuba_pbrdf", "batch", str(path),
-                             "--workers", "1", "--no-progress"], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
-    deadline = time.time() + 120
-    while time.time() < deadline and proc.poll() is None:
-        if os.path.isdir(sweep.out) and list(Path(sweep.out).glob("*.exr")):
-            break
-        time.sleep(0.05)
-    os.killpg(proc.pid, signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err
-    assert err.strip().splitlines()[-1] == "pbrdf batch: interrupted", err
+    done = interrupt_once_output_exists(["batch", str(path), "--workers", "1", "--no-progress"],
+                                        sweep.out)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip().splitlines()[-1] == "pbrdf batch: interrupted", done.stderr
     rows = manifest_rows(sweep)
     assert len(rows) == 6 and {r["status"] for r in rows} <= {"done", "pending"}
     for row in rows:

@@ -17,7 +17,6 @@ The option checks at the top need no Slurm.
 import importlib.util
 import os
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -32,6 +31,7 @@ from mitsuba_pbrdf.batch.slurm_options import (SlurmError, SlurmOptions, format_
 from mitsuba_pbrdf.batch.sweep import SweepError, load_sweep
 from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.stokes.exr import read_stokes_exr
+from proof.interrupt import interrupt_once_output_exists
 from proof.single_node_slurm import SingleNodeSlurm, missing
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -169,17 +169,19 @@ def test_slurm_that_does_not_answer_is_one_line(tmp_path, capfd, monkeypatch):
     assert not list((tmp_path / "out").glob("*.exr"))
 
 
-def test_benchmark_section_replaces_its_own_and_keeps_the_rest(tmp_path):
-    """benchmarks/batch_slurm.py writes its section of batch.md, which
-    batch_throughput.py writes too: each keeps the other's part."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    import batch_slurm
+def test_benchmark_section_replaces_its_own_and_keeps_the_rest(tmp_path, capsys):
+    """benchmarks/batch_slurm.py writes the ``## On Slurm`` section of
+    batch.md, batch_throughput.py the rest (proof/batch_report.py): each
+    keeps the other's part."""
+    from proof.batch_report import write_batch_md
 
     target = tmp_path / "batch.md"
-    target.write_text("# throughput\n\ntable\n")
-    batch_slurm.write_section(target, "## On Slurm\n\nfirst\n")
-    batch_slurm.write_section(target, "## On Slurm\n\nsecond\n")
+    write_batch_md(tmp_path, "# throughput\n\ntable\n")
+    write_batch_md(tmp_path, "## On Slurm\n\nfirst\n", slurm=True)
+    write_batch_md(tmp_path, "## On Slurm\n\nsecond\n", slurm=True)
     assert target.read_text() == "# throughput\n\ntable\n\n## On Slurm\n\nsecond\n"
+    write_batch_md(tmp_path, "# throughput\n\nnew table\n")
+    assert target.read_text() == "# throughput\n\nnew table\n\n## On Slurm\n\nsecond\n"
 
 
 # ---------------------------------------------------------------- a real Slurm
@@ -219,12 +221,30 @@ def timed_out_jobs(node):
     return [line.split()[0].split("=")[1] for line in lines if "JobState=TIMEOUT" in line]
 
 
+def lost_jobs_done(sweep, seen):
+    """Whether the manifest shows the jobs of both lost workers run again and
+    done (later workers may reach their walltime too: their jobs do not
+    count). The test waits for this (within its deadline) before it interrupts:
+    how long a replacement worker job takes to start (Slurm, Dask, Mitsuba's
+    import) depends on the machine's load, and a fixed number of renders of
+    the surviving worker was too short under a load of 8 on 2 cores."""
+    try:
+        rows = rows_of(sweep)
+    except (ValueError, OSError):  # the manifest is being replaced
+        return False
+    names = (f"Slurm job {seen['cancelled']} was cancelled",
+             f"Slurm job {seen['timeout']} reached its walltime")
+    lost = [[r for r in rows if name in r["note"]] for name in names]
+    return all(lost) and all(r["status"] == "done" for rows_ in lost for r in rows_)
+
+
 def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     """Two worker jobs with a walltime of 1 minute render a sweep far longer
     than that. Once the first output exists, one worker's job is cancelled
     (scancel) while it renders; later a worker job runs out of walltime while
     it renders (Slurm ends a job 60 to 90 s after its start: it checks time
-    limits every 30 s); 8 renders after that, the sweep is interrupted
+    limits every 30 s); once both lost workers' jobs are done again and 8 renders
+    after the walltime, the sweep is interrupted
     (SIGINT, as Ctrl-C). The jobs of both lost workers ran again and are
     ``done``, every done job's image reads back, the cancelled job's render
     equals an in-process render with its seed, the notes name the
@@ -244,9 +264,9 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
 
     def monitor():
         out = Path(sweep.out)
-        deadline = time.time() + 240
-        while time.time() < deadline:
-            time.sleep(0.2)
+        deadline = time.time() + 300
+        while time.time() < deadline and not ended.is_set():
+            time.sleep(0.5)
             outputs = len(list(out.glob("*.exr"))) if out.is_dir() else 0
             if "cancelled" not in seen:
                 running = running_jobs(slurm) if outputs else []
@@ -257,17 +277,26 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
                 timed = timed_out_jobs(slurm)
                 if timed:
                     seen.update(timeout=timed[0], outputs=outputs)
-            elif outputs >= seen["outputs"] + 8:
+            elif outputs >= seen["outputs"] + 8 and lost_jobs_done(sweep, seen):
                 os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C
                 seen["interrupted"] = outputs
                 return
+        # past the deadline: interrupt anyway, so that a failure ends the test
+        # now instead of after the whole sweep
+        if not ended.is_set():
+            os.kill(os.getpid(), signal.SIGINT)
 
+    ended = threading.Event()
     thread = threading.Thread(target=monitor, daemon=True)
     thread.start()
-    with pytest.raises(KeyboardInterrupt):
-        run_sweep(sweep, slurm=options, progress=False)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run_sweep(sweep, slurm=options, progress=False)
+    finally:
+        ended.set()
     thread.join(5)
-    assert "interrupted" in seen, f"the sweep ended before its workers were lost: {seen}"
+    assert "interrupted" in seen, \
+        f"no lost workers' jobs done again within 300 s, or the sweep ended first: {seen}"
     assert slurm.jobs() == [], slurm.run("squeue")
     rows = rows_of(sweep)
     assert {r["status"] for r in rows} == {"done", "pending"} and not any(r["error"] for r in rows)
@@ -347,6 +376,47 @@ def test_a_job_that_never_starts_names_the_partition_and_the_reason(tmp_path, sl
     assert all(r["status"] == "pending" for r in rows_of(load_sweep(path)))
 
 
+def test_worker_jobs_lost_before_any_render_stop_at_the_cap(tmp_path, slurm, capfd):
+    """Each worker job is cancelled as soon as its worker joins, before it
+    renders (its first render imports Mitsuba: seconds; the cancellation
+    comes within 50 ms of the log line). With ``--max-resubmissions 2`` the
+    one worker job is replaced twice, then nothing more is submitted: one
+    line naming the cap and the last job's cancellation, exit 2, the rows
+    pending, the queue empty. (Without the cap: a new job every few seconds;
+    the test stops cancelling after 6, and the sweep would then end done.)"""
+    import re
+
+    path = write_sweep(tmp_path, grid(3, 64))
+    logs = tmp_path / "out" / "slurm-logs"
+    cancelled, stop = [], threading.Event()
+
+    def cancel_on_join():
+        while not stop.wait(0.05):
+            for log in logs.glob("*.err") if logs.is_dir() else []:
+                job = re.search(r"-(\d+)\.err$", log.name).group(1)
+                if (job not in cancelled and len(cancelled) < 6  # then let it render
+                        and "Registered to" in log.read_text(errors="replace")):
+                    slurm.run("scancel", job, check=False)
+                    cancelled.append(job)
+
+    watcher = threading.Thread(target=cancel_on_join, daemon=True)
+    watcher.start()
+    try:
+        assert main(["batch", str(path), "--slurm", "--jobs", "1", "--cores", "1", "--memory",
+                     "1GB", "--max-resubmissions", "2", "--start-timeout", "120",
+                     "--no-progress"]) == 2
+    finally:
+        stop.set()
+        watcher.join()
+    err = one_line_error(capfd)
+    assert len(cancelled) == 3, cancelled  # the first job and its 2 replacements
+    assert (f"the Slurm worker jobs were lost and replaced 2 times each (max_resubmissions, "
+            f"--max-resubmissions) with no render done in between; the last one: Slurm job "
+            f"{cancelled[-1]} was cancelled; submitting no more") in err
+    assert {r["status"] for r in rows_of(load_sweep(path))} == {"pending"}
+    assert slurm.jobs() == []
+
+
 def test_ctrl_c_cancels_its_worker_jobs_and_nothing_else(tmp_path, slurm, capsys):
     """SIGINT to the process group of ``pbrdf batch --slurm`` once an output
     exists: exit status 130, one line, a manifest whose done rows name valid
@@ -357,20 +427,10 @@ def test_ctrl_c_cancels_its_worker_jobs_and_nothing_else(tmp_path, slurm, capsys
     try:
         path = write_sweep(tmp_path, grid(6, 512))
         sweep = load_sweep(path)
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "mitsuba_pbrdf", "batch", str(path), "--jobs", "1", *argv],
-            env=slurm.env(dict(os.environ, PYTHONPATH=os.pathsep.join(
-                [str(ROOT), os.environ.get("PYTHONPATH", "")]))),
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
-        deadline = time.time() + 120
-        while time.time() < deadline and proc.poll() is None:
-            if list(Path(sweep.out).glob("*.exr")):
-                break
-            time.sleep(0.05)
-        os.killpg(proc.pid, signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
-        assert proc.returncode == 130, err
-        assert err.strip().splitlines()[-1] == "pbrdf batch: interrupted", err
+        done = interrupt_once_output_exists(["batch", str(path), "--jobs", "1", *argv],
+                                            sweep.out, env=slurm.env())
+        assert done.returncode == 130, done.stderr
+        assert done.stderr.strip().splitlines()[-1] == "pbrdf batch: interrupted", done.stderr
         rows = rows_of(sweep)
         # the first file exists; its row may still be pending (the result was on its way)
         assert len(rows) == 6 and {r["status"] for r in rows} <= {"done", "pending"}

@@ -264,6 +264,11 @@ TABLE = [
     ("export: --bands beyond uint16", ["export", "--bands", "60000:70000:5000",
                                        "--out", "{tmp}/h.pbsdf"], 2,
      "--bands: wavelengths must lie in 1..65535 nm", "{tmp}/h.pbsdf"),
+    # the library's ParameterError("grid") becomes the option's name on the command line
+    ("export: --grid malformed", ["export", "--grid", "49x80", "--out", "{tmp}/h.pbsdf"], 2,
+     "--grid: must be default, kaist or PxDxH (e.g. 49x80x80), got '49x80'", "{tmp}/h.pbsdf"),
+    ("export: --grid too few points", ["export", "--grid", "1x9x9", "--out", "{tmp}/h.pbsdf"],
+     2, "--grid: phi_d needs 2 to 4096 points, got 1", "{tmp}/h.pbsdf"),
     ("export: --bands with --wavelengths", ["export", "--bands", "400:700:10", "--wavelengths",
                                             "450,500,550,600,650", "--out", "{tmp}/h.pbsdf"], 2,
      "give --wavelengths (the 5 bands measured_polarized renders) or --bands", "{tmp}/h.pbsdf"),

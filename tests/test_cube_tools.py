@@ -86,11 +86,32 @@ def test_polcam_of_a_cube_gives_one_mosaic_per_band(tmp_path):
     assert sorted(mosaic) == sorted(image.bands)
 
 
+def test_colour_sensor_refuses_a_cube_saying_why_and_what_to_do(tmp_path, capfd):
+    """R, G, B of the colour sensor are integrals over the whole visible
+    spectrum; a cube's band averages cannot give them: the library names its
+    parameter, the command line the option, in one line, and nothing is written."""
+    image = known_cube()
+    with pytest.raises(ParameterError) as e:
+        polcam_outputs(image, sensor="colour")
+    assert e.value.parameter == "sensor"
+    exr = write_stokes_exr(tmp_path / "cube.exr", image)
+    assert main(["polcam", exr, "--sensor", "colour", "--out", str(tmp_path / "cam")]) == 2
+    err = capfd.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        "pbrdf polcam: error: --sensor: 'colour' cannot see a Stokes cube: the colour sensor's "
+        "R, G, B filters each integrate the whole visible spectrum"), err
+    assert "render the scene without bands" in err[0] and "mono sensor" in err[0]
+    assert not (tmp_path / "cam").exists()
+
+
 @pytest.mark.parametrize("body, words", [
     ('bands = "500:450"\n', ["bands: the band '500:450' is reversed or empty"]),
     ('bands = "450:650:20"\nvariant = "llvm_ad_mono_polarized"\n',
      ["bands: needs a spectral variant"]),
     ('bands = 5\n', ["bands must be a non-empty string"]),
+    ('bands = "450:650:20"\noutputs = ["stokes", "polcam"]\n[polcam]\nsensor = "colour"\n',
+     ["polcam.sensor 'colour' cannot see the cube that bands renders",
+      "render the scene without bands"]),
 ])
 def test_bad_bands_in_a_sweep_are_refused_at_load_time(tmp_path, body, words):
     from mitsuba_pbrdf.batch.sweep import SweepError, load_sweep
@@ -124,3 +145,24 @@ def test_batch_job_renders_a_cube(tmp_path):
     assert image.metadata["band_edges_nm"] == "600-620,620-640,640-660,660-680"
     mosaic = read_exr_channels(os.path.join(sweep.out, f"{sweep.jobs[0].name}_mosaic.exr"))
     assert sorted(mosaic) == sorted(image.bands)
+
+
+def test_view_cube_warns_about_picture_options_the_contact_sheet_ignores(tmp_path, capfd):
+    """``view --cube`` draws S0 (each band at its own exposure), DoLP and AoLP:
+    --panels, --exposure and --stokes-scale are named in one warning line each,
+    the options the sheet uses (--dolp-max, --min-dolp, --dolp-cmap) in none,
+    and the sheet is still drawn."""
+    exr = write_stokes_exr(tmp_path / "cube.exr", known_cube())
+    out = tmp_path / "c.png"
+    assert main(["view", exr, "--cube", "--panels", "intensity", "--exposure", "1",
+                 "--stokes-scale", "separate", "--dolp-max", "0.5", "--min-dolp", "0.1",
+                 "--dolp-cmap", "gray", "--out", str(out)]) == 0
+    err = [line for line in capfd.readouterr().err.splitlines() if "warning" in line]
+    why = ("has no effect on the contact sheet of a cube (it draws S0, DoLP and AoLP of "
+           "every band; it uses --dolp-max, --min-dolp, --dolp-cmap)")
+    assert err == [f"pbrdf view: warning: {option} {why}"
+                   for option in ("--panels", "--exposure", "--stokes-scale")]
+    assert out.stat().st_size > 0
+    assert main(["view", exr, "--spectrum", "3,2", "--dolp-max", "0.5", "--out",
+                 str(out)]) == 0
+    assert "warning" not in capfd.readouterr().err

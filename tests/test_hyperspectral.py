@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import fitting
+from mitsuba_pbrdf.errors import ParameterError
 from mitsuba_pbrdf.fitting.table_sampling import sample_table
 from mitsuba_pbrdf.measured import export, pbsdf
 from mitsuba_pbrdf.reference.params import PBRDFParams
@@ -33,6 +34,21 @@ def run_cli(*args):
 ])
 def test_parse_bands(text, expected):
     assert export.parse_bands(text) == expected
+
+
+@pytest.mark.parametrize("call, parameter", [
+    (lambda: export.parse_grid("49x80"), "grid"),
+    (lambda: export.Grid(1, 9, 9), "grid"),
+    (lambda: export.Grid(5, 5, 5, "log"), "grid"),
+    (lambda: export.parse_bands("blue"), "bands"),
+    (lambda: export.parse_bands("500,450", what="wavelengths"), "wavelengths"),
+])
+def test_library_errors_name_the_parameter_not_a_cli_option(call, parameter):
+    """The library names its parameter (the command line turns it into ``--grid``)."""
+    with pytest.raises(ParameterError) as info:
+        call()
+    assert info.value.parameter == parameter
+    assert str(info.value).startswith(f"{parameter}: ") and "--" not in str(info.value)
 
 
 def test_chunked_tabulation_equals_one_pass():

@@ -21,7 +21,10 @@ What :func:`run_sweep` guarantees:
 * the manifest's ``note`` says why a job ran again (its worker process
   died; its worker's Slurm job was cancelled or reached its walltime:
   :mod:`mitsuba_pbrdf.batch.lost`); on Slurm, lost worker jobs are replaced
-  and every worker job is cancelled at the end (:mod:`mitsuba_pbrdf.batch.slurm`);
+  (at most ``max_resubmissions`` times each with no render done in between,
+  then the sweep stops with a one-line ``SlurmError`` and its unfinished jobs
+  left pending) and every worker job is cancelled at the end
+  (:mod:`mitsuba_pbrdf.batch.slurm`);
 * temporary files that a worker killed while writing left behind are
   removed at the end;
 * only this process writes ``manifest.csv``, whole and atomically, after
@@ -34,6 +37,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 import time
 import uuid
 from dataclasses import dataclass, field
@@ -128,10 +132,45 @@ def _remove_stale_temporaries(sweep: Sweep):
                 pass
 
 
+class _Stopper:
+    """Cancels the sweep's outstanding futures (once submitted) when the Slurm
+    worker jobs reach their cap on replacements
+    (:mod:`mitsuba_pbrdf.batch.slurm_keeper`); :meth:`stop` is called from the
+    keeper's thread. *futures* is the runner's own dict of outstanding futures
+    (not a copy: those already collected are neither kept nor cancelled)."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._client, self._futures, self.stopped = None, {}, False
+
+    def arm(self, client, futures: dict):
+        with self._lock:
+            self._client, self._futures = client, futures
+            stopped = self.stopped
+        if stopped:
+            self._cancel(client, futures)
+
+    def stop(self):
+        with self._lock:
+            self.stopped = True
+            client, futures = self._client, self._futures
+        if client is not None:
+            self._cancel(client, futures)
+
+    @staticmethod
+    def _cancel(client, futures: dict):
+        outstanding = list(futures)  # one step under the GIL, while the runner pops
+        if outstanding:
+            client.cancel(outstanding)
+
+
 @contextlib.contextmanager
-def _connect(sweep: Sweep, workers, scheduler, slurm, drjit_threads, allowed_failures):
+def _connect(sweep: Sweep, workers, scheduler, slurm, drjit_threads, allowed_failures,
+             done=lambda: 0, stopper: Optional[_Stopper] = None):
     """``(client, Dr.Jit threads for jobs, explain)`` on the chosen cluster;
-    *explain* says why workers left (:mod:`mitsuba_pbrdf.batch.lost`)."""
+    *explain* says why workers left (:mod:`mitsuba_pbrdf.batch.lost`). On
+    Slurm, *done* () -> renders done so far and *stopper* serve the cap on
+    replacing lost worker jobs."""
     from .cluster import connect
     from .lost import local_explain, remote_explain
 
@@ -139,7 +178,8 @@ def _connect(sweep: Sweep, workers, scheduler, slurm, drjit_threads, allowed_fai
         from .slurm import connect_slurm
 
         with connect_slurm(slurm, os.path.join(sweep.out, SLURM_LOGS),
-                           allowed_failures=allowed_failures) as (client, explain):
+                           allowed_failures=allowed_failures, done=done,
+                           on_give_up=(stopper or _Stopper()).stop) as (client, explain):
             yield client, None, explain  # the workers set their own threads
         return
     with connect(workers=workers, scheduler=scheduler, drjit_threads=drjit_threads,
@@ -185,10 +225,12 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
         return summary
 
     last_save = 0.0
+    rendered = []  # names of the jobs done in this run (read by the Slurm keeper's thread)
+    stopper = _Stopper()
     try:
         with _connect(sweep, workers, scheduler, slurm, drjit_threads,
-                      ALLOWED_FAILURES if allowed_failures is None
-                      else allowed_failures) as (client, threads, explain):
+                      ALLOWED_FAILURES if allowed_failures is None else allowed_failures,
+                      done=lambda: len(rendered), stopper=stopper) as (client, threads, explain):
             summary.workers = len(client.scheduler_info().get("workers", {}))
             run = f"{uuid.uuid4().hex[:8]}"
             futures = {}
@@ -198,14 +240,19 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
                                        key=f"pbrdf-{job.name}-{run}")
                 futures[future] = job
                 keys[future.key] = job.name
+            stopper.arm(client, futures)
             try:
                 with progress_reporter(len(todo), f"batch {os.path.basename(sweep.path)}",
                                        progress, steps=len(todo), unit="jobs") as bar:
                     for future in as_completed(futures):
                         job = futures.pop(future)
+                        if future.cancelled():  # the Slurm cap was reached: stays pending
+                            continue
                         try:
                             result = future.result()
                             rows[job.name] = _result_row(job, result)
+                            if result.status == "done":
+                                rendered.append(job.name)
                         except Exception as e:  # the job's workers died, or Dask failed
                             rows[job.name] = job_row(job, status="failed",
                                                      error=_lost_worker_error(e))

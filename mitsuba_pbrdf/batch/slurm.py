@@ -10,10 +10,12 @@ render at a time) whose Dr.Jit pool has as many threads as the job has
 cores, and waits until one runs (else a one-line error naming the partition
 and ``squeue``'s reason). A worker job that ends (``scancel``, walltime,
 node failure) is replaced while the sweep runs; its render runs again on
-another worker. On exit (end, error, Ctrl-C) every job it submitted is
-cancelled: ``SLURMCluster.close`` cancels those it knows, then whatever is
-still queued under the sweep's own job name (``pbrdf-<random>``) is
-cancelled by id; no other job is touched.
+another worker. The replacements are capped (``max_resubmissions`` per worker
+job with no render done in between, :mod:`mitsuba_pbrdf.batch.slurm_keeper`):
+at the cap the sweep stops with a :class:`SlurmError`. On exit (end, error,
+Ctrl-C) every job it submitted is cancelled: ``SLURMCluster.close`` cancels
+those it knows, then whatever is still queued under the sweep's own job name
+(``pbrdf-<random>``) is cancelled by id; no other job is touched.
 """
 
 from __future__ import annotations
@@ -27,16 +29,15 @@ import tempfile
 import threading
 import time
 import uuid
-from typing import Dict, List, Optional
+from typing import Callable, Dict, List, Optional
 
 from .cluster import ALLOWED_FAILURES, WorkerSetup
+from .slurm_keeper import REPLACE_INTERVAL_S, Keeper, ResubmissionCap
 from .slurm_options import SlurmError, SlurmOptions, format_walltime
 
-__all__ = ["connect_slurm", "slurm_cluster_class", "SlurmWorkerSetup", "check_partition", "job_states",
-           "REPLACE_INTERVAL_S"]
+__all__ = ["connect_slurm", "slurm_cluster_class", "SlurmWorkerSetup", "check_partition",
+           "job_states", "job_ended", "REPLACE_INTERVAL_S"]
 
-#: Seconds between two checks that the cluster still has its worker jobs.
-REPLACE_INTERVAL_S = 2.0
 #: Seconds to wait at exit for the worker jobs to leave Slurm's queue.
 LEAVE_TIMEOUT_S = 20.0
 #: Worker events (topic of Dask's event log) that map a worker to its Slurm job.
@@ -180,24 +181,7 @@ def _test_only(script: str):
         raise SlurmError(f"sbatch refuses the worker job: {_first_line(done)}")
 
 
-class _Keeper(threading.Thread):
-    """Asks the cluster for its worker jobs again every few seconds, so a
-    job that ended (scancel, walltime) is replaced once Dask gives it up."""
-
-    def __init__(self, cluster, jobs: int):
-        super().__init__(daemon=True, name="pbrdf-slurm-keeper")
-        self.cluster, self.jobs = cluster, jobs
-        self.stop = threading.Event()
-
-    def run(self):
-        while not self.stop.wait(REPLACE_INTERVAL_S):
-            try:
-                self.cluster.scale(jobs=self.jobs)
-            except Exception:  # pragma: no cover - closing
-                return
-
-
-def _stop(keeper: Optional[_Keeper]):
+def _stop(keeper: Optional[Keeper]):
     """Stop *keeper* and wait for it: no job may be submitted once closing starts."""
     if keeper is not None:
         keeper.stop.set()
@@ -210,6 +194,18 @@ def _worker_jobs(client) -> Dict[str, str]:
             if isinstance(msg, dict) and msg.get("job")}
 
 
+def job_ended(job: str, fields: Dict[str, str]) -> str:
+    """How Slurm job *job* ended, from its ``scontrol`` *fields* (empty: unknown)."""
+    state = fields.get("JobState", "")
+    if state == "CANCELLED":
+        return f"Slurm job {job} was cancelled"
+    if state == "TIMEOUT":
+        return f"Slurm job {job} reached its walltime ({fields.get('TimeLimit', '?')})"
+    if state:
+        return f"Slurm job {job} ended: {state} (reason {fields.get('Reason', 'None')})"
+    return f"Slurm job {job} ended"
+
+
 def _explainer(client):
     """``explain(addresses) -> {address: why its worker left}`` for Slurm workers."""
 
@@ -219,20 +215,10 @@ def _explainer(client):
         out = {}
         for address in addresses:
             job = jobs.get(address)
-            fields = states.get(job, {})
-            state = fields.get("JobState", "")
             if not job:
                 out[address] = "its Slurm worker was lost before it reported its job id"
-            elif state == "CANCELLED":
-                out[address] = f"its worker's Slurm job {job} was cancelled"
-            elif state == "TIMEOUT":
-                out[address] = (f"its worker's Slurm job {job} reached its walltime "
-                                f"({fields.get('TimeLimit', '?')})")
-            elif state:
-                out[address] = (f"its worker's Slurm job {job} ended: {state} "
-                                f"(reason {fields.get('Reason', 'None')})")
             else:
-                out[address] = f"its worker's Slurm job {job} ended"
+                out[address] = "its worker's " + job_ended(job, states.get(job, {}))
         return out
 
     return explain
@@ -240,10 +226,15 @@ def _explainer(client):
 
 @contextlib.contextmanager
 def connect_slurm(options: SlurmOptions, log_directory: str,
-                  allowed_failures: int = ALLOWED_FAILURES):
+                  allowed_failures: int = ALLOWED_FAILURES,
+                  done: Callable[[], int] = lambda: 0,
+                  on_give_up: Callable[[], None] = lambda: None):
     """A ``dask.distributed.Client`` on Slurm worker jobs (module docstring).
     Yields ``(client, explain)``: *explain* maps addresses of workers that
     left to one line each. Slurm's logs of the jobs go to *log_directory*.
+    *done* () -> renders done so far, for the cap on replacements; *on_give_up*
+    () is called (from another thread) when the cap is reached, and the
+    ``with`` block then ends with a :class:`SlurmError` saying so.
     Raises :class:`SlurmError` (one line) when the workers cannot start."""
     import dask
 
@@ -256,10 +247,15 @@ def connect_slurm(options: SlurmOptions, log_directory: str,
                 # give up a lost worker's job after 1 s (Dask: 15 s), so it is replaced soon
                 "distributed.deploy.lost-worker-timeout": "1s"}
     with dask.config.set(settings):
-        yield from _session(cluster_class, options, partition, log_directory)
+        yield from _session(cluster_class, options, partition, log_directory, done, on_give_up)
 
 
-def _session(cluster_class, options: SlurmOptions, partition: str, log_directory: str):
+def _why_ended(job: str) -> str:
+    return job_ended(job, job_states([job]).get(job, {}))
+
+
+def _session(cluster_class, options: SlurmOptions, partition: str, log_directory: str,
+             done, on_give_up):
     """The body of :func:`connect_slurm` (a generator it delegates to)."""
     from dask.distributed import Client
 
@@ -276,7 +272,9 @@ def _session(cluster_class, options: SlurmOptions, partition: str, log_directory
         try:
             client.register_plugin(SlurmWorkerSetup(options.cores))
             cluster.scale(jobs=options.jobs)
-            keeper = _Keeper(cluster, options.jobs)
+            keeper = Keeper(cluster, options.jobs, ResubmissionCap(options.max_resubmissions),
+                            done=done, why_ended=_why_ended, on_give_up=on_give_up,
+                            logs=log_directory)
             keeper.start()
             try:
                 client.wait_for_workers(1, timeout=options.start_timeout)
@@ -288,6 +286,8 @@ def _session(cluster_class, options: SlurmOptions, partition: str, log_directory
                                  f"partition {partition!r} (squeue: {why}); the jobs were "
                                  "cancelled") from None
             yield client, _explainer(client)
+            if keeper.error:
+                raise SlurmError(keeper.error)
         finally:
             _stop(keeper)
             client.close()

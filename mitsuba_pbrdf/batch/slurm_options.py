@@ -14,11 +14,14 @@ import re
 from dataclasses import dataclass, replace
 from typing import Optional, Tuple
 
+from .slurm_keeper import DEFAULT_MAX_RESUBMISSIONS
+
 __all__ = ["SlurmOptions", "SlurmError", "SLURM_KEYS", "parse_walltime", "format_walltime",
            "parse_memory", "slurm_options"]
 
 #: Keys of a sweep file's ``[slurm]`` table (the options without ``--``).
-SLURM_KEYS = ("jobs", "partition", "cores", "memory", "walltime", "sbatch", "start_timeout")
+SLURM_KEYS = ("jobs", "partition", "cores", "memory", "walltime", "sbatch", "start_timeout",
+              "max_resubmissions")
 #: Shortest walltime: Slurm counts time limits in whole minutes, and a worker
 #: needs seconds to start and import Mitsuba before its first render.
 MIN_WALLTIME_S = 60
@@ -39,6 +42,9 @@ class SlurmOptions:
     walltime: str = "01:00:00"  # -t, as [days-]hours:minutes:seconds
     sbatch: Tuple[str, ...] = ()  # extra '#SBATCH' directives, e.g. '--account=lab'
     start_timeout: float = 300.0  # seconds for the first worker job to start
+    #: replacements of a lost worker job with no render done in between, at most
+    #: (:mod:`mitsuba_pbrdf.batch.slurm_keeper`)
+    max_resubmissions: int = DEFAULT_MAX_RESUBMISSIONS
 
     @property
     def walltime_s(self) -> int:
@@ -93,7 +99,7 @@ def _check(options: SlurmOptions, where: str) -> SlurmOptions:
         name = key.replace("_", "-") if where == "--" else key
         raise SlurmError(f"{where}{name}: {message}")
 
-    for key in ("jobs", "cores"):
+    for key in ("jobs", "cores", "max_resubmissions"):
         value = getattr(options, key)
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
             fail(key, f"must be a positive integer, got {value!r}")

@@ -333,6 +333,11 @@ def load_sweep(path) -> Sweep:
         _fail(path, "outputs: a name is listed twice")
 
     polcam = _polcam_options(path, data.get("polcam"), outputs)
+    if bands is not None and polcam.get("sensor") == "colour":
+        from ..camera.polcam import COLOUR_CUBE_REFUSAL
+
+        _fail(path, f"polcam.sensor 'colour' cannot see the cube that bands renders: "
+                    f"{COLOUR_CUBE_REFUSAL}")
     slurm = _slurm_table(path, data.get("slurm"))
 
     table = data.get("params", {})

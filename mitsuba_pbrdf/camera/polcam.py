@@ -37,11 +37,12 @@ from typing import Dict, Optional
 
 import numpy as np
 
+from ..errors import ParameterError
 from ..outputs import atomic_path
 from ..stokes.image import StokesImage, luminance_stokes
 
-__all__ = ["ANGLES", "MONO_LAYOUT", "BAYER_LAYOUT", "polarizer_images", "malus",
-           "mono_layout", "colour_layout", "mono_mosaic", "colour_mosaic", "SensorModel",
+__all__ = ["ANGLES", "MONO_LAYOUT", "BAYER_LAYOUT", "COLOUR_CUBE_REFUSAL", "polarizer_images",
+           "malus", "mono_layout", "colour_layout", "mono_mosaic", "colour_mosaic", "SensorModel",
            "write_png16", "is_cube", "polcam_outputs", "polcam_file_names", "write_polcam_files"]
 
 #: Polarizer angles of the four channels, degrees.
@@ -218,6 +219,17 @@ def write_png16(path, counts: np.ndarray) -> str:
     return path
 
 
+#: Why the colour sensor does not take a Stokes cube (``pbrdf polcam``, a sweep's
+#: ``[polcam]``): its R, G, B are integrals over the whole visible spectrum
+#: against the filters' responses, which a cube's band averages cannot give
+#: (docs/spectral-cube.md#tools).
+COLOUR_CUBE_REFUSAL = (
+    "the colour sensor's R, G, B filters each integrate the whole visible spectrum "
+    "(360-830 nm), and a Stokes cube holds only the averages of its own bands; render "
+    "the scene without bands (in R, G, B) for the colour sensor, or let the mono sensor "
+    "see each band of the cube")
+
+
 def polcam_outputs(image: StokesImage, sensor: str = "mono", band: Optional[str] = None,
                    model: Optional[SensorModel] = None) -> dict:
     """Everything ``pbrdf polcam`` writes, computed before anything is written:
@@ -230,9 +242,14 @@ def polcam_outputs(image: StokesImage, sensor: str = "mono", band: Optional[str]
     band's filter in turn: ``mosaic`` has one channel per band (named as the
     bands), each with the sensor model applied on its own (its own exposure
     when none is given, noise seed ``model.seed + band index``), and with
-    ``model.bits`` one ``mosaic_<band>.png`` per band."""
+    ``model.bits`` one ``mosaic_<band>.png`` per band. The colour sensor refuses
+    a cube (:class:`~mitsuba_pbrdf.errors.ParameterError` ``sensor``,
+    :data:`COLOUR_CUBE_REFUSAL`)."""
     if sensor not in ("mono", "colour"):
         raise ValueError(f"sensor must be 'mono' or 'colour', got {sensor!r}")
+    if sensor == "colour" and is_cube(image):
+        raise ParameterError("sensor", f"'colour' cannot see a Stokes cube: "
+                                       f"{COLOUR_CUBE_REFUSAL}")
     if band is not None and band not in image.bands:
         raise ValueError(f"no band {band!r}; bands are {', '.join(image.bands)}")
     bad = int(np.count_nonzero(~np.isfinite(image.stokes)))

@@ -11,7 +11,7 @@ __all__ = ["slurm_arguments", "slurm_settings"]
 #: (option, key of [slurm] and SlurmOptions)
 OPTIONS = (("--jobs", "jobs"), ("--partition", "partition"), ("--cores", "cores"),
            ("--memory", "memory"), ("--walltime", "walltime"), ("--sbatch", "sbatch"),
-           ("--start-timeout", "start_timeout"))
+           ("--start-timeout", "start_timeout"), ("--max-resubmissions", "max_resubmissions"))
 
 
 def slurm_arguments(parser):
@@ -34,6 +34,9 @@ def slurm_arguments(parser):
                         "--sbatch=--account=lab --sbatch=--qos=short")
     g.add_argument("--start-timeout", type=float, default=None, metavar="S",
                    help="give up when no worker job runs after S seconds (default 300)")
+    g.add_argument("--max-resubmissions", type=int, default=None, metavar="N",
+                   help="replace a lost worker job at most N times with no render done in "
+                        "between, then stop the sweep with the reason (default 5)")
 
 
 def slurm_settings(args, sweep):

@@ -9,7 +9,7 @@ import os
 import shutil
 import time
 
-from .common import CliError, check_outputs, float_list, one_line
+from .common import CliError, check_outputs, float_list, option_message
 from .model_options import add_model_arguments, params_from_args
 
 
@@ -32,7 +32,7 @@ def run(args) -> int:
         try:
             wavelengths = parse_bands(args.bands)
         except ValueError as e:
-            raise CliError(one_line(e)) from e
+            raise CliError(option_message(e, args)) from e
     else:
         text = args.wavelengths or ",".join(map(str, KAIST_WAVELENGTHS))
         wavelengths = float_list(text, "--wavelengths")
@@ -50,8 +50,8 @@ def run(args) -> int:
                            f"{free / 2**30:.2f} GiB free")
         t0 = time.perf_counter()
         export_pbsdf(args.out, params, grid, [int(w) for w in wavelengths])
-    except (ValueError, PbsdfError) as e:
-        raise CliError(one_line(e)) from e
+    except (ValueError, PbsdfError) as e:  # parameter -> option (grid -> --grid)
+        raise CliError(option_message(e, args)) from e
     size = os.path.getsize(args.out)
     shown = (", ".join(f"{w:g}" for w in wavelengths) if len(wavelengths) <= 8 else
              f"{len(wavelengths)} from {wavelengths[0]:g} to {wavelengths[-1]:g}")

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import os
 
-from .common import CliError, check_outputs, finite_float, one_line, require_file
+from ..errors import ParameterError
+from .common import (CliError, check_outputs, finite_float, one_line, option_message,
+                     require_file)
 
 
 def sensor_model(args):
@@ -51,6 +53,8 @@ def run(args) -> int:
     try:
         image = read_stokes_exr(args.exr)
         outputs = polcam_outputs(image, sensor=args.sensor, band=args.band, model=model)
+    except ParameterError as e:  # of an option (sensor -> --sensor), not of the file
+        raise CliError(option_message(e, args)) from e
     except (StokesChannelError, ValueError, KeyError) as e:
         raise CliError(f"{args.exr}: {one_line(e).removeprefix(args.exr + ': ')}") from e
     names = polcam_file_names(outputs, stem)

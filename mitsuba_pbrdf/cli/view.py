@@ -51,6 +51,7 @@ def _cube_sheet(args, image, out: str, existed: bool) -> int:
 
     if args.band is not None:
         raise CliError("--band draws one band; --cube and --spectrum draw them all")
+    warn_unused_picture_options(args, None, "view")
     region = None if args.spectrum is None else parse_region(args.spectrum, image)
     csv = os.path.splitext(out)[0] + ".csv"
     if region is not None:

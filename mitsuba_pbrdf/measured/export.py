@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ParameterError
 from ..reference.params import PBRDFParams
 from .pbsdf import write_pbsdf
 from .rusinkiewicz import angles, directions, global_to_facet
@@ -63,10 +64,11 @@ class Grid:
     def __post_init__(self):
         for name in ("phi_d", "theta_d", "theta_h"):
             if not 2 <= getattr(self, name) <= 4096:
-                raise ValueError(f"grid: {name} needs 2 to 4096 points, got {getattr(self, name)}")
+                raise ParameterError("grid", f"{name} needs 2 to 4096 points, "
+                                             f"got {getattr(self, name)}")
         if self.theta_h_spacing not in ("square", "uniform"):
-            raise ValueError(f"grid: theta_h spacing must be square or uniform, "
-                             f"got {self.theta_h_spacing!r}")
+            raise ParameterError("grid", f"theta_h spacing must be square or uniform, "
+                                         f"got {self.theta_h_spacing!r}")
 
     def axes(self):
         """``(phi_d, theta_d, theta_h)`` in radians (float64)."""
@@ -97,48 +99,49 @@ def parse_grid(text) -> Grid:
         return KAIST_GRID
     m = re.fullmatch(r"(\d+)x(\d+)x(\d+)(-uniform|-square)?", text)
     if not m:
-        raise ValueError(f"--grid must be default, kaist or PxDxH (e.g. 49x80x80), got {text!r}")
+        raise ParameterError("grid", f"must be default, kaist or PxDxH (e.g. 49x80x80), "
+                                     f"got {text!r}")
     return Grid(int(m[1]), int(m[2]), int(m[3]), (m[4] or "-square")[1:])
 
 
-def parse_bands(text, what="--bands"):
+def parse_bands(text, what="bands"):
     """Wavelengths (whole nm, strictly increasing, 1 to :data:`MAX_BANDS` of
     them) from comma-separated items, each a wavelength or ``START:STOP:STEP``
     (STOP included when on the grid), e.g. ``400:700:10`` or ``450,550,650``.
-    ValueError naming ``what`` otherwise."""
+    :class:`~mitsuba_pbrdf.errors.ParameterError` of the parameter ``what`` otherwise."""
     text = str(text).strip()
     items = [i.strip() for i in text.split(",")]
     if not text or any(not i for i in items):
-        raise ValueError(f"{what}: expected comma-separated wavelengths in nm or "
-                         f"START:STOP:STEP, got {text!r}")
+        raise ParameterError(what, f"expected comma-separated wavelengths in nm or "
+                             f"START:STOP:STEP, got {text!r}")
     out = []
     for item in items:
         parts = item.split(":")
         try:
             numbers = [float(p) for p in parts]
         except ValueError:
-            raise ValueError(f"{what}: {item!r} is not a wavelength (nm) or "
-                             f"START:STOP:STEP") from None
+            raise ParameterError(what, f"{item!r} is not a wavelength (nm) or "
+                                 f"START:STOP:STEP") from None
         if len(parts) not in (1, 3) or not all(math.isfinite(v) and v == round(v)
                                                for v in numbers):
-            raise ValueError(f"{what}: {item!r} must be a whole number of nm or "
-                             f"START:STOP:STEP of whole nm")
+            raise ParameterError(what, f"{item!r} must be a whole number of nm or "
+                                 f"START:STOP:STEP of whole nm")
         if len(parts) == 1:
             out.append(int(numbers[0]))
             continue
         start, stop, step = (int(v) for v in numbers)
         if step <= 0 or stop < start:
-            raise ValueError(f"{what}: {item!r} needs STEP > 0 and STOP >= START")
+            raise ParameterError(what, f"{item!r} needs STEP > 0 and STOP >= START")
         if (stop - start) // step + 1 > MAX_BANDS:
-            raise ValueError(f"{what}: {item!r} gives more than {MAX_BANDS} wavelengths")
+            raise ParameterError(what, f"{item!r} gives more than {MAX_BANDS} wavelengths")
         out.extend(range(start, stop + 1, step))
     if len(out) > MAX_BANDS:
-        raise ValueError(f"{what}: {len(out)} wavelengths; at most {MAX_BANDS}")
+        raise ParameterError(what, f"{len(out)} wavelengths; at most {MAX_BANDS}")
     if any(not 1 <= w <= 65535 for w in out):
-        raise ValueError(f"{what}: wavelengths must lie in 1..65535 nm (stored as uint16), "
-                         f"got {text!r}")
+        raise ParameterError(what, f"wavelengths must lie in 1..65535 nm (stored as uint16), "
+                             f"got {text!r}")
     if any(b <= a for a, b in zip(out, out[1:])):
-        raise ValueError(f"{what}: wavelengths must be strictly increasing, got {text!r}")
+        raise ParameterError(what, f"wavelengths must be strictly increasing, got {text!r}")
     return out
 
 

@@ -23,8 +23,8 @@ from ..errors import ParameterError
 from ..stokes.image import StokesImage
 from .png import save_png
 
-__all__ = ["Region", "parse_region", "stokes_spectrum", "band_centres", "cube_sheet_figure",
-           "save_cube_sheet", "write_spectrum_csv"]
+__all__ = ["Region", "SHEET_OPTIONS", "parse_region", "stokes_spectrum", "band_centres",
+           "cube_sheet_figure", "save_cube_sheet", "write_spectrum_csv"]
 
 
 @dataclass(frozen=True)
@@ -117,12 +117,22 @@ def _spectrum_axes(ax, image: StokesImage, region: Region):
     ax.set_title(f"Stokes spectrum, {region.describe()}", fontsize=9)
 
 
+#: The picture options :func:`cube_sheet_figure` takes (the S0 panels use each
+#: band's own exposure; there is no choice of panels nor of Stokes scale).
+SHEET_OPTIONS = ("dolp_max", "min_dolp", "dolp_cmap")
+
+
 def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
                       title: Optional[str] = None, panel_width: float = 2.6, **options):
     """A matplotlib Figure: one row per band with S0, DoLP and AoLP (each
     with its colour bar; S0 in grey with the band's own exposure), and with
     *region* its Stokes spectrum on top, the region outlined in each S0 panel.
-    *options*: ``dolp_max`` (default ``"auto"``), ``min_dolp``, ``dolp_cmap``."""
+    *options* (:data:`SHEET_OPTIONS`): ``dolp_max`` (default ``"auto"``),
+    ``min_dolp``, ``dolp_cmap``; TypeError for any other."""
+    unknown = sorted(set(options) - set(SHEET_OPTIONS))
+    if unknown:
+        raise TypeError(f"cube_sheet_figure: unexpected option(s) {', '.join(unknown)}; "
+                        f"it takes {', '.join(SHEET_OPTIONS)}")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.patches import Rectangle

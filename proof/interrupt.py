@@ -1,0 +1,50 @@
+"""Ctrl-C for real, for the tests of ``pbrdf batch`` (tests/test_batch.py on a
+local cluster, tests/test_batch_slurm.py on Slurm): run ``python -m
+mitsuba_pbrdf ARGS`` in a session of its own with this checkout first on
+``PYTHONPATH``, wait until its output folder holds a file, and send SIGINT to
+its whole process group, as a terminal's Ctrl-C does."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Mapping, Optional, Sequence
+
+__all__ = ["ROOT", "interrupt_once_output_exists"]
+
+#: The checkout (the folder that holds ``mitsuba_pbrdf`` and ``proof``).
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def interrupt_once_output_exists(args: Sequence[str], folder, pattern: str = "*.exr",
+                                 env: Optional[Mapping[str, str]] = None,
+                                 start_timeout: float = 120.0,
+                                 exit_timeout: float = 60.0) -> subprocess.CompletedProcess:
+    """Run ``pbrdf ARGS`` (*env*: its environment, default this process's),
+    send SIGINT to its process group once *folder* holds a file matching
+    *pattern* (or after *start_timeout* s, or at once if it has ended), and
+    wait at most *exit_timeout* s for it to exit. Returns its exit status,
+    stdout and stderr (text)."""
+    env = dict(os.environ if env is None else env)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
+    argv = [sys.executable, "-m", "mitsuba_pbrdf", *args]
+    proc = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + start_timeout
+        while time.monotonic() < deadline and proc.poll() is None:
+            if os.path.isdir(folder) and next(Path(folder).glob(pattern), None) is not None:
+                break
+            time.sleep(0.05)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=exit_timeout)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    return subprocess.CompletedProcess(argv, proc.returncode, out, err)

@@ -1,0 +1,148 @@
+"""The cap on replacing lost Slurm worker jobs (``pbrdf batch --slurm
+--max-resubmissions N``; mitsuba_pbrdf/batch/slurm_keeper.py), without Slurm:
+the keeper runs against a stand-in for dask-jobqueue's cluster (its
+``worker_spec``, ``workers`` of jobs with a ``job_id`` and ``scale``), and
+the sweep's side (futures cancelled, rows left pending, one line, exit 2)
+against a local Dask cluster standing in for the Slurm one. The real-Slurm
+tests are in tests/test_batch_slurm.py."""
+
+import contextlib
+import threading
+
+import pytest
+
+from mitsuba_pbrdf.batch.slurm_keeper import Keeper, ResubmissionCap
+from mitsuba_pbrdf.batch.slurm_options import SlurmError
+
+
+class Job:
+    def __init__(self, job_id):
+        self.job_id = job_id
+
+
+class FakeCluster:
+    """What the keeper reads of a SLURMCluster: the spec of *jobs* worker
+    jobs, the submitted ones, and ``scale``, which submits a job for each
+    spec entry without one (as SpecCluster's ``_correct_state`` does)."""
+
+    def __init__(self, jobs):
+        self.worker_spec = {i: {} for i in range(jobs)}
+        self.workers = {}
+        self.submitted = []
+        self.scale()
+
+    def scale(self, jobs=None):
+        for name in self.worker_spec:
+            if name not in self.workers:
+                self.submitted.append(str(100 + len(self.submitted)))
+                self.workers[name] = Job(self.submitted[-1])
+
+    def lose(self, name):
+        """The worker job *name* ended and Dask gave it up."""
+        del self.workers[name]
+
+
+def keeper_for(cluster, limit, done=lambda: 0):
+    given_up = []
+    keeper = Keeper(cluster, len(cluster.worker_spec), ResubmissionCap(limit), done=done,
+                    why_ended=lambda job: f"Slurm job {job} reached its walltime (00:01:00)",
+                    on_give_up=lambda: given_up.append(True), logs="out/slurm-logs")
+    return keeper, given_up
+
+
+def test_lost_jobs_are_replaced_up_to_the_cap_then_nothing_more_is_submitted():
+    cluster = FakeCluster(jobs=2)
+    keeper, given_up = keeper_for(cluster, limit=3)
+    assert keeper.tick() and cluster.submitted == ["100", "101"]  # nothing lost yet
+    for i in range(3):  # job 0 ends again and again: replaced 3 times
+        cluster.lose(0)
+        assert keeper.tick()
+        assert keeper.tick()  # the same loss is counted once
+    assert len(cluster.submitted) == 5 and not given_up
+    last = cluster.workers[0].job_id
+    cluster.lose(0)
+    assert not keeper.tick()
+    assert len(cluster.submitted) == 5, "a job was submitted past the cap"
+    assert given_up == [True]
+    assert keeper.error == (
+        "the Slurm worker jobs were lost and replaced 3 times each (max_resubmissions, "
+        "--max-resubmissions) with no render done in between; the last one: Slurm job "
+        f"{last} reached its walltime (00:01:00); submitting no more (the worker jobs' logs "
+        "are in out/slurm-logs)")
+
+
+def test_a_render_done_starts_the_count_again():
+    """A sweep many walltimes long: each worker job renders, then ends; it is
+    replaced each time, well past the cap."""
+    cluster = FakeCluster(jobs=1)
+    done = [0]
+    keeper, given_up = keeper_for(cluster, limit=2, done=lambda: done[0])
+    for i in range(20):
+        done[0] += 1  # the worker job rendered before it ended
+        cluster.lose(0)
+        assert keeper.tick()
+    assert len(cluster.submitted) == 21 and not given_up and keeper.error is None
+
+
+def test_the_cap_counts_each_worker_job_on_its_own():
+    """Two worker jobs lost twice each with a cap of 2: still within it."""
+    cluster = FakeCluster(jobs=2)
+    keeper, given_up = keeper_for(cluster, limit=2)
+    for _ in range(2):
+        cluster.lose(0)
+        cluster.lose(1)
+        assert keeper.tick()
+    assert len(cluster.submitted) == 6 and not given_up
+
+
+def test_jobs_not_yet_submitted_are_not_counted_as_lost():
+    cluster = FakeCluster(jobs=2)
+    cluster.workers.clear()  # the first submissions still under way
+    keeper, given_up = keeper_for(cluster, limit=1)
+    assert keeper.tick() and not given_up
+
+
+@pytest.mark.parametrize("value", [0, -1, 1.5, True])
+def test_max_resubmissions_must_be_a_positive_integer(value):
+    from mitsuba_pbrdf.batch.slurm_options import slurm_options
+
+    with pytest.raises(SlurmError, match="^--max-resubmissions: must be a positive integer"):
+        slurm_options({}, max_resubmissions=value)
+    with pytest.raises(SlurmError, match="^s.toml: slurm.max_resubmissions: must be a positive"):
+        slurm_options({"max_resubmissions": value}, where="s.toml: ")
+
+
+def test_at_the_cap_the_sweep_stops_with_one_line_and_pending_rows(tmp_path, capfd,
+                                                                   monkeypatch):
+    """The runner's side, on a local Dask cluster standing in for Slurm's: the
+    cap is reached (on_give_up) as the sweep starts; its futures are
+    cancelled, no row is marked failed, ``pbrdf batch --slurm`` ends with
+    the keeper's line and exit status 2, and the manifest keeps the rest
+    pending for a rerun."""
+    pytest.importorskip("distributed")
+    import mitsuba_pbrdf.batch.slurm as slurm_module
+    from mitsuba_pbrdf.batch.cluster import connect
+    from mitsuba_pbrdf.batch.lost import local_explain
+    from mitsuba_pbrdf.batch.manifest import read_manifest
+    from mitsuba_pbrdf.batch.sweep import load_sweep
+    from mitsuba_pbrdf.cli import main
+    from test_batch_slurm import grid, write_sweep
+
+    line = "the Slurm worker jobs were lost and replaced 5 times each (stand-in)"
+
+    @contextlib.contextmanager
+    def connect_slurm(options, log_directory, allowed_failures=3, done=lambda: 0,
+                      on_give_up=lambda: None):
+        with connect(workers=1) as (client, _):
+            threading.Thread(target=on_give_up).start()  # the keeper's thread
+            yield client, local_explain
+        raise SlurmError(line)
+
+    monkeypatch.setattr(slurm_module, "connect_slurm", connect_slurm)
+    path = write_sweep(tmp_path, grid(4, 256))
+    assert main(["batch", str(path), "--slurm", "--no-progress"]) == 2
+    err = capfd.readouterr().err.strip().splitlines()
+    assert err == [f"pbrdf batch: error: {line}"]
+    rows = list(read_manifest(load_sweep(path).manifest).values())
+    # cancelled before their worker imported Mitsuba: none rendered, none failed
+    assert len(rows) == 4 and {r["status"] for r in rows} == {"pending"}
