@@ -13,6 +13,7 @@ import os
 import threading
 import time
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -36,13 +37,23 @@ class Case:
     spp: int = 16
     target_spp: int = 256
     lr: float = 0.05
-    lr_decay: float = 0.97
+    lr_end: float = 0.1              # the learning rate of the last iteration / lr
+    lr_decay: Optional[float] = None  # if given: lr x lr_decay^iteration instead
     parametrization: str = "normals"
+    start: str = "flat"              # flat, or truth (the noise floor: how far the fit drifts)
     seed: int = 0
 
     @property
     def label(self):
-        return f"{self.metal}, {self.views} view{'s' * (self.views > 1)}, {self.observables}"
+        return (f"{self.metal}, {self.views} view{'s' * (self.views > 1)}, {self.observables}"
+                + (", from the truth" if self.start == "truth" else ""))
+
+    @property
+    def schedule(self):
+        """The learning-rate schedule in words."""
+        if self.lr_decay is not None:
+            return f"{self.lr} x {self.lr_decay}^it"
+        return f"{self.lr} to {self.lr * self.lr_end:.3g}"
 
 
 class PeakMemory:
@@ -117,13 +128,17 @@ def run_case(case: Case, callback=None) -> dict:
         observables = "polcam"
     flat = np.zeros_like(truth)
     flat[..., 2] = 1.0
+    if case.start not in ("flat", "truth") or (case.start == "truth"
+                                              and case.parametrization != "normals"):
+        raise ValueError(f"start {case.start!r} with {case.parametrization!r}")
     start = ns.plate_scene(flat, metal=case.metal, views=case.views, size=case.size)
     t0 = time.perf_counter()
     with PeakMemory() as memory:
         result = recover_normals(start, targets, observables=observables,
                                  parametrization=case.parametrization,
                                  iterations=case.iterations, spp=case.spp, lr=case.lr,
-                                 lr_decay=case.lr_decay, truth=truth, seed=case.seed,
+                                 lr_end=case.lr_end, lr_decay=case.lr_decay, truth=truth,
+                                 start=truth if case.start == "truth" else None, seed=case.seed,
                                  callback=callback)
     return {"case": case, "result": result, "truth": truth,
             "error": result.error_stats(), "start": result.error_stats("start_error"),

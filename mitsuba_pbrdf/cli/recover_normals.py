@@ -51,7 +51,7 @@ def run(args) -> int:
     """``pbrdf recover-normals``."""
     import numpy as np
 
-    from ..inverse.normals import check_options, find_normalmap
+    from ..inverse.normals import LR_END, check_options, find_normalmap
     from ..outputs import write_json
     from ..registry import use_variant
     from ..rendering.progress import progress_reporter
@@ -62,8 +62,10 @@ def run(args) -> int:
         require_file(path, "target")
     if args.truth:
         require_file(args.truth, "--truth file")
+    if args.lr_end is None:
+        args.lr_end = LR_END
     check_options(args.observables, args.parametrization, args.iterations, args.spp,
-                   args.smoothness, args.lr)
+                   args.smoothness, args.lr, args.lr_end)
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"--out: {args.out} is not a folder")
     paths = {name: os.path.join(args.out, name) for name in OUTPUTS}
@@ -87,7 +89,8 @@ def run(args) -> int:
         result = recover_normals(scene, targets, observables=args.observables,
                                  parametrization=args.parametrization,
                                  smoothness=args.smoothness, iterations=args.iterations,
-                                 spp=args.spp, lr=args.lr, fit_roughness=args.fit_roughness,
+                                 spp=args.spp, lr=args.lr, lr_end=args.lr_end,
+                                 fit_roughness=args.fit_roughness,
                                  truth=truth, seed=args.seed,
                                  callback=lambda it, loss: bar.update(1))
 
@@ -106,7 +109,7 @@ def run(args) -> int:
     plt.close(fig)
     summary = {"observables": args.observables, "parametrization": args.parametrization,
                "iterations": args.iterations, "spp": args.spp, "smoothness": args.smoothness,
-               "lr": args.lr, "seconds": result.seconds, "loss": result.loss,
+               "lr": args.lr, "lr_end": args.lr_end, "seconds": result.seconds, "loss": result.loss,
                "visible_texels": int(result.visible.sum())}
     if truth is not None:
         summary["angular_error_deg"] = result.error_stats()
@@ -146,7 +149,11 @@ def add_parser(subparsers):
     p.add_argument("--iterations", type=int, default=100, help="Adam steps (default: 100)")
     p.add_argument("--spp", type=int, default=16,
                    help="samples per pixel of each iteration's render (default: 16)")
-    p.add_argument("--lr", type=float, default=0.02, help="Adam learning rate (default: 0.02)")
+    p.add_argument("--lr", type=float, default=0.02,
+                   help="Adam learning rate of the first iteration (default: 0.02)")
+    p.add_argument("--lr-end", type=float, default=None,
+                   help="learning rate of the last iteration as a fraction of --lr, reached by a "
+                        "geometric decay (default: recover_normals's LR_END, 0.1)")
     p.add_argument("--fit-roughness", action="store_true",
                    help="also fit the wrapped pbrdf's sigma map (must be a bitmap)")
     p.add_argument("--truth", metavar="NORMALS.exr", default=None,

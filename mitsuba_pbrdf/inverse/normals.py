@@ -31,6 +31,7 @@ from typing import Callable, List, Optional
 import numpy as np
 
 from ..errors import ParameterError
+from .fit_steps import LR_END, learning_rates, summed_gradients  # noqa: F401 (re-exported)
 
 OBSERVABLES = ("intensity", "stokes", "polcam")
 PARAMETRIZATIONS = ("normals", "height")
@@ -49,7 +50,8 @@ class NormalRecovery:
     ``visible`` (H, W) texels that received a gradient; ``angular_error``
     (H, W) degrees against ``truth`` (None without one) and ``start_error``
     the same for the starting map; ``roughness`` the fitted map or None;
-    ``seconds`` the fit's wall time."""
+    ``seconds`` the fit's wall time; ``info`` per iteration: ``view_loss``
+    and ``view_gradient_norm`` (iterations, views), ``learning_rates``."""
 
     normals: np.ndarray
     loss: List[float]
@@ -302,7 +304,8 @@ class _Texels:
         return mi.TensorXf(n.reshape(*self.shape, 3).astype(np.float32))
 
 
-def check_options(observables, parametrization, iterations, spp, smoothness, lr):
+def check_options(observables, parametrization, iterations, spp, smoothness, lr, lr_end=LR_END,
+                  lr_decay=None):
     """ParameterError naming the first bad option of :func:`recover_normals`
     (checked before any scene is loaded; the command line calls it first)."""
     if observables not in OBSERVABLES:
@@ -318,12 +321,17 @@ def check_options(observables, parametrization, iterations, spp, smoothness, lr)
         if not (np.isfinite(value) and value >= 0) or (name == "lr" and value == 0):
             raise ParameterError(name, f"must be a finite number {'> 0' if name == 'lr' else '>= 0'}"
                                        f", got {value!r}")
+    for name, value in (("lr_end", lr_end), ("lr_decay", lr_decay)):
+        if value is not None and not (np.isfinite(value) and 0 < value <= 1):
+            raise ParameterError(name, f"must be a number in (0, 1], got {value!r}")
+
 
 
 def recover_normals(scene, targets, *, observables: str = "stokes",
                     parametrization: str = "normals", smoothness: float = 0.0,
                     iterations: int = 100, spp: int = 16, lr: float = 0.02,
-                    lr_decay: float = 0.99, fit_roughness: bool = False, truth=None,
+                    lr_end: float = LR_END, lr_decay: Optional[float] = None,
+                    fit_roughness: bool = False, truth=None,
                     start=None, max_depth: int = 3, seed: int = 0,
                     callback: Optional[Callable[[int, float], None]] = None) -> NormalRecovery:
     """Fit the normal map of *scene*'s ``polarized_normalmap`` to *targets*.
@@ -340,12 +348,17 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
     must then be a bitmap (kept within SIGMA_BOUNDS). truth: (H, W, 3) unit
     normals, for the angular errors. callback(iteration, loss) after each step.
     Adam (``mi.ad.Adam``), one render and one ``dr.backward`` per view per
-    iteration, learning rate ``lr * lr_decay**iteration``.
+    iteration; learning rate from *lr* down to ``lr * lr_end`` at the last
+    iteration, geometrically (or ``lr * lr_decay**iteration`` when *lr_decay*
+    is given): :func:`learning_rates`. ``info["view_loss"]`` and
+    ``info["view_gradient_norm"]``: (iterations, views) data loss of each view
+    and the norm of its texel gradient.
     """
     import drjit as dr
     import mitsuba as mi
 
-    check_options(observables, parametrization, iterations, spp, smoothness, lr)
+    check_options(observables, parametrization, iterations, spp, smoothness, lr, lr_end, lr_decay)
+    rates = learning_rates(lr, iterations, lr_end, lr_decay)
     scene = _load(scene)
     key, _ = find_normalmap(scene)
     sensors = scene.sensors()
@@ -376,7 +389,7 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
             raise ParameterError("fit_roughness", "needs the wrapped pbrdf's sigma to be a "
                                                   "bitmap texture")
 
-    opt = mi.ad.Adam(lr=lr)
+    opt = mi.ad.Adam(lr=float(rates[0]))
     opt["texels"] = texels.start
     if sigma_key:
         opt["sigma"] = params[sigma_key]
@@ -389,35 +402,47 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
         params.update()
         return normals
 
-    history, touched = [], np.zeros(shape[:2], bool)
+    history, view_loss, view_grad, touched = [], [], [], np.zeros(shape[:2], bool)
     t0 = time.perf_counter()
     for it in range(iterations):
-        total = 0.0
-        for view, loss in enumerate(losses):
+        penalty = [0.0]
+
+        def view_value(view, it=it):
             normals = apply()
             image = mi.render(scene, params, sensor=view, integrator=integrator, spp=spp,
                               seed=seed + 7919 * it + 31 * view)
-            value = loss(image)
+            value = losses[view](image)
             if smoothness > 0 and view == 0:
+                penalty[0] = smoothness * float(texels.smoothness(dr.detach(normals))[0])
                 value = value + smoothness * texels.smoothness(normals)
-                total -= smoothness * float(texels.smoothness(dr.detach(normals))[0])
-            dr.backward(value)
-            total += float(value[0])
-        grad = np.array(dr.grad(opt["texels"]))
-        touched |= (np.abs(grad).reshape(*shape[:2], -1).sum(axis=2) != 0)
+            return value
+
+        variables = [opt["texels"]] + ([opt["sigma"]] if sigma_key else [])
+        values, grad_norms = summed_gradients(
+            [lambda v=v: view_value(v) for v in range(len(losses))], variables)
+        per_view = [values[0] - penalty[0]] + values[1:]
+        total = float(sum(per_view))
+        before = np.array(dr.grad(opt["texels"]), np.float64)
+        touched |= (np.abs(before).reshape(*shape[:2], -1).sum(axis=2) != 0)
         opt.step()
         opt["texels"] = texels.project(opt["texels"])
         if sigma_key:
             opt["sigma"] = dr.clip(opt["sigma"], *SIGMA_BOUNDS)
-        opt.set_learning_rate(lr * lr_decay ** (it + 1))
+        if it + 1 < iterations:
+            opt.set_learning_rate(float(rates[it + 1]))
         history.append(total)
+        view_loss.append(per_view)
+        view_grad.append(grad_norms)
         if callback is not None:
             callback(it, total)
     normals = np.array(texels.normals(dr.detach(opt["texels"])), np.float64).T.reshape(shape)
     normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
     apply()
     out = NormalRecovery(normals=normals, loss=history, visible=touched,
-                         seconds=time.perf_counter() - t0)
+                         seconds=time.perf_counter() - t0,
+                         info={"view_loss": np.array(view_loss),
+                               "view_gradient_norm": np.array(view_grad),
+                               "learning_rates": rates})
     if parametrization == "height":
         out.heights = np.array(opt["texels"], np.float64)
     if sigma_key:
