@@ -73,12 +73,13 @@ def _passes(seed, spp, passes):
     return [(s, derivative_seed(s), n) for s, n in zip(pass_seeds(seed, len(plan)), plan)]
 
 
-def render(scene, spp=16, seed=0, passes=1):
+def render(scene, spp=16, seed=0, passes=1, integrator=None):
     """Primal render (no derivatives) of ``scene``'s first sensor as a
     ``mi.TensorXf`` (H, W, C), the samples split into ``passes`` renders
     (:func:`~mitsuba_pbrdf.rendering.passes.plan_passes`, seeds from
-    :func:`~mitsuba_pbrdf.rendering.passes.pass_seeds`) whose mean it returns."""
-    integrator, sensor = scene.integrator(), scene.sensors()[0]
+    :func:`~mitsuba_pbrdf.rendering.passes.pass_seeds`) whose mean it returns.
+    ``integrator``: another integrator than the scene's (e.g. its ``stokes_prb``)."""
+    integrator, sensor = integrator or scene.integrator(), scene.sensors()[0]
     image = None
     with dr.suspend_grad():
         for primal_seed, _, n in _passes(seed, spp, passes):
@@ -196,7 +197,10 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
     for k in keys:
         dr.disable_grad(params[k])
     params.update()
-    image = render(scene, spp, seed, passes)
+    # prb: the replay integrator's own trace renders the primal image (the
+    # same paths and image as stokes/path, to float32 rounding)
+    replay = _replay_integrator(scene) if method == "prb" else None
+    image = render(scene, spp, seed, passes, integrator=replay)
     image = dr.detach(image)
     dr.enable_grad(image)
     value = loss(image)
@@ -209,7 +213,7 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
     renders = len(plan)
     try:
         if method in ("reverse", "prb"):
-            backward = integrator if method == "reverse" else _replay_integrator(scene)
+            backward = integrator if method == "reverse" else replay
             for k in keys:
                 dr.enable_grad(params[k])
             params.update()
