@@ -6,9 +6,11 @@ image determines).
 
 * ``method="prb"``: polarized path replay, the package's ``stokes_prb``
   integrator (docs/path-replay.md), built from the scene's ``stokes``/``path``
-  (same ``max_depth``, ``rr_depth``, ``hide_emitters``). One primal render and
-  one replay of all samples: memory of a primal render, whatever the number
-  of samples, the depth or the number of parameters (textures included).
+  (same ``max_depth``, ``rr_depth``, ``hide_emitters``). One primal render (by
+  ``stokes_prb`` itself: the same image as the scene's integrator to float32
+  rounding, a little faster) and one replay of all samples: memory of a
+  primal render, whatever the number of samples, the depth or the number of
+  parameters (textures included).
   ``method="auto"`` (the default) uses it wherever the scene allows
   (:func:`mitsuba_pbrdf.integrators.stokes_prb.supports_scene`: ``stokes``
   around ``path`` with a finite depth, an RGB film), else ``"reverse"``.
