@@ -2,6 +2,13 @@
 
     python validation/inverse_memory.py            # full study (~1 h on 2 cores)
     python validation/inverse_memory.py --quick    # 64 and 128 pixels, 16 and 64 spp
+    python validation/inverse_memory.py --normalmap --methods primal,prb --sizes 512 \
+        --spps 64 --reps 3 --section "Goal row: normal map and 7 parameters"
+
+``--normalmap`` wraps the sphere's pbrdf in a ``polarized_normalmap`` whose
+texels are differentiated too; ``--reps`` interleaves primal renders and
+gradients in each process and reports medians; ``--section`` writes the rows
+as a section of the report instead of rewriting it.
 
 Writes ``validation/inverse_memory.md``. Scene: ``inverse.sphere_scene`` (a
 pbrdf sphere on a diffuse floor, two area lights and a sky) with ``path`` at
