@@ -108,17 +108,6 @@ def main(argv=None):
                                             method="prb")
         grads.update(g)
 
-    def gradient_path_primal():
-        # as before this branch: the loss's primal image rendered by stokes/path
-        from mitsuba_pbrdf.inverse import gradients as module
-        original = module.render
-        module.render = lambda scene, spp, seed, passes, integrator=None: original(
-            scene, spp, seed, passes)
-        try:
-            gradient()
-        finally:
-            module.render = original
-
     image = inverse.render(scene, spp=args.spp, seed=5)
     image = dr.detach(image)
     dr.enable_grad(image)
@@ -154,7 +143,6 @@ def main(argv=None):
         dr.eval(prb.render(scene, sensor, seed=6, spp=args.spp))
 
     jobs = {"primal render": primal, "gradient": gradient,
-            "gradient, loss image by stokes/path (before)": gradient_path_primal,
             "trace (render)": trace,
             "render_backward": backward()}
     if args.parts:

@@ -6,11 +6,9 @@ image determines).
 
 * ``method="prb"``: polarized path replay, the package's ``stokes_prb``
   integrator (docs/path-replay.md), built from the scene's ``stokes``/``path``
-  (same ``max_depth``, ``rr_depth``, ``hide_emitters``). One primal render (by
-  ``stokes_prb`` itself: the same image as the scene's integrator to float32
-  rounding, a little faster) and one replay of all samples: memory of a
-  primal render, whatever the number of samples, the depth or the number of
-  parameters (textures included).
+  (same ``max_depth``, ``rr_depth``, ``hide_emitters``). One primal render and
+  one replay of all samples: memory of a primal render, whatever the number
+  of samples, the depth or the number of parameters (textures included).
   ``method="auto"`` (the default) uses it wherever the scene allows
   (:func:`mitsuba_pbrdf.integrators.stokes_prb.supports_scene`: ``stokes``
   around ``path`` with a finite depth, an RGB film), else ``"reverse"``.
@@ -75,13 +73,12 @@ def _passes(seed, spp, passes):
     return [(s, derivative_seed(s), n) for s, n in zip(pass_seeds(seed, len(plan)), plan)]
 
 
-def render(scene, spp=16, seed=0, passes=1, integrator=None):
+def render(scene, spp=16, seed=0, passes=1):
     """Primal render (no derivatives) of ``scene``'s first sensor as a
     ``mi.TensorXf`` (H, W, C), the samples split into ``passes`` renders
     (:func:`~mitsuba_pbrdf.rendering.passes.plan_passes`, seeds from
-    :func:`~mitsuba_pbrdf.rendering.passes.pass_seeds`) whose mean it returns.
-    ``integrator``: another integrator than the scene's (e.g. its ``stokes_prb``)."""
-    integrator, sensor = integrator or scene.integrator(), scene.sensors()[0]
+    :func:`~mitsuba_pbrdf.rendering.passes.pass_seeds`) whose mean it returns."""
+    integrator, sensor = scene.integrator(), scene.sensors()[0]
     image = None
     with dr.suspend_grad():
         for primal_seed, _, n in _passes(seed, spp, passes):
@@ -199,10 +196,7 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
     for k in keys:
         dr.disable_grad(params[k])
     params.update()
-    # prb: the replay integrator's own trace renders the primal image (the
-    # same paths and image as stokes/path, to float32 rounding)
-    replay = _replay_integrator(scene) if method == "prb" else None
-    image = render(scene, spp, seed, passes, integrator=replay)
+    image = render(scene, spp, seed, passes)
     image = dr.detach(image)
     dr.enable_grad(image)
     value = loss(image)
@@ -215,7 +209,7 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
     renders = len(plan)
     try:
         if method in ("reverse", "prb"):
-            backward = integrator if method == "reverse" else replay
+            backward = integrator if method == "reverse" else _replay_integrator(scene)
             for k in keys:
                 dr.enable_grad(params[k])
             params.update()
