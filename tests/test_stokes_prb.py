@@ -197,6 +197,22 @@ def test_singular_case_polarizer_depolarizing_floor_and_mitsuba_bsdfs():
                  got[some])
 
 
+def test_gradients_of_emitter_parameters_equal_path_ad():
+    """The replay samples the emitters again, with derivatives, from the
+    traced random numbers: the gradients of the two area lights', the sky's
+    and two BSDF parameters equal path AD's (cosine sampling: path AD is
+    exact)."""
+    use_variant("llvm_ad_spectral_polarized")
+    scene, replay = both(max_depth=3)
+    keys = ["key.emitter.radiance.value", "back.emitter.radiance.value",
+            "sky.radiance.value", "object.bsdf.kdd.value", "object.bsdf.eta.value"]
+    weights = random_weights(2)
+    want = reverse_gradient(scene, keys, weights)
+    got = reverse_gradient(scene, keys, weights, integrator=replay)
+    assert np.all(np.abs(want) > 0)
+    assert_close(got, want)
+
+
 def test_forward_equals_reverse_with_mixture_sampling():
     """pbrdf's own lobe-mixture sampling (where path AD is no oracle): the
     two modes of stokes_prb compute the same estimator."""

@@ -2,6 +2,13 @@
 
     python validation/inverse_memory.py            # full study (~1 h on 2 cores)
     python validation/inverse_memory.py --quick    # 64 and 128 pixels, 16 and 64 spp
+    python validation/inverse_memory.py --normalmap --methods primal,prb --sizes 512 \
+        --spps 64 --reps 3 --section "Goal row: normal map and 7 parameters"
+
+``--normalmap`` wraps the sphere's pbrdf in a ``polarized_normalmap`` whose
+texels are differentiated too; ``--reps`` interleaves primal renders and
+gradients in each process and reports medians; ``--section`` writes the rows
+as a section of the report instead of rewriting it.
 
 Writes ``validation/inverse_memory.md``. Scene: ``inverse.sphere_scene`` (a
 pbrdf sphere on a diffuse floor, two area lights and a sky) with ``path`` at
@@ -34,6 +41,7 @@ import json
 import math
 import os
 import resource
+import statistics
 import subprocess
 import sys
 import time
@@ -50,6 +58,8 @@ BUDGET = 4 * 1024**3
 MAX_ONE_PASS = 6 * 1024**3
 #: forward mode is run up to this many samples per pixel
 MAX_FORWARD_SPP = 64
+#: texels per side of the normal map of --normalmap
+TEXELS = 64
 #: the variant of the study (--variant, e.g. cuda_ad_spectral_polarized on a GPU)
 VARIANT = "llvm_ad_spectral_polarized"
 
@@ -65,13 +75,16 @@ def child(config):
     from mitsuba_pbrdf import inverse
 
     size, spp = config["size"], config["spp"]
-    scene = mi.load_dict(inverse.sphere_scene(size, size, spp, DEPTH))
+    normalmap = config.get("normalmap", False)
+    scene = mi.load_dict(normalmap_sphere(size, spp) if normalmap
+                         else inverse.sphere_scene(size, size, spp, DEPTH))
     params = mi.traverse(scene)
-    keys = ["object.bsdf." + p + ".value" for p in PARAMS]
+    keys = bsdf_keys(normalmap)
+    prefix = "object.bsdf.nested_bsdf." if normalmap else "object.bsdf."
     passes = max(1, spp // 64)
     target = np.array(inverse.render(scene, spp=spp, seed=1000, passes=passes))
-    params["object.bsdf.sigma.value"] = 0.18
-    params["object.bsdf.eta.value"] = 1.6
+    params[prefix + "sigma.value"] = 0.18
+    params[prefix + "eta.value"] = 1.6
     params.update()
     loss = inverse.stokes_loss(scene, target, (0, 1, 2))
     del target
@@ -84,20 +97,62 @@ def child(config):
         dr.sync_thread()
         return time.perf_counter() - t0
 
+    def gradient(seed):
+        value, grads, stats = inverse.loss_and_gradient(
+            scene, params, keys, loss, spp=spp, seed=seed, method=config["method"],
+            passes=config["passes"])
+        return {"loss": value, "grads": [float(grads[k][0]) for k in keys],
+                "seconds": stats.seconds, "drjit_peak": stats.drjit_peak_bytes,
+                "renders": stats.renders}
+
     primal(1)  # compiles the primal kernel
-    primal_seconds = min(primal(2), primal(3))
-    out = []
-    if config["method"] != "primal":
-        for seed in config.get("seeds", [5, 6]):  # the first call includes JIT compilation
-            value, grads, stats = inverse.loss_and_gradient(
-                scene, params, keys, loss, spp=spp, seed=seed, method=config["method"],
-                passes=config["passes"])
-            out.append({"loss": value, "grads": [float(grads[k][0]) for k in keys],
-                        "seconds": stats.seconds, "drjit_peak": stats.drjit_peak_bytes,
-                        "renders": stats.renders})
-    print(json.dumps({"config": config, "primal_seconds": primal_seconds,
-                      "peak_rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
-                      "runs": out}), flush=True)
+    reps = config.get("reps")
+    out, ratios = [], []
+    if reps and config["method"] != "primal":
+        # interleaved: a primal render, then a gradient, reps times (after
+        # one gradient that compiles); medians of the times and ratios
+        out.append(gradient(4))
+        primals = []
+        for r in range(reps):
+            primals.append(primal(10 + r))
+            out.append(gradient(5 + r))
+            ratios.append(out[-1]["seconds"] / primals[-1])
+        primal_seconds = statistics.median(primals)
+    else:
+        primal_seconds = (statistics.median([primal(10 + r) for r in range(reps)]) if reps
+                          else min(primal(2), primal(3)))
+        if config["method"] != "primal":
+            for seed in config.get("seeds", [5, 6]):  # the first call includes JIT compilation
+                out.append(gradient(seed))
+    result = {"config": config, "primal_seconds": primal_seconds,
+              "peak_rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, "runs": out}
+    if ratios:
+        result["median_seconds"] = statistics.median(r["seconds"] for r in out[1:])
+        result["median_ratio"] = statistics.median(ratios)
+    print(json.dumps(result), flush=True)
+
+
+def normalmap_sphere(size, spp):
+    """The study's sphere scene dict with its pbrdf wrapped in a
+    ``polarized_normalmap`` of :data:`TEXELS` x :data:`TEXELS` texels (the
+    bumps of ``inverse.normal_scenes.true_normals``)."""
+    from mitsuba_pbrdf import inverse
+    from mitsuba_pbrdf.inverse.normal_scenes import true_normals
+    from mitsuba_pbrdf.inverse.normals import normalmap_texture
+
+    pbrdf = {"type": "pbrdf", "eta": 2.0, "k": 4.0, "sigma": 0.12, "ks": 1.0,
+             "kdd": 0.1, "sigma_dd": 0.5, "kid": 0.03}
+    bsdf = {"type": "polarized_normalmap", "normalmap": normalmap_texture(true_normals(TEXELS)),
+            "bsdf": pbrdf}
+    return inverse.sphere_scene(size, size, spp, DEPTH, bsdf=bsdf)
+
+
+def bsdf_keys(normalmap):
+    """The differentiated parameters: the 7 of pbrdf (and the normal map's texels)."""
+    if normalmap:
+        return (["object.bsdf.nested_bsdf." + p + ".value" for p in PARAMS]
+                + ["object.bsdf.normalmap.data"])
+    return ["object.bsdf." + p + ".value" for p in PARAMS]
 
 
 def run(config):
@@ -152,12 +207,14 @@ def table(rows):
                          f"| 1 |")
             continue
         first, second = r["runs"][0], r["runs"][-1]
+        seconds = r.get("median_seconds", second["seconds"])
+        ratio = r.get("median_ratio", second["seconds"] / r["primal_seconds"])
         lines.append(
             f"| {size}x{size} | {spp} | {label} | {r['peak_rss'] / 2**30:.2f} GiB | "
             f"{r['peak_rss'] / p['peak_rss']:.2f} | "
             f"{max(x['drjit_peak'] for x in r['runs']) / 2**30:.2f} GiB | "
-            f"{first['seconds']:.1f} s / {second['seconds']:.1f} s | "
-            f"{second['seconds'] / r['primal_seconds']:.2f} | {first['renders']} |")
+            f"{first['seconds']:.1f} s / {seconds:.1f} s | "
+            f"{ratio:.2f} | {first['renders']} |")
     return lines
 
 
@@ -172,6 +229,15 @@ def main(argv=None):
     args.add_argument("--sizes", help="image sizes to run (comma-separated; default 128,256,512)")
     args.add_argument("--spps", help="samples per pixel to run (comma-separated; default "
                       "16,64,256)")
+    args.add_argument("--normalmap", action="store_true",
+                      help=f"wrap the sphere's pbrdf in a polarized_normalmap ({TEXELS}x{TEXELS} "
+                      "texels) and differentiate its texels too")
+    args.add_argument("--reps", type=int,
+                      help="interleave this many primal renders and gradients in each process "
+                      "and report medians (default: one primal-render pair, then two gradients)")
+    args.add_argument("--section",
+                      help="write the rows as a section of this title in --out, replacing a "
+                      "section of the same title, instead of rewriting the whole report")
     args.add_argument("--variant", default=VARIANT,
                       help=f"Mitsuba variant (default {VARIANT}; cuda_ad_spectral_polarized on a GPU)")
     args = args.parse_args(argv)
@@ -202,6 +268,10 @@ def main(argv=None):
             config = {"size": size, "spp": spp, "method": method, "passes": passes}
             if args.variant != VARIANT:
                 config["variant"] = args.variant
+            if args.normalmap:
+                config["normalmap"] = True
+            if args.reps:
+                config["reps"] = args.reps
             cache[key] = run(config)
             if args.cache:
                 with open(args.cache, "w") as f:
@@ -215,7 +285,46 @@ def main(argv=None):
     return 0
 
 
+def command_line(args):
+    """The command that reproduces the rows of ``--section``."""
+    words = ["python validation/inverse_memory.py"]
+    for name in ("methods", "sizes", "spps", "reps", "variant"):
+        value = getattr(args, name)
+        if value and not (name == "variant" and value == VARIANT):
+            words.append(f"--{name} {value}")
+    if args.normalmap:
+        words.append("--normalmap")
+    words.append(f'--section "{args.section}"')
+    return " ".join(words)
+
+
+def write_section(args, rows):
+    """Replace (or append) the section ``## {args.section}`` of ``args.out``."""
+    what = (f"the sphere's pbrdf inside a polarized_normalmap, gradient with respect to the 7 "
+            f"pbrdf parameters and the {TEXELS}x{TEXELS}x3 normal-map texels"
+            if args.normalmap else "gradient with respect to the 7 BSDF parameters")
+    timing = (f"medians of {args.reps} interleaved primal renders and gradients in each process"
+              if args.reps else "one primal render and a second gradient call per process")
+    body = [f"## {args.section}", "",
+            f"`{command_line(args)}`: {what}, `{args.variant}`, {timing}.", ""]
+    body += table(rows)
+    text = open(args.out).read() if os.path.exists(args.out) else ""
+    head = f"## {args.section}\n"
+    start = text.find(head)
+    if start < 0:
+        text = text.rstrip("\n") + "\n\n" + "\n".join(body) + "\n"
+    else:
+        end = text.find("\n## ", start + len(head))
+        tail = "" if end < 0 else text[end:]
+        text = text[:start] + "\n".join(body) + "\n" + tail
+    with open(args.out, "w") as f:
+        f.write(text)
+
+
 def write(args, rows, missing=()):
+    if args.section:
+        write_section(args, rows)
+        return
     lines = ["# Memory and time of Stokes-loss gradients",
              "",
              f"`python validation/inverse_memory.py{' --quick' if args.quick else ''}` (this "
