@@ -221,30 +221,12 @@ def timed_out_jobs(node):
     return [line.split()[0].split("=")[1] for line in lines if "JobState=TIMEOUT" in line]
 
 
-def lost_jobs_done(sweep, seen):
-    """Whether the manifest shows the jobs of both lost workers run again and
-    done (later workers may reach their walltime too: their jobs do not
-    count). The test waits for this (within its deadline) before it interrupts:
-    how long a replacement worker job takes to start (Slurm, Dask, Mitsuba's
-    import) depends on the machine's load, and a fixed number of renders of
-    the surviving worker was too short under a load of 8 on 2 cores."""
-    try:
-        rows = rows_of(sweep)
-    except (ValueError, OSError):  # the manifest is being replaced
-        return False
-    names = (f"Slurm job {seen['cancelled']} was cancelled",
-             f"Slurm job {seen['timeout']} reached its walltime")
-    lost = [[r for r in rows if name in r["note"]] for name in names]
-    return all(lost) and all(r["status"] == "done" for rows_ in lost for r in rows_)
-
-
 def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     """Two worker jobs with a walltime of 1 minute render a sweep far longer
     than that. Once the first output exists, one worker's job is cancelled
     (scancel) while it renders; later a worker job runs out of walltime while
     it renders (Slurm ends a job 60 to 90 s after its start: it checks time
-    limits every 30 s); once both lost workers' jobs are done again and 8 renders
-    after the walltime, the sweep is interrupted
+    limits every 30 s); 8 renders after that, the sweep is interrupted
     (SIGINT, as Ctrl-C). The jobs of both lost workers ran again and are
     ``done``, every done job's image reads back, the cancelled job's render
     equals an in-process render with its seed, the notes name the
@@ -264,9 +246,9 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
 
     def monitor():
         out = Path(sweep.out)
-        deadline = time.time() + 300
-        while time.time() < deadline and not ended.is_set():
-            time.sleep(0.5)
+        deadline = time.time() + 240
+        while time.time() < deadline:
+            time.sleep(0.2)
             outputs = len(list(out.glob("*.exr"))) if out.is_dir() else 0
             if "cancelled" not in seen:
                 running = running_jobs(slurm) if outputs else []
@@ -277,26 +259,17 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
                 timed = timed_out_jobs(slurm)
                 if timed:
                     seen.update(timeout=timed[0], outputs=outputs)
-            elif outputs >= seen["outputs"] + 8 and lost_jobs_done(sweep, seen):
+            elif outputs >= seen["outputs"] + 8:
                 os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C
                 seen["interrupted"] = outputs
                 return
-        # past the deadline: interrupt anyway, so that a failure ends the test
-        # now instead of after the whole sweep
-        if not ended.is_set():
-            os.kill(os.getpid(), signal.SIGINT)
 
-    ended = threading.Event()
     thread = threading.Thread(target=monitor, daemon=True)
     thread.start()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            run_sweep(sweep, slurm=options, progress=False)
-    finally:
-        ended.set()
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(sweep, slurm=options, progress=False)
     thread.join(5)
-    assert "interrupted" in seen, \
-        f"no lost workers' jobs done again within 300 s, or the sweep ended first: {seen}"
+    assert "interrupted" in seen, f"the sweep ended before its workers were lost: {seen}"
     assert slurm.jobs() == [], slurm.run("squeue")
     rows = rows_of(sweep)
     assert {r["status"] for r in rows} == {"done", "pending"} and not any(r["error"] for r in rows)
