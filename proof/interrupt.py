@@ -32,8 +32,12 @@ def interrupt_once_output_exists(args: Sequence[str], folder, pattern: str = "*.
     env = dict(os.environ if env is None else env)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
     argv = [sys.executable, "-m", "mitsuba_pbrdf", *args]
+    # SIGINT's default action in the child, as in a terminal: an ignored
+    # SIGINT is inherited through exec (and Python then keeps ignoring it),
+    # so a test process that ignores it would make the child deaf to Ctrl-C
     proc = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, start_new_session=True)
+                            text=True, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + start_timeout
         while time.monotonic() < deadline and proc.poll() is None:

@@ -265,10 +265,17 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
                 return
 
     thread = threading.Thread(target=monitor, daemon=True)
-    thread.start()
-    with pytest.raises(KeyboardInterrupt):
-        run_sweep(sweep, slurm=options, progress=False)
-    thread.join(5)
+    # Python's own SIGINT handler during the sweep, whatever this process
+    # inherited (a shell's background job ignores SIGINT, and Python then keeps
+    # ignoring it: the Ctrl-C below would go unnoticed)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        thread.start()
+        with pytest.raises(KeyboardInterrupt):
+            run_sweep(sweep, slurm=options, progress=False)
+        thread.join(5)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert "interrupted" in seen, f"the sweep ended before its workers were lost: {seen}"
     assert slurm.jobs() == [], slurm.run("squeue")
     rows = rows_of(sweep)
