@@ -11,14 +11,14 @@ from __future__ import annotations
 import numpy as np
 
 
-def view_gradients(metal="Al", spp=256, eps=2e-3, texels=16, size=48, target_spp=256):
-    """``{view: (g . d, FD of L along d, |g|)}`` with d the unit direction of
-    minus the summed gradient; a descent direction has both negative."""
-    import drjit as dr
+def _flat_plate(metal, texels, size, target_spp):
+    """The three views' targets of the true plate, the plate with a flat
+    normal map, its normal map's parameter key, its parameters, a stokes_prb
+    of depth 3 and the flat map's texels (a tensor in colour encoding)."""
     import mitsuba as mi
 
     from mitsuba_pbrdf.inverse import normal_scenes as ns
-    from mitsuba_pbrdf.inverse.normals import find_normalmap, observable_loss
+    from mitsuba_pbrdf.inverse.normals import find_normalmap
 
     truth = ns.true_normals(texels)
     targets = ns.render_targets(mi.load_dict(ns.plate_scene(truth, metal=metal, views=3,
@@ -29,8 +29,20 @@ def view_gradients(metal="Al", spp=256, eps=2e-3, texels=16, size=48, target_spp
     key, _ = find_normalmap(scene)
     params = mi.traverse(scene)
     integrator = mi.load_dict({"type": "stokes_prb", "max_depth": 3})
-    losses = [observable_loss(scene, t, "stokes", sensor=i) for i, t in enumerate(targets)]
     base = mi.TensorXf(((flat + 1.0) / 2.0).astype(np.float32))
+    return targets, scene, key, params, integrator, base
+
+
+def view_gradients(metal="Al", spp=256, eps=2e-3, texels=16, size=48, target_spp=256):
+    """``{view: (g . d, FD of L along d, |g|)}`` with d the unit direction of
+    minus the summed gradient; a descent direction has both negative."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.inverse.normals import observable_loss
+
+    targets, scene, key, params, integrator, base = _flat_plate(metal, texels, size, target_spp)
+    losses = [observable_loss(scene, t, "stokes", sensor=i) for i, t in enumerate(targets)]
     grads = []
     for view, loss in enumerate(losses):
         x = mi.TensorXf(base)
@@ -64,19 +76,9 @@ def gradient_noise(metal="Al", spp=16, seeds=8, reference_spp=1024, texels=16, s
     import drjit as dr
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
-    from mitsuba_pbrdf.inverse.normals import find_normalmap, observable_loss
+    from mitsuba_pbrdf.inverse.normals import observable_loss
 
-    truth = ns.true_normals(texels)
-    targets = ns.render_targets(mi.load_dict(ns.plate_scene(truth, metal=metal, views=3,
-                                                            size=size)), spp=target_spp)
-    flat = np.zeros_like(truth)
-    flat[..., 2] = 1.0
-    scene = mi.load_dict(ns.plate_scene(flat, metal=metal, views=3, size=size))
-    key, _ = find_normalmap(scene)
-    params = mi.traverse(scene)
-    integrator = mi.load_dict({"type": "stokes_prb", "max_depth": 3})
-    base = mi.TensorXf(((flat + 1.0) / 2.0).astype(np.float32))
+    targets, scene, key, params, integrator, base = _flat_plate(metal, texels, size, target_spp)
 
     def grad(view, n, seed):
         loss = observable_loss(scene, targets[view], "stokes", sensor=view)
