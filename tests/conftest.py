@@ -61,6 +61,16 @@ def make_si(wi):
     return si
 
 
+def sample_both(a, b, wi, rng):
+    """Sample BSDFs `a` and `b` at the directions `wi` (numpy (n, 3)) with the
+    same random numbers drawn from `rng`: ``(bs_a, w_a, bs_b, w_b)``."""
+    si = make_si(wi)
+    s1 = mi.Float(rng.random(len(wi)).astype(np.float32))
+    s2 = mi.Point2f(*rng.random((2, len(wi))).astype(np.float32))
+    ctx = mi.BSDFContext()
+    return (*a.sample(ctx, si, s1, s2), *b.sample(ctx, si, s1, s2))
+
+
 def to_vector(w):
     w = np.atleast_2d(np.asarray(w, dtype=np.float32))
     return mi.Vector3f(*w.T) if not mi.variant().startswith("scalar") else mi.Vector3f(*w[0])

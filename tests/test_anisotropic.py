@@ -12,7 +12,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import WAVELENGTHS, as_numpy, chi2_sampling_test, hemisphere_pairs, make_si, to_vector
+from conftest import WAVELENGTHS, as_numpy, chi2_sampling_test, hemisphere_pairs, make_si, sample_both, to_vector
 from mitsuba_pbrdf import frames as mf
 from mitsuba_pbrdf import reference as ref
 from mitsuba_pbrdf import use_variant
@@ -147,12 +147,7 @@ def test_sample_matches_roughconductor(distribution):
     rc, pb = pair("Al", 0.6, 0.06, distribution)
     wi, _ = hemisphere_pairs(5000, seed=22)
     rng = np.random.default_rng(23)
-    si = make_si(wi)
-    s1 = mi.Float(rng.random(len(wi)).astype(np.float32))
-    s2 = mi.Point2f(*rng.random((2, len(wi))).astype(np.float32))
-    ctx = mi.BSDFContext()
-    bs_rc, w_rc = rc.sample(ctx, si, s1, s2)
-    bs_pb, w_pb = pb.sample(ctx, si, s1, s2)
+    bs_rc, w_rc, bs_pb, w_pb = sample_both(rc, pb, wi, rng)
     valid = as_numpy(bs_rc.wo)[:, 2] > 1e-4
     assert valid.mean() > 0.7
     np.testing.assert_allclose(as_numpy(bs_pb.wo)[valid], as_numpy(bs_rc.wo)[valid], atol=2e-6)

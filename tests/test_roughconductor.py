@@ -22,7 +22,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import as_numpy, hemisphere_pairs, make_si, to_vector
+from conftest import as_numpy, hemisphere_pairs, make_si, sample_both, to_vector
 from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import reference
 from mitsuba_pbrdf.frames import mitsuba_beckmann_G1
@@ -94,12 +94,7 @@ def test_sample_matches_roughconductor(variant):
     n = 5000
     rng = np.random.default_rng(3)
     wi, _ = hemisphere_pairs(n, seed=4)
-    si = make_si(wi)
-    s1 = mi.Float(rng.random(len(wi)).astype(np.float32))
-    s2 = mi.Point2f(*rng.random((2, len(wi))).astype(np.float32))
-    ctx = mi.BSDFContext()
-    bs_rc, w_rc = rc.sample(ctx, si, s1, s2)
-    bs_pb, w_pb = pb.sample(ctx, si, s1, s2)
+    bs_rc, w_rc, bs_pb, w_pb = sample_both(rc, pb, wi, rng)
     # roughconductor leaves bs.pdf set for directions below the horizon (its
     # weight is zero there); pbrdf zeroes both. Compare where the sample is valid.
     valid = as_numpy(bs_rc.wo)[:, 2] > 1e-4
