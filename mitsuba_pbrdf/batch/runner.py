@@ -15,8 +15,9 @@ What :func:`run_sweep` guarantees:
 * a job that fails (an unknown material, a scene error) is recorded with its
   one-line error and the others go on;
 * a job whose worker dies (killed, crashed, out of memory) is run again on a
-  worker that the nanny restarted or on another one, with the same seed; one
-  that kills ``allowed-failures + 1`` workers is recorded as failed
+  worker that the nanny restarted or on another one, with the same seed,
+  before any job that has not started (:mod:`mitsuba_pbrdf.batch.priority`);
+  one that kills ``allowed-failures + 1`` workers is recorded as failed
   (:mod:`mitsuba_pbrdf.batch.cluster`);
 * the manifest's ``note`` says why a job ran again (its worker process
   died; its worker's Slurm job was cancelled or reached its walltime:
@@ -45,6 +46,7 @@ from typing import Dict, List, Optional
 
 from .job import JobTask, run_job
 from .manifest import is_finished, job_row, read_manifest, write_manifest
+from .priority import submit_in_order
 from .sweep import Sweep
 
 __all__ = ["SweepSummary", "run_sweep", "MANIFEST_INTERVAL_S"]
@@ -233,13 +235,12 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
                       done=lambda: len(rendered), stopper=stopper) as (client, threads, explain):
             summary.workers = len(client.scheduler_info().get("workers", {}))
             run = f"{uuid.uuid4().hex[:8]}"
-            futures = {}
-            keys = {}
-            for job in todo:
-                future = client.submit(run_job, _task(sweep, job), threads, pure=False,
-                                       key=f"pbrdf-{job.name}-{run}")
-                futures[future] = job
-                keys[future.key] = job.name
+            # in the sweep's order, a job whose worker is lost first (.priority)
+            submitted = submit_in_order(client, run_job,
+                                        [(_task(sweep, job), threads) for job in todo],
+                                        [f"pbrdf-{job.name}-{run}" for job in todo])
+            futures = dict(zip(submitted, todo))
+            keys = {future.key: job.name for future, job in futures.items()}
             stopper.arm(client, futures)
             try:
                 with progress_reporter(len(todo), f"batch {os.path.basename(sweep.path)}",

@@ -1,0 +1,64 @@
+"""A job whose worker was lost runs again before any job that has not
+started (:mod:`mitsuba_pbrdf.batch.priority`), on the sweep's own local
+cluster settings (:func:`mitsuba_pbrdf.batch.cluster.connect`: one thread per
+worker, ``worker-saturation = 1.0``, so each worker holds only the job it
+runs), with plain Python tasks instead of renders so that it takes seconds.
+
+Two workers: job 0 and job 1 start together, one on each; job 0 waits until
+job 1 has started, then ends its worker process (the nanny starts a new
+one) while job 1 runs on for a second. The next job to start, on the new
+worker or on job 1's once it is free, is the one Dask chose first among
+those waiting: it must be job 0 again, not job 2. Without distinct
+priorities (all 0, checked in 3 runs) the starts were 0 1 4 5 6 7 8 9 3 10
+11 2 0 or similar: the 12 jobs are submitted within Dask's 100 ms
+``fifo_timeout`` and share one priority, among which Dask's queue keeps no
+order, and the lost job started last.
+"""
+
+import os
+import time
+import uuid
+
+import pytest
+
+from mitsuba_pbrdf.batch.cluster import connect
+from mitsuba_pbrdf.batch.priority import submit_in_order
+
+JOBS = 12
+
+
+def start_and_maybe_die(index: int, folder: str) -> None:
+    """Append *index* to ``starts.txt`` in *folder* (this job started). Job 0
+    ends its worker process on its first try once job 1 has started; job 1
+    takes a second, the others 50 ms."""
+    with open(os.path.join(folder, "starts.txt"), "a") as f:
+        f.write(f"{index}\n")
+    open(os.path.join(folder, f"started-{index}"), "w").close()
+    marker = os.path.join(folder, "died")
+    if index == 0 and not os.path.exists(marker):
+        deadline = time.monotonic() + 30
+        while not os.path.exists(os.path.join(folder, "started-1")):
+            assert time.monotonic() < deadline, "job 1 never started"
+            time.sleep(0.01)
+        open(marker, "w").close()
+        os._exit(1)
+    time.sleep(1.0 if index == 1 else 0.05)
+
+
+def test_a_lost_job_runs_again_before_the_jobs_not_started(tmp_path):
+    with connect(workers=2, drjit_threads=2) as (client, _):
+        run = uuid.uuid4().hex[:8]
+        futures = submit_in_order(client, start_and_maybe_die,
+                                  [(i, str(tmp_path)) for i in range(JOBS)],
+                                  [f"order-{i}-{run}" for i in range(JOBS)])
+        client.gather(futures)
+    starts = [int(line) for line in (tmp_path / "starts.txt").read_text().split()]
+    assert (tmp_path / "died").exists()  # job 0's worker died once
+    assert sorted(starts[:2]) == [0, 1], starts  # one job on each worker
+    assert starts[2] == 0, starts  # the lost job first, before jobs 2..11
+    assert sorted(starts[3:]) == list(range(2, JOBS)), starts  # each once
+
+
+def test_keys_and_jobs_must_match():
+    with pytest.raises(ValueError, match="2 jobs but 1 keys"):
+        submit_in_order(None, print, [(), ()], ["a"])
