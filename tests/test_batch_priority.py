@@ -8,11 +8,11 @@ Two workers: job 0 and job 1 start together, one on each; job 0 waits until
 job 1 has started, then ends its worker process (the nanny starts a new
 one) while job 1 runs on for a second. The next job to start, on the new
 worker or on job 1's once it is free, is the one Dask chose first among
-those waiting: it must be job 0 again, not job 2. Without distinct
-priorities (all 0, checked in 3 runs) the starts were 0 1 4 5 6 7 8 9 3 10
-11 2 0 or similar: the 12 jobs are submitted within Dask's 100 ms
-``fifo_timeout`` and share one priority, among which Dask's queue keeps no
-order, and the lost job started last.
+those waiting: it must be job 0 again, not job 2. Submitted one by one with
+``client.submit`` (as before: one priority for all, checked in 3 runs) the
+starts were 0 1 4 5 6 7 8 9 3 10 11 2 0 or similar: the 12 jobs reach the
+scheduler within Dask's 100 ms ``fifo_timeout`` and share one priority,
+among which Dask's queue keeps no order, and the lost job started last.
 """
 
 import os
@@ -57,6 +57,36 @@ def test_a_lost_job_runs_again_before_the_jobs_not_started(tmp_path):
     assert sorted(starts[:2]) == [0, 1], starts  # one job on each worker
     assert starts[2] == 0, starts  # the lost job first, before jobs 2..11
     assert sorted(starts[3:]) == list(range(2, JOBS)), starts  # each once
+
+
+def wait_for_go(index: int, folder: str) -> None:
+    """Job *index*: say it started, then (job 0) wait until ``go`` exists."""
+    open(os.path.join(folder, f"started-{index}"), "w").close()
+    deadline = time.monotonic() + 30
+    while index == 0 and not os.path.exists(os.path.join(folder, "go")):
+        assert time.monotonic() < deadline, "the test never said go"
+        time.sleep(0.01)
+
+
+def test_a_worker_holds_only_the_job_it_runs_from_the_first_job(tmp_path):
+    """One worker, 12 jobs: while job 0 runs, the worker holds no other job (the
+    rest wait on the scheduler, where a lost worker cannot take them). Submitted one
+    by one, the first jobs reached the scheduler as a group too small to queue and
+    were handed to the worker up front (checked: it held jobs 0 and 1, and on Slurm
+    a worker cancelled at its first output lost 3 jobs)."""
+    with connect(workers=1, drjit_threads=2) as (client, _):
+        run = uuid.uuid4().hex[:8]
+        keys = [f"hold-{i}-{run}" for i in range(JOBS)]
+        futures = submit_in_order(client, wait_for_go, [(i, str(tmp_path)) for i in range(JOBS)],
+                                  keys)
+        deadline = time.monotonic() + 60
+        while not (tmp_path / "started-0").exists():
+            assert time.monotonic() < deadline, "job 0 never started"
+            time.sleep(0.01)
+        held = [list(k) for k in client.processing().values()]
+        (tmp_path / "go").touch()
+        client.gather(futures)
+    assert held == [[keys[0]]], held
 
 
 def test_keys_and_jobs_must_match():

@@ -235,7 +235,7 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
                       done=lambda: len(rendered), stopper=stopper) as (client, threads, explain):
             summary.workers = len(client.scheduler_info().get("workers", {}))
             run = f"{uuid.uuid4().hex[:8]}"
-            # in the sweep's order, a job whose worker is lost first (.priority)
+            # one graph in the sweep's order: a job whose worker is lost goes first (.priority)
             submitted = submit_in_order(client, run_job,
                                         [(_task(sweep, job), threads) for job in todo],
                                         [f"pbrdf-{job.name}-{run}" for job in todo])
