@@ -293,12 +293,14 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
               if f"Slurm job {seen['cancelled']} was cancelled" in r["note"]]
     timeout = [job for job, r in notes.items()
                if f"Slurm job {seen['timeout']} reached its walltime (00:01:00)" in r["note"]]
-    # the job each worker rendered; at a job boundary also the one just sent to it
+    # the job each worker rendered; at a job boundary also the one just sent to it (the
+    # sweep goes to Dask as one graph, so its jobs wait on the scheduler from the first
+    # one; submitted one by one, the first worker was handed jobs 0-3 up front, lost 1-3)
     assert 1 <= len(cancel) <= 2 and 1 <= len(timeout) <= 2, notes
-    # every lost job ran again and is done before the interrupt: the runner submits jobs
-    # with priorities in the sweep's order (mitsuba_pbrdf.batch.priority), so a lost job
-    # comes before every job that has not started and Dask sends it to the next free
-    # worker. 8 new outputs after the walltime leave room for up to 4 lost jobs (2 per
+    # every lost job ran again and is done before the interrupt: the runner submits the jobs
+    # as one graph in the sweep's order, each with a priority of its own
+    # (mitsuba_pbrdf.batch.priority), so a lost job comes before every job that has not
+    # started and Dask sends it to the next free worker. 8 new outputs after the walltime leave room for up to 4 lost jobs (2 per
     # worker, and both workers may reach the walltime at one check of Slurm: their renders
     # again are new outputs), a render running on the other worker at the loss, and a
     # result still on its way. (With equal priorities, as before, Dask's queue kept no
