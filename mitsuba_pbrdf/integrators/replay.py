@@ -27,6 +27,8 @@ import dataclasses
 import drjit as dr
 import mitsuba as mi
 
+from ..plugin.rotators import to_world_mueller
+
 __all__ = ["VertexStore", "ReplayParts", "trace", "replay", "column0", "mueller_times",
            "times_mueller"]
 
@@ -202,12 +204,12 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
         s1 = sampler.next_1d()
         s2 = sampler.next_2d()
         f_em, pdf_em, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, s1, s2)
-        f_em = si.to_world_mueller(f_em, -wo_em, si.wi)
+        f_em = to_world_mueller(si, f_em, -wo_em, si.wi)
         mis_em = dr.select(ds.delta, 1.0, mis_weight(ds.pdf, pdf_em))
         E[active_em] = E + mueller_times(f_em, column0(em_weight)) * mis_em
         stokes += mueller_times(beta, E)
 
-        weight = si.to_world_mueller(weight, -bs.wo, si.wi)
+        weight = to_world_mueller(si, weight, -bs.wo, si.wi)
         ray_next = si.spawn_ray(si.to_world(bs.wo))
         beta_k = mi.Spectrum(beta)
         beta *= weight
@@ -317,15 +319,15 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
                 f = bsdf.eval(ctx, si, wo, has_next & smooth)
             else:
                 f = mi.Spectrum(wo.x)
-            f_em = si.to_world_mueller(f_em, -wo_em, si.wi)
+            f_em = to_world_mueller(si, f_em, -wo_em, si.wi)
             E[em_ok] = E + mueller_times(f_em, le_em) * rec["mis_em"]
             scale = dr.select(has_next & smooth & (pdf > 0), rec["rr"] / pdf, 0.0)
-            T = si.to_world_mueller(f, -wo, si.wi) * scale
+            T = to_world_mueller(si, f, -wo, si.wi) * scale
             if dr.hint(differentiate_delta, mode="scalar"):
                 # ... or, for delta and null lobes, the sampled weight itself
                 use = has_next & ~smooth
                 _, w = bsdf.sample(ctx, si, rec["bsdf_s1"], rec["bsdf_s2"], use)
-                w = si.to_world_mueller(w, -wo, si.wi) * rec["rr"]
+                w = to_world_mueller(si, w, -wo, si.wi) * rec["rr"]
                 T[use] = w
             contribution = E + mueller_times(T, L)
 

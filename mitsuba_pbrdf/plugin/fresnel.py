@@ -12,6 +12,8 @@ incidence on the facet.
 import drjit as dr
 import mitsuba as mi
 
+from .rotators import rotate_mueller_basis
+
 
 def fresnel_amplitudes(cos_beta, eta, k):
     """Complex reflection amplitudes (a_s, a_p) as (re, im) pairs, vectorized over
@@ -103,5 +105,5 @@ def specular_mueller(ctx, si, wo, h, eta, k, weight):
     s_any = mi.coordinate_system(h)[0]
     s_in = dr.select(collinear, s_any, dr.normalize(s_in))
     s_out = dr.select(collinear, s_any, dr.normalize(s_out))
-    return mi.mueller.rotate_mueller_basis(M, -wo_hat, s_in, mi.mueller.stokes_basis(-wo_hat),
-                                           wi_hat, s_out, mi.mueller.stokes_basis(wi_hat))
+    return rotate_mueller_basis(M, -wo_hat, s_in, mi.mueller.stokes_basis(-wo_hat),
+                                wi_hat, s_out, mi.mueller.stokes_basis(wi_hat))

@@ -18,46 +18,11 @@ Plain functions (no class bound to a variant's ``mi.BSDF``): ``mi.*`` types are
 looked up when called, so the module serves every variant without a reload.
 """
 
-import drjit as dr
 import mitsuba as mi
 
+from ..plugin.rotators import rotate_mueller, rotator_entries
 
-def rotator_entries(forward, basis_current, basis_target):
-    """``(cos 2θ, sin 2θ)`` of Mitsuba's ``mueller.rotate_stokes_basis(forward,
-    basis_current, basis_target)``: θ is the angle from ``basis_current`` to
-    ``basis_target`` (unit vectors orthogonal to the unit vector ``forward``),
-    counter-clockwise about ``forward``.
-
-    Computed from cos θ and sin θ directly (no ``acos``), so the derivatives
-    stay finite where θ = 0 (a flat normal map)."""
-    c = dr.dot(basis_current, basis_target)
-    s = dr.dot(forward, dr.cross(basis_current, basis_target))
-    # The two vectors are unit length up to rounding: normalize the pair.
-    inv = dr.rsqrt(dr.maximum(c * c + s * s, 1e-30))
-    c, s = c * inv, s * inv
-    return c * c - s * s, 2.0 * c * s
-
-
-def rotate_mueller(M, in_entries, out_entries):
-    """``R_out · M · R_inᵀ`` (Mitsuba's ``rotate_mueller_basis``) for rotators
-    given by their ``(cos 2θ, sin 2θ)``. A rotator mixes only Stokes rows and
-    columns 1 and 2, so the product is written out element by element."""
-    ci, si_ = in_entries
-    co, so = out_entries
-    R = dr.zeros(mi.Spectrum, dr.width(ci))
-    rows = [[M[i, j] for j in range(4)] for i in range(4)]
-    # rows of R_out · M
-    r1 = [co * a + so * b for a, b in zip(rows[1], rows[2])]
-    r2 = [co * b - so * a for a, b in zip(rows[1], rows[2])]
-    rows[1], rows[2] = r1, r2
-    # columns of (R_out · M) · R_inᵀ
-    for row in rows:
-        a, b = row[1], row[2]
-        row[1], row[2] = ci * a + si_ * b, ci * b - si_ * a
-    for i in range(4):
-        for j in range(4):
-            R[i, j] = rows[i][j]
-    return R
+__all__ = ["rotator_entries", "rotate_mueller", "to_unperturbed_bases"]
 
 
 def to_unperturbed_bases(ctx, value, frame_wrt_si, wo_p, wi_p):
