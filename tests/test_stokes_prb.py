@@ -253,6 +253,26 @@ def test_loss_and_gradient_uses_replay_by_default():
     assert_close(np.array([grads[k][0] for k in PBRDF_KEYS[:3]]), want)
 
 
+def test_loss_image_of_the_replay_is_the_scenes_render():
+    """With path replay, loss_and_gradient renders its primal image with
+    stokes_prb: it must be the scene's own stokes + path image (same random
+    numbers; tolerance of test_primal_equals_stokes_path) and give its loss."""
+    use_variant("llvm_ad_spectral_polarized")
+    from mitsuba_pbrdf.inverse import loss_and_gradient, render
+    path = mi.load_dict(scene_dict("path", max_depth=3, bsdf=pbrdf("mixture")))
+    params = mi.traverse(path)
+    weights = random_weights(5)
+    loss = lambda image: dr.sum(image * weights, axis=None).array  # noqa: E731
+    value, _, stats, image = loss_and_gradient(path, params, PBRDF_KEYS[:1], loss, spp=SPP,
+                                               seed=2, return_image=True)
+    assert stats.method == "prb"
+    want = render(path, spp=SPP, seed=2)
+    assert type(path.integrator()).__name__ != "StokesPRBIntegrator"
+    scale = np.max(np.abs(np.array(want)))
+    assert np.max(np.abs(np.asarray(image) - np.array(want))) <= 1e-5 * scale
+    assert value == pytest.approx(float(loss(want)[0]), rel=1e-5)
+
+
 def test_scenes_it_cannot_replay():
     use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import gradient_method

@@ -73,12 +73,14 @@ def _passes(seed, spp, passes):
     return [(s, derivative_seed(s), n) for s, n in zip(pass_seeds(seed, len(plan)), plan)]
 
 
-def render(scene, spp=16, seed=0, passes=1):
+def render(scene, spp=16, seed=0, passes=1, integrator=None):
     """Primal render (no derivatives) of ``scene``'s first sensor as a
     ``mi.TensorXf`` (H, W, C), the samples split into ``passes`` renders
     (:func:`~mitsuba_pbrdf.rendering.passes.plan_passes`, seeds from
-    :func:`~mitsuba_pbrdf.rendering.passes.pass_seeds`) whose mean it returns."""
-    integrator, sensor = scene.integrator(), scene.sensors()[0]
+    :func:`~mitsuba_pbrdf.rendering.passes.pass_seeds`) whose mean it returns.
+    ``integrator``: another integrator than the scene's (default)."""
+    integrator = integrator or scene.integrator()
+    sensor = scene.sensors()[0]
     image = None
     with dr.suspend_grad():
         for primal_seed, _, n in _passes(seed, spp, passes):
@@ -196,7 +198,11 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
     for k in keys:
         dr.disable_grad(params[k])
     params.update()
-    image = render(scene, spp, seed, passes)
+    # With path replay, stokes_prb renders the primal image too: the same
+    # paths as the scene's stokes + path (same random numbers) in 0.90 of its
+    # time (validation/prb_profile.md).
+    image = render(scene, spp, seed, passes,
+                   integrator=_replay_integrator(scene) if method == "prb" else None)
     image = dr.detach(image)
     dr.enable_grad(image)
     value = loss(image)
