@@ -10,7 +10,13 @@ order, it times (seconds, medians over the repetitions):
 
 * ``primal render``: ``stokes`` around ``path`` (the loss's image);
 * ``gradient``: :func:`inverse.loss_and_gradient` with ``method="prb"``
-  (primal render + loss + ``render_backward``);
+  (primal render by ``stokes_prb`` + loss + ``render_backward``);
+* ``gradient, loss image by stokes + path``: the same with the loss's image
+  rendered by the scene's ``stokes`` around ``path`` (as before it changed);
+* ``gradient before``: that, with Mitsuba's Stokes-basis rotations in the
+  pbrdf and the replay (``mi.mueller.rotate_mueller_basis``,
+  ``si.to_world_mueller``) instead of ``plugin/rotators.py``: the code before
+  both changes, interleaved with the code after;
 * ``render_backward``: split into its kernels with ``dr.kernel_history()``
   (the film-adjoint kernel, and the trace + replay kernel);
 * ``trace``: ``stokes_prb.render`` (the trace loop without storing vertices);
@@ -108,6 +114,34 @@ def main(argv=None):
                                             method="prb")
         grads.update(g)
 
+    from mitsuba_pbrdf.inverse import gradients as gradients_module
+
+    def gradient_path_image():
+        """``gradient`` with the loss's image rendered by the scene's ``stokes``
+        around ``path`` (before: loss_and_gradient now renders it with
+        ``stokes_prb``, the same image to float32 rounding)."""
+        render = gradients_module.render
+        gradients_module.render = lambda *a, integrator=None, **k: render(*a, **k)
+        try:
+            gradient()
+        finally:
+            gradients_module.render = render
+
+    from mitsuba_pbrdf.plugin import fresnel as fresnel_module
+
+    def gradient_before():
+        """``gradient, loss image by stokes + path`` with Mitsuba's Stokes-basis
+        rotations (``mi.mueller.rotate_mueller_basis`` for the facet's Fresnel
+        matrix, ``si.to_world_mueller`` in the replay) instead of
+        :mod:`mitsuba_pbrdf.plugin.rotators`: the code before both changes."""
+        saved = fresnel_module.rotate_mueller_basis, replay_module.to_world_mueller
+        fresnel_module.rotate_mueller_basis = mi.mueller.rotate_mueller_basis
+        replay_module.to_world_mueller = lambda si, m, wo, wi: si.to_world_mueller(m, wo, wi)
+        try:
+            gradient_path_image()
+        finally:
+            fresnel_module.rotate_mueller_basis, replay_module.to_world_mueller = saved
+
     image = inverse.render(scene, spp=args.spp, seed=5)
     image = dr.detach(image)
     dr.enable_grad(image)
@@ -143,6 +177,9 @@ def main(argv=None):
         dr.eval(prb.render(scene, sensor, seed=6, spp=args.spp))
 
     jobs = {"primal render": primal, "gradient": gradient,
+            "gradient, loss image by stokes + path": gradient_path_image,
+            "gradient before (Mitsuba's rotations, loss image by stokes + path)":
+                gradient_before,
             "trace (render)": trace,
             "render_backward": backward()}
     if args.parts:
