@@ -199,8 +199,8 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
         dr.disable_grad(params[k])
     params.update()
     # With path replay, stokes_prb renders the primal image too: the same
-    # paths as the scene's stokes + path (same random numbers) in 0.90 of its
-    # time (validation/prb_profile.md).
+    # paths as the scene's stokes + path (same random numbers) in 0.90 to 0.95
+    # of its time (validation/prb_profile.md).
     image = render(scene, spp, seed, passes,
                    integrator=_replay_integrator(scene) if method == "prb" else None)
     image = dr.detach(image)
