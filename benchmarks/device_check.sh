@@ -7,7 +7,8 @@
 #      llvm_* variants to their cuda_* twins; tests/conftest.py);
 #   2. the render-time ratio pbrdf / roughconductor (sphere in an environment, 512x512,
 #      64 spp, wall time of interleaved renders in one process, median of 7 pairs);
-#   3. the stokes_prb cost row at 512x512, 64 spp, depth 4, 7 parameters
+#   3. the stokes_prb cost rows at 512x512, 64 spp, depth 4, 7 parameters, then with the
+#      pbrdf in a polarized_normalmap whose 64x64x3 texels are differentiated too
 #      (validation/inverse_memory.py: time and memory against a primal render).
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -24,7 +25,8 @@ run() {   # print the command, run it, remember a failure but go on
 echo "== 1. fast tests in the cuda_ad_* variants"
 run env PBRDF_TEST_BACKEND=cuda "$PY" -m pytest -q -m "not slow" -p no:cacheprovider \
     tests/test_schema.py tests/test_bsdf_vs_reference.py tests/test_roughconductor.py \
-    tests/test_sampling.py tests/test_mixture_sampling.py tests/test_stokes_prb.py
+    tests/test_sampling.py tests/test_mixture_sampling.py tests/test_stokes_prb.py \
+    tests/test_rotators.py
 
 echo "== 2. render time, pbrdf / roughconductor ($VARIANT)"
 run "$PY" - "$VARIANT" <<'PYTHON'
@@ -49,5 +51,8 @@ echo "== 3. stokes_prb gradient cost at 512x512, 64 spp ($VARIANT)"
 run "$PY" validation/inverse_memory.py --methods primal,prb --sizes 512 --spps 64 \
     --variant "$VARIANT" --out /tmp/device_inverse_memory.md
 cat /tmp/device_inverse_memory.md 2>/dev/null | grep -E "^\|" || true
+run "$PY" validation/inverse_memory.py --methods primal,prb --sizes 512 --spps 64 --normalmap \
+    --variant "$VARIANT" --out /tmp/device_inverse_memory_normalmap.md
+cat /tmp/device_inverse_memory_normalmap.md 2>/dev/null | grep -E "^\|" || true
 
 exit $status
