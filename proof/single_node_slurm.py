@@ -9,10 +9,18 @@ spool): the daemons a previous run left running are found there by their pid
 files and stopped before a new start, and nothing of a system-wide Slurm or
 munge (ports, sockets, ``/etc/slurm``) is touched. Clients reach this Slurm
 through ``SLURM_CONF`` (:meth:`SingleNodeSlurm.env`).
+
+One run at a time: :meth:`SingleNodeSlurm.start` first takes an exclusive
+lock on ``STATE + ".lock"`` (``flock``; the kernel drops it when the process
+ends) and :meth:`SingleNodeSlurm.stop` gives it back, so a second test run on
+the same machine waits for the first instead of stopping its daemons under
+it (which left the first hanging), and says so in one line if it waits too
+long.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import signal
@@ -75,6 +83,37 @@ class SingleNodeSlurm:
         self.state = state
         self.host = socket.gethostname().split(".")[0]  # `hostname -s`: what slurmd calls itself
         self.conf = os.path.join(state, "slurm.conf")
+        self.lock_path = state + ".lock"
+        self._lock = None
+
+    def reserve(self, timeout: float = 1800.0) -> "SingleNodeSlurm":
+        """Take the exclusive lock on :attr:`lock_path` (kept until
+        :meth:`release`), waiting up to *timeout* seconds for another run to
+        give it back; a one-line ``RuntimeError`` after that."""
+        if self._lock is not None:
+            return self
+        handle = open(self.lock_path, "a")
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() >= deadline:
+                    handle.close()
+                    raise RuntimeError(
+                        f"another run has held the single-node Slurm for over {timeout:.0f} s "
+                        f"(lock {self.lock_path})") from None
+                time.sleep(0.5)
+        self._lock = handle
+        return self
+
+    def release(self):
+        """Give back the lock :meth:`reserve` took (nothing if not held)."""
+        if self._lock is not None:
+            fcntl.flock(self._lock, fcntl.LOCK_UN)
+            self._lock.close()
+            self._lock = None
 
     def env(self, base: Optional[Dict[str, str]] = None) -> Dict[str, str]:
         """*base* (default: this process's environment) with ``SLURM_CONF`` set."""
@@ -118,10 +157,12 @@ class SingleNodeSlurm:
             raise RuntimeError(f"{' '.join(argv)}: {done.stderr.strip() or done.stdout.strip()}")
         return done.stdout
 
-    def start(self, timeout: float = 60.0) -> "SingleNodeSlurm":
-        """Stop what an earlier run left, write the configuration, start the
-        daemons and wait until the node takes jobs."""
-        self.stop()
+    def start(self, timeout: float = 60.0, lock_timeout: float = 1800.0) -> "SingleNodeSlurm":
+        """Reserve the Slurm (:meth:`reserve`), stop what an earlier run left,
+        write the configuration, start the daemons and wait until the node
+        takes jobs."""
+        self.reserve(lock_timeout)
+        self._stop_daemons()
         shutil.rmtree(self.state, ignore_errors=True)
         for sub in ("", "ctld", "spool"):
             os.makedirs(os.path.join(self.state, sub), mode=0o755, exist_ok=True)
@@ -156,8 +197,15 @@ class SingleNodeSlurm:
         return self.run("squeue", "-h", "-o", "%i").split()
 
     def stop(self):
-        """Cancel the queue's jobs and stop the daemons whose pid files are in
-        :data:`STATE` (SIGTERM, SIGKILL after 10 s); no other process."""
+        """Cancel the queue's jobs, stop the daemons whose pid files are in
+        :data:`STATE` (SIGTERM, SIGKILL after 10 s; no other process) and
+        give back the lock."""
+        try:
+            self._stop_daemons()
+        finally:
+            self.release()
+
+    def _stop_daemons(self):
         if os.path.exists(self._pidfile("slurmctld")):
             try:
                 ids = self.jobs()

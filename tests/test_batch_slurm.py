@@ -184,6 +184,21 @@ def test_benchmark_section_replaces_its_own_and_keeps_the_rest(tmp_path, capsys)
     assert target.read_text() == "# throughput\n\nnew table\n\n## On Slurm\n\nsecond\n"
 
 
+def test_one_run_at_a_time_holds_the_single_node_slurm(tmp_path):
+    """Two runs on one machine: the second waits for the first's lock and
+    says so in one line if it waits too long; it gets the lock once the
+    first gives it back (stop, or its process ends). Needs no Slurm."""
+    first = SingleNodeSlurm(str(tmp_path / "slurm")).reserve()
+    second = SingleNodeSlurm(str(tmp_path / "slurm"))
+    t0 = time.monotonic()
+    with pytest.raises(RuntimeError, match=r"another run has held .* \(lock .*slurm\.lock\)"):
+        second.reserve(timeout=1.0)
+    assert time.monotonic() - t0 >= 1.0  # it waited before giving up
+    first.release()
+    assert second.reserve(timeout=1.0) is second
+    second.release()
+
+
 # ---------------------------------------------------------------- a real Slurm
 
 @pytest.fixture(scope="module")
@@ -199,6 +214,7 @@ def slurm():
         os.environ["SLURM_CONF"] = node.conf
         yield node
     finally:
+        node.stop()
         if before is None:
             os.environ.pop("SLURM_CONF", None)
         else:
