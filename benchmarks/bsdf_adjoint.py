@@ -33,31 +33,23 @@ import mitsuba as mi
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)
+for path in (ROOT, os.path.join(ROOT, "validation")):
+    if path not in sys.path:
+        sys.path.insert(0, path)
 
-VARIANT = "llvm_ad_spectral_polarized"
-TEXELS = 64
+# the scene and parameters of the cost rows (validation/inverse_memory.py --normalmap)
+from inverse_memory import TEXELS, VARIANT, bsdf_keys, normalmap_sphere  # noqa: E402
+
 ITERATIONS = 4
-PARAMS = ("eta", "k", "sigma", "ks", "kdd", "sigma_dd", "kid")
 
 
 def build(lanes):
     """The scene, its differentiated parameters, the normal-mapped BSDF and
     ``lanes`` surface interactions on the sphere (camera rays through the
     middle half of the image)."""
-    from mitsuba_pbrdf import inverse
-    from mitsuba_pbrdf.inverse.normal_scenes import true_normals
-    from mitsuba_pbrdf.inverse.normals import normalmap_texture
-
-    pbrdf = {"type": "pbrdf", "eta": 2.0, "k": 4.0, "sigma": 0.12, "ks": 1.0,
-             "kdd": 0.1, "sigma_dd": 0.5, "kid": 0.03}
-    bsdf = {"type": "polarized_normalmap", "normalmap": normalmap_texture(true_normals(TEXELS)),
-            "bsdf": pbrdf}
-    scene = mi.load_dict(inverse.sphere_scene(64, 64, 1, 4, bsdf=bsdf))
+    scene = mi.load_dict(normalmap_sphere(64, 1))
     params = mi.traverse(scene)
-    keys = ["object.bsdf.nested_bsdf." + p + ".value" for p in PARAMS] + \
-        ["object.bsdf.normalmap.data"]
+    keys = bsdf_keys(True)
     for k in keys:
         dr.enable_grad(params[k])
     params.update()
