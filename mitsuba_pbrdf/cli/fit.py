@@ -12,7 +12,9 @@ import sys
 from typing import Optional, Sequence
 
 from ..outputs import atomic_path, write_json
+from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from .common import CliError, check_outputs, float_list, one_line, positive_int
+from .fit_progress import FitProgressDisplay
 from .model_options import add_model_arguments
 
 
@@ -31,7 +33,16 @@ def is_pbsdf(path) -> bool:
 def _check_options(args):
     from ..fitting.layout import parse_assignments
 
+    from ..fitting.objectives import OBJECTIVES
+
+    if args.objective not in ("auto",) + tuple(OBJECTIVES):
+        raise CliError(f"--objective must be auto or one of {', '.join(OBJECTIVES)}, "
+                       f"not {args.objective!r}")
     positive_int("--starts", args.starts)
+    if args.log_floor is not None and not (math.isfinite(args.log_floor) and args.log_floor > 0):
+        raise CliError(f"--log-floor must be a finite number > 0 (1/sr), got {args.log_floor:g}")
+    if args.nk is not None and args.material is not None:
+        raise CliError("give --material or --nk, not both")
     positive_int("--cells", args.cells)
     for option, v in (("--rel-uncertainty", args.rel_uncertainty),
                       ("--abs-uncertainty", args.abs_uncertainty)):
@@ -44,8 +55,25 @@ def _check_options(args):
         fix = parse_assignments(args.fix, "--fix")
     except ValueError as e:
         raise CliError(one_line(e)) from e
-    check_outputs(("--plot", args.plot), ("--json", args.json), create_folders=False)
+    check_outputs(("--plot", args.plot), ("--json", args.json), ("--scene-out", args.scene_out),
+                  create_folders=False)
+    if args.scene_out is not None and not args.scene_out.lower().endswith(".xml"):
+        raise CliError(f"--scene-out writes a Mitsuba scene: give a .xml path, not "
+                       f"{args.scene_out!r}")
     return init, fix
+
+
+def _index_table(args):
+    from ..measured import IndexTableError, read_index_table
+
+    if args.nk is None:
+        return None
+    if not os.path.exists(args.nk):
+        raise CliError(f"--nk: index table not found: {args.nk}")
+    try:
+        return read_index_table(args.nk)
+    except IndexTableError as e:
+        raise CliError(f"--nk: {one_line(e)}") from e
 
 
 def _read(args):
@@ -84,16 +112,20 @@ def run(args) -> int:
     from ..fitting.report import undetermined_warning
 
     init, fix = _check_options(args)
+    nk = _index_table(args)
     table, data = _read(args)
+    models = ("three", "two") if args.model == "both" else (args.model,)
+    fits = len(models) * (2 if args.distribution == "auto" else 1)
     try:
-        models = ("three", "two") if args.model == "both" else (args.model,)
-        results = fit_models(data, models, backend=args.backend, shadowing=args.shadowing,
-                             dd_distribution=args.dd_distribution, material=args.material,
-                             distribution=args.distribution,
-                             init=init, fix=fix, starts=args.starts,
-                             rel_uncertainty=args.rel_uncertainty,
-                             abs_uncertainty=args.abs_uncertainty,
-                             anisotropic=args.anisotropic)
+        with FitProgressDisplay(fits) as shown:
+            results = fit_models(data, models, backend=args.backend, shadowing=args.shadowing,
+                                 dd_distribution=args.dd_distribution, material=args.material,
+                                 nk=nk, distribution=args.distribution,
+                                 init=init, fix=fix, starts=args.starts,
+                                 rel_uncertainty=args.rel_uncertainty,
+                                 abs_uncertainty=args.abs_uncertainty,
+                                 anisotropic=args.anisotropic, objective=args.objective,
+                                 log_floor=args.log_floor, progress=shown)
     except ValueError as e:
         raise CliError(one_line(e)) from e
     if table is not None:
@@ -105,6 +137,8 @@ def run(args) -> int:
     for r in results.values():
         if r.undetermined:
             print(undetermined_warning(r), file=sys.stderr)
+        for warning in r.warnings:
+            print(warning, file=sys.stderr)
     if args.plot:
         title = os.path.basename(args.data)
         with atomic_path(args.plot) as tmp:
@@ -117,6 +151,11 @@ def run(args) -> int:
     if args.json:
         write_json(args.json, {m: r.as_dict() for m, r in results.items()})
         print(f"results: {args.json}")
+    if args.scene_out:
+        from ..fitting.scene_out import write_fitted_scene
+        kept = results["three"] if "three" in results else next(iter(results.values()))
+        write_fitted_scene(kept, args.scene_out, material=args.material)
+        print(f"scene: {args.scene_out} (the {kept.model}-component fit as a pbrdf BSDF)")
     return 0
 
 
@@ -139,15 +178,37 @@ def add_parser(subparsers):
     p.add_argument("--model", choices=("three", "two", "both"), default="both")
     p.add_argument("--backend", choices=("reference", "drjit"), default="reference",
                    help="reference: NumPy float64 with scipy (default); drjit: the plugin")
-    p.add_argument("--material", help="start n, k from this tabulated conductor (e.g. Al, Cu)")
+    p.add_argument("--material", help="take n, k from this tabulated conductor (e.g. Al, Cu) "
+                                      "at the data's wavelengths: the start of a polarized fit, "
+                                      "fixed in a fit of unpolarized data (m00 alone)")
+    p.add_argument("--nk", metavar="FILE",
+                   help="take n, k from this table instead (columns wavelength,n,k in nm, or "
+                        "refractiveindex.info's CSV export: wl,n and wl,k blocks in um)")
+    p.add_argument("--objective", default="auto",
+                   help="the residual minimized for m00 (other quantities: linear): auto "
+                        "(default: linear when the file gives uncertainties, log when m00 "
+                        "spans more than two decades, else linear), linear, log, relative, "
+                        "cosine (Ngan et al. 2005), log-cosine (Loew et al. 2012); see "
+                        "docs/fitting.md")
+    p.add_argument("--log-floor", type=float, default=None, metavar="F",
+                   help="floor f of the log and relative objectives, 1/sr (default: 1 %% of "
+                        "the smallest positive m00)")
     p.add_argument("--init", default="", help="starting values, e.g. sigma=0.1,n=1.2")
     p.add_argument("--fix", default="", help="fixed values, e.g. n=1.2,k=7 or kid=0")
-    add_model_arguments(p, kinds=("choice",))
+    add_model_arguments(p, kinds=("choice",), skip=("distribution", "dd_distribution"))
+    p.add_argument("--distribution", choices=("auto",) + DISTRIBUTIONS, default="auto",
+                   help="normal distribution of the microfacet lobes: auto (default: fit "
+                        "beckmann and ggx, keep the better and say so), beckmann or ggx")
+    p.add_argument("--dd-distribution", choices=DISTRIBUTIONS, default=None,
+                   help="the directional diffuse lobe's distribution (default: the same as "
+                        "the specular lobe's)")
     p.add_argument("--anisotropic", action="store_true",
                    help="fit sigma_u and sigma_v (the RMS slopes along the surface's x and y "
                         "axes, azimuth 0 and 90 deg) instead of sigma; the report says whether "
                         "the measurements resolve them")
-    p.add_argument("--starts", type=int, default=3, help="number of starting points (default 3)")
+    p.add_argument("--starts", type=int, default=None,
+                   help="number of starting points (default: the initial values and a grid "
+                        "of roughness scales per lobe, 7 for the three-component model)")
     p.add_argument("--rel-uncertainty", type=float, default=0.05,
                    help="assumed relative uncertainty of each value (default 0.05)")
     p.add_argument("--abs-uncertainty", type=float, default=0.005,
@@ -165,6 +226,9 @@ def add_parser(subparsers):
     p.add_argument("--seed", type=int, default=0, help=".pbsdf: seed of the cell sample")
     p.add_argument("--plot", help="write a PNG of fit versus data")
     p.add_argument("--json", help="write the results as JSON")
+    p.add_argument("--scene-out", metavar="FILE.xml",
+                   help="write a Mitsuba scene with the fitted pbrdf BSDF (the three-component "
+                        "fit, else the one fitted), ready to render in a polarized variant")
     p.set_defaults(func=run)
 
 

@@ -21,11 +21,11 @@ def _help(p) -> str:
     return f"{p.doc} (default: {p.default}{bound})"
 
 
-def add_model_arguments(parser, kinds=("material", "spectrum", "float", "choice")):
+def add_model_arguments(parser, kinds=("material", "spectrum", "float", "choice"), skip=()):
     """Add one option per model parameter of the given *kinds* (the schema's
-    ``cli`` parameters) to *parser*."""
+    ``cli`` parameters, less those named in *skip*) to *parser*."""
     for p in schema.PARAMETERS:
-        if not p.cli or p.kind not in kinds:
+        if not p.cli or p.kind not in kinds or p.name in skip:
             continue
         if p.kind == "material":
             parser.add_argument(p.option, default=None, help=_help(p))

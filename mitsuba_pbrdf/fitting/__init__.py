@@ -11,14 +11,19 @@
 or ``pbrdf fit measurements.csv --material Al --plot fit.png``. Modules:
 :mod:`.observables` (the model on the measurements' geometry; synthetic
 data), :mod:`.layout` (parameters, defaults, bounds), :mod:`.backends`
-(residuals from the reference or the plugin), :mod:`.solver` (the fit and
-its uncertainties), :mod:`.report` (text report and plot). The CSV format is
+(the model and its Jacobian from the reference, lobe by lobe
+(:mod:`.lobes`), or the plugin), :mod:`.objectives` (the residuals minimized),
+:mod:`.starts` (starting points, the lobes' order), :mod:`.solver` (the fit and
+its uncertainties), :mod:`.diagnosis` (goodness of fit by region, warnings),
+:mod:`.report` (text), :mod:`.plots` (the picture), :mod:`.scene_out` (the fit
+as a scene). The CSV format is
 in :mod:`mitsuba_pbrdf.measured.measurements`.
 """
 
 from .layout import BOUNDS, DEFAULTS, MODELS, SHARED
 from .observables import model_observables, synthetic_measurements
-from .report import plot_fit, report
+from .plots import plot_fit
+from .report import report
 from .solver import FitResult, fit_model, fit_models
 
 __all__ = ["BOUNDS", "DEFAULTS", "MODELS", "SHARED", "model_observables",

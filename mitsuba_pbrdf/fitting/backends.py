@@ -1,13 +1,14 @@
-"""Residual backends of the fit: the model's observables at a parameter vector,
-from the float64 NumPy reference (Jacobian by finite differences) or from the
-Dr.Jit plugin (Jacobian by forward-mode derivatives)."""
+"""Model backends of the fit: the model's observables at a parameter vector and
+their Jacobian, from the float64 NumPy reference (lobe by lobe: exact weight
+columns, forward differences of one lobe for the others) or from the Dr.Jit
+plugin (forward-mode derivatives); and the measurements' assumed uncertainties."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from .layout import DEFAULTS, PER_WAVELENGTH, PLUGIN_NAMES
-from .observables import model_observables
+from .lobes import LobeModel
 
 __all__ = ["weights", "ReferenceResiduals", "DrJitResiduals", "BACKENDS"]
 
@@ -36,17 +37,25 @@ def weights(data, rel, abs_):
 
 
 class ReferenceResiduals:
-    """The float64 reference evaluator; no Jacobian (scipy takes finite differences)."""
+    """The float64 reference evaluator, lobe by lobe (:class:`.lobes.LobeModel`):
+    a weight's Jacobian column is its lobe, a width's or an index's a forward
+    difference of its own lobe. ``count``: lobe evaluations."""
 
     def __init__(self, data, layout, shadowing, dd, distribution="beckmann"):
-        self.data, self.layout, self.shadowing, self.dd = data, layout, shadowing, dd
-        self.distribution = distribution
-        self.count = 0
+        self.layout = layout
+        self.model = LobeModel(data, list(data.observed), shadowing, dd, distribution)
+        self.bounds = layout.bounds()
+
+    @property
+    def count(self):
+        return self.model.evaluations
 
     def observables(self, x):
-        self.count += 1
-        return model_observables(self.data, self.layout.unpack(x), self.shadowing, self.dd,
-                                 distribution=self.distribution)
+        return self.model.observables(self.layout.unpack(x))
+
+    def jacobian_columns(self, x):
+        """{free parameter: {quantity: derivative at every measurement}}."""
+        return self.model.jacobian(self.layout.unpack(x), self.layout.free, self.bounds)
 
 
 class DrJitResiduals:

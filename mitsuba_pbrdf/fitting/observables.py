@@ -12,7 +12,7 @@ from .. import reference as ref
 from ..measured.measurements import Measurements
 from .layout import SHARED
 
-__all__ = ["model_observables", "synthetic_measurements"]
+__all__ = ["model_observables", "observables_from_mueller", "synthetic_measurements"]
 
 
 def _per_point(data, per_wavelength):
@@ -21,7 +21,8 @@ def _per_point(data, per_wavelength):
     return np.asarray(per_wavelength, dtype=np.float64)[index]
 
 
-def _observables_from_mueller(M, names):
+def observables_from_mueller(M, names):
+    """{name: value at every measurement} from Mueller matrices ``M`` (N, 4, 4)."""
     out = {}
     for name in names:
         if name == "dolp":
@@ -45,7 +46,7 @@ def model_observables(data: Measurements, values: Dict, shadowing="vgroove",
     M = ref.pbrdf(*data.radians(), _per_point(data, n), _per_point(data, k),
                   shadowing=shadowing, dd_distribution=dd_distribution, distribution=distribution,
                   **{name: values[name] for name in SHARED if name in values})
-    return _observables_from_mueller(M, names)
+    return observables_from_mueller(M, names)
 
 
 def synthetic_measurements(values, theta_i=(20.0, 45.0, 70.0), theta_r=None, wavelengths=(633.0,),

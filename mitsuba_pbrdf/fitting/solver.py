@@ -32,18 +32,23 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Dict, List
+from typing import Callable, Dict, List, Optional
 
 import numpy as np
 
 from .. import reference as ref
 from ..measured.measurements import Measurements
-from .backends import BACKENDS, weights
+from ..measured.index_table import IndexTable, read_index_table
+from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
+from .backends import BACKENDS
+from .diagnosis import diagnose, regional_fit
 from .identifiability import analyze
-from .layout import ANISOTROPIC, MODELS, SCALE_FLOORS, ParameterLayout, parse_assignments
+from .layout import ANISOTROPIC, MODELS, ParameterLayout, parse_assignments
+from .objectives import LIKELIHOODS, choose_objective, make_terms
 from .observables import model_observables
+from .starts import WidthOrder, default_starts, start_points
 
-__all__ = ["FitResult", "fit_model", "fit_models"]
+__all__ = ["FitResult", "FitProgress", "fit_model", "fit_models"]
 
 
 @dataclass
@@ -80,6 +85,18 @@ class FitResult:
     #: anisotropic fits: refined parameter -> (difference of its refinements,
     #: its standard uncertainty; inf where the data leave it undetermined)
     anisotropy: Dict = field(default_factory=dict)
+    objective: str = "linear"
+    objective_reason: str = ""
+    log_floor: Optional[float] = None     # 1/sr, the log and relative objectives' floor
+    index_note: str = ""                  # why n, k are fixed, where they are
+    starts: int = 1
+    formal: bool = True                   # uncertainties scaled by the reduced chi-square
+    regions: List = field(default_factory=list)     # :class:`.diagnosis.Region` rows
+    warnings: List[str] = field(default_factory=list)
+    distribution_choice: str = ""          # distribution="auto": what was compared
+    rms_ln: float = math.nan              # RMS of ln(model / data) of m00 where both > 0
+    rel_uncertainty: float = 0.05         # the assumed uncertainties (where the file gives none)
+    abs_uncertainty: float = 0.005
 
     @property
     def reduced_chi2(self):
@@ -107,23 +124,71 @@ class FitResult:
                 "shadowing": self.shadowing, "dd_distribution": self.dd_distribution,
                 "anisotropic": self.anisotropic, "distribution": self.distribution,
                 "anisotropy": {base: {"difference": d, "uncertainty": conv(float(sd))}
-                               for base, (d, sd) in self.anisotropy.items()}}
+                               for base, (d, sd) in self.anisotropy.items()},
+                "objective": self.objective, "objective_reason": self.objective_reason,
+                "log_floor": self.log_floor, "index_note": self.index_note,
+                "starts": self.starts, "formal_uncertainties": self.formal,
+                "regions": [r.as_dict() for r in self.regions], "warnings": self.warnings,
+                "distribution_choice": self.distribution_choice,
+                "rms_ln_m00": conv(self.rms_ln)}
+
+
+@dataclass
+class FitProgress:
+    """What :func:`fit_model` reports to its ``progress`` callback: after each
+    start (``finished`` True) and every :data:`PROGRESS_EVERY` residual
+    evaluations within one. ``cost`` is half the sum of squared residuals."""
+    model: str
+    distribution: str
+    start: int            # 1-based
+    starts: int
+    evaluations: int      # residual evaluations of this start
+    cost: float
+    best: float           # lowest cost of the finished starts (inf before the first)
+    finished: bool
+
+
+#: Residual evaluations between two progress reports within a start.
+PROGRESS_EVERY = 25
+
+
+def _index_from(material, nk, wavelengths):
+    """(n, k, source) at *wavelengths* from a named material or an index table, or None."""
+    if nk is not None and material is not None:
+        raise ValueError("give material or nk (an index table), not both")
+    if material is not None:
+        try:
+            n0, k0 = ref.conductor_ior(material, wavelengths)
+        except ValueError as e:
+            raise ValueError(f"material {material!r}: {e}") from None
+        return n0, k0, f"material {material}"
+    if nk is not None:
+        table = nk if isinstance(nk, IndexTable) else read_index_table(nk)
+        n0, k0 = table.at(wavelengths)
+        return n0, k0, f"index table {table.source}"
+    return None
 
 
 def fit_model(data: Measurements, model="three", backend="reference", shadowing="vgroove",
-              dd_distribution="beckmann", material=None, init=None, fix=None, starts=3,
+              dd_distribution="beckmann", material=None, init=None, fix=None, starts=None,
               rel_uncertainty=0.05, abs_uncertainty=0.005, seed=0,
-              anisotropic=False, distribution="beckmann") -> FitResult:
+              anisotropic=False, distribution="beckmann", objective="auto", log_floor=None,
+              nk=None, progress: Optional[Callable[[FitProgress], None]] = None) -> FitResult:
     """Least-squares fit of one model (``"three"`` or ``"two"``) to ``data``.
 
     ``init`` / ``fix``: {name: value} (``n``, ``k``, ``n@<nm>``, ``k@<nm>``,
     ``sigma``, ``ks``, ``kdd``, ``sigma_dd``, ``kid``) or ``"name=value,..."``.
-    ``material``: starting n, k from Mitsuba's tabulated spectra. ``starts``:
-    the fit runs from the initial values and from ``starts - 1`` random
-    perturbations of them (sigma and n, k by up to x2), keeping the lowest
-    chi-square. ``anisotropic``: fit ``sigma_u`` and ``sigma_v`` instead of
-    ``sigma`` (:mod:`.layout`); the result's ``anisotropy`` gives their
-    difference and its uncertainty (measurements must resolve azimuths).
+    ``material`` (a name) or ``nk`` (an index table: a file, or an
+    :class:`~mitsuba_pbrdf.measured.IndexTable`): n, k at the data's
+    wavelengths, the start of a polarized fit and **fixed** in a fit of
+    unpolarized data (``m00`` alone cannot determine the index), unless
+    ``init`` or ``fix`` name them. ``objective``: the residual minimized
+    (:mod:`.objectives`; ``auto`` follows the data), ``log_floor`` its floor
+    (1/sr). ``starts``: the number of starting points (default: the initial
+    values and the roughness grid of :mod:`.starts`). ``anisotropic``: fit
+    ``sigma_u`` and ``sigma_v`` instead of ``sigma`` (:mod:`.layout`); the
+    result's ``anisotropy`` gives their difference and its uncertainty.
+    ``progress``: called with a :class:`FitProgress` as the fit goes.
     """
     from scipy.optimize import least_squares
 
@@ -133,69 +198,91 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
         raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, not {backend!r}")
     init = parse_assignments(init, "init")
     fix = parse_assignments(fix, "fix")
-    if isinstance(starts, bool) or not isinstance(starts, (int, np.integer)) or starts < 1:
+    if starts is not None and (isinstance(starts, bool) or not isinstance(starts, (int, np.integer))
+                               or starts < 1):
         raise ValueError(f"starts must be a whole number >= 1, got {starts!r}")
     for name, v in (("rel_uncertainty", rel_uncertainty), ("abs_uncertainty", abs_uncertainty)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+        if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
     if rel_uncertainty == 0 and abs_uncertainty == 0 and set(data.observed) - set(data.uncertainty):
         raise ValueError("rel_uncertainty and abs_uncertainty are both 0: the measurements "
                          "without given uncertainties would have none")
+    objective, objective_reason = choose_objective(data, list(data.observed), objective)
+    terms = make_terms(data, objective, rel_uncertainty, abs_uncertainty, log_floor)
+
     wavelengths = data.wavelengths
-    if material is not None:
-        try:
-            n0, k0 = ref.conductor_ior(material, wavelengths)
-        except ValueError as e:
-            raise ValueError(f"material {material!r}: {e}") from None
-        init = dict({f"n@{w:g}": v for w, v in zip(wavelengths, n0)},
-                    **{f"k@{w:g}": v for w, v in zip(wavelengths, k0)}, **init)
+    index_note = ""
+    index = _index_from(material, nk, wavelengths)
+    if index is not None:
+        n0, k0, source = index
+        per_wavelength = {f"n@{w:g}": v for w, v in zip(wavelengths, n0)}
+        per_wavelength.update({f"k@{w:g}": v for w, v in zip(wavelengths, k0)})
+        named = {key.partition("@")[0] for key in list(init) + list(fix)}
+        polarized = any(q != "m00" for q in data.observed)
+        if not polarized and not named & {"n", "k"}:
+            fix = dict(per_wavelength, **fix)
+            index_note = (f"n, k fixed from {source} at the data's wavelengths: unpolarized "
+                          f"data (m00 alone) cannot determine the index")
+        else:
+            init = dict(per_wavelength, **init)
     layout = ParameterLayout(wavelengths, model, init, fix, anisotropic)
-    names, obs, unc, index = weights(data, rel_uncertainty, abs_uncertainty)
-    n_obs = sum(len(o) for o in obs)
+    n_obs = sum(len(t.y) for t in terms)
     if n_obs <= len(layout.free):
         raise ValueError(f"{n_obs} measured values cannot determine {len(layout.free)} "
                          f"free parameters")
     evaluator = BACKENDS[backend](data, layout, shadowing, dd_distribution, distribution)
 
-    def residuals(x):
-        model_values = evaluator.observables(x)
-        return np.concatenate([(model_values[q][i] - o) / u
-                               for q, o, u, i in zip(names, obs, unc, index)])
+    def residuals_at(x):
+        m = evaluator.observables(x)
+        return np.concatenate([t.residuals(m[t.name][t.rows]) for t in terms])
 
-    def jacobian(x):
+    def jacobian_at(x):
+        m = evaluator.observables(x)
         cols = evaluator.jacobian_columns(x)
-        return np.stack([np.concatenate([cols[p][q][i] / u for q, u, i in
-                                         zip(names, unc, index)]) for p in layout.free], 1)
-
-    jac = jacobian if hasattr(evaluator, "jacobian_columns") else "2-point"
+        return np.stack([np.concatenate([t.derivative(m[t.name][t.rows]) * cols[p][t.name][t.rows]
+                                         for t in terms]) for p in layout.free], 1)
 
     lo, hi = layout.bounds()
+    order = WidthOrder(layout, lo, hi)
     x0 = np.clip(layout.vector(), lo, hi)
-    rng = np.random.default_rng(seed)
+    count = default_starts(layout, x0, lo, hi) if starts is None else int(starts)
+    points = start_points(layout, x0, lo, hi, count, np.random.default_rng(seed))
     t0 = time.perf_counter()
     best = None
     tol = 1e-10 if backend == "reference" else 1e-7   # float32 residuals: looser tolerances
-    for start in range(starts):
-        x_start = x0.copy()
-        if start:
-            for i, name in enumerate(layout.free):
-                if name.partition("@")[0] in SCALE_FLOORS:      # indices and widths
-                    x_start[i] *= math.exp(rng.uniform(-math.log(2), math.log(2)))
-            x_start = np.clip(x_start, lo + 1e-9, hi)
-        sol = least_squares(residuals, x_start, jac=jac, bounds=(lo, hi), method="trf",
-                            x_scale="jac", ftol=tol, xtol=tol, gtol=tol, max_nfev=400)
+    for number, x_start in enumerate(points, 1):
+        calls = [0]
+
+        def residuals(z):
+            r = residuals_at(order.to_natural(z))
+            calls[0] += 1
+            if progress is not None and calls[0] % PROGRESS_EVERY == 0:
+                progress(FitProgress(model, distribution, number, len(points), calls[0],
+                                     0.5 * float(r @ r), best.cost if best else math.inf, False))
+            return r
+
+        sol = least_squares(residuals, order.to_internal(x_start),
+                            jac=lambda z: order.jacobian(jacobian_at(order.to_natural(z)), z),
+                            bounds=(order.lo, order.hi), method="trf", x_scale="jac",
+                            ftol=tol, xtol=tol, gtol=tol, max_nfev=400)
         if best is None or sol.cost < best.cost:
             best = sol
+        if progress is not None:
+            progress(FitProgress(model, distribution, number, len(points), calls[0],
+                                 float(sol.cost), float(best.cost), True))
     seconds = time.perf_counter() - t0
 
-    values = layout.unpack(best.x)
+    x_best = order.to_natural(best.x)
+    values = layout.unpack(x_best)
     chi2 = float(2 * best.cost)
     dof = n_obs - len(layout.free)
-    # assumed uncertainties: scaled up by the reduced chi-square when the residuals
-    # are larger, never down (a fit to exact data does not make the data exact)
-    chi2_scale = (max(chi2 / max(dof, 1), 1.0) if any(q not in data.uncertainty for q in names)
-                  else 1.0)
-    sd, undetermined, groups, cov = analyze(best.jac, layout.free, best.x, chi2_scale,
+    # assumed uncertainties (or a weighting objective): scaled up by the reduced
+    # chi-square when the residuals are larger, never down (a fit to exact data
+    # does not make the data exact)
+    formal = (objective not in LIKELIHOODS
+              or any(t.name not in data.uncertainty for t in terms))
+    chi2_scale = max(chi2 / max(dof, 1), 1.0) if formal else 1.0
+    sd, undetermined, groups, cov = analyze(jacobian_at(x_best), layout.free, x_best, chi2_scale,
                                             with_covariance=True)
     errors = {"n": np.full(len(wavelengths), np.nan), "k": np.full(len(wavelengths), np.nan)}
     errors.update({p: math.nan for p in layout.shared})
@@ -205,8 +292,10 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
             errors[p][int(j)] = s
         else:
             errors[p] = float(s)
-    at_bound = [layout.label(n) for n, x, a, b in zip(layout.free, best.x, lo, hi)
+    at_bound = [layout.label(n) for n, x, a, b in zip(layout.free, x_best, lo, hi)
                 if x <= a * (1 + 1e-6) + 1e-12 or x >= b * (1 - 1e-6)]
+    if order.at_bound(best.x):
+        at_bound.append("sigma_dd = sigma (the lobes' order)")
 
     anisotropy = {}
     for base, (u, v) in ANISOTROPIC.items():
@@ -228,19 +317,55 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
         # (a goniometer's useful dynamic range; tiny values make ratios meaningless)
         pos = ok & (np.abs(y) >= 0.01 * np.nanmax(np.abs(y)))
         rel[q] = float(np.sqrt(np.mean((r[pos] / y[pos]) ** 2))) if pos.any() else math.nan
-    return FitResult(model, backend, wavelengths, values, errors, chi2, dof, resid, rms, rel,
-                     seconds, evaluator.count, bool(best.success), str(best.message),
-                     [layout.label(n) for n in layout.free], at_bound, shadowing, dd_distribution,
-                     [layout.label(n) for n in undetermined],
-                     [[layout.label(n) for n in g] for g in groups],
-                     [layout.label(n) for n in _all_names(len(wavelengths), layout.shared)
-                      if n not in layout.free], bool(anisotropic), distribution, anisotropy)
+    result = FitResult(model, backend, wavelengths, values, errors, chi2, dof, resid, rms, rel,
+                       seconds, evaluator.count, bool(best.success), str(best.message),
+                       [layout.label(n) for n in layout.free], at_bound, shadowing,
+                       dd_distribution, [layout.label(n) for n in undetermined],
+                       [[layout.label(n) for n in g] for g in groups],
+                       [layout.label(n) for n in _all_names(len(wavelengths), layout.shared)
+                        if n not in layout.free], bool(anisotropic), distribution, anisotropy)
+    if "m00" in data.observed:
+        y, m = data.observed["m00"], final["m00"]
+        ok = np.isfinite(y) & (y > 0) & (m > 0)
+        result.rms_ln = float(np.sqrt(np.mean(np.log(m[ok] / y[ok]) ** 2))) if ok.any() else math.nan
+    result.objective, result.objective_reason = objective, objective_reason
+    result.log_floor = next((t.floor for t in terms if t.name == "m00"
+                             and t.objective in ("log", "relative")), None)
+    result.index_note, result.starts, result.formal = index_note, len(points), formal
+    result.rel_uncertainty, result.abs_uncertainty = rel_uncertainty, abs_uncertainty
+    result.regions = regional_fit(data, final, terms, resid)
+    result.warnings = diagnose(result, data, material)
+    return result
 
 
 def _all_names(W, shared):
     return [f"{p}@{j}" for p in ("n", "k") for j in range(W)] + list(shared)
 
 
-def fit_models(data: Measurements, models=("three", "two"), **options) -> Dict[str, FitResult]:
-    """:func:`fit_model` for each of ``models`` with the same options."""
-    return {m: fit_model(data, model=m, **options) for m in models}
+def fit_models(data: Measurements, models=("three", "two"), distribution="beckmann",
+               dd_distribution=None, **options) -> Dict[str, FitResult]:
+    """:func:`fit_model` for each of ``models`` with the same options.
+
+    ``distribution="auto"`` fits each model with Beckmann and with GGX lobes and
+    keeps the lower cost (the same objective, data and parameter count); the
+    result's ``distribution_choice`` says what was compared.
+    ``dd_distribution``: the directional diffuse lobe's, by default the same as
+    the specular lobe's."""
+    candidates = DISTRIBUTIONS if distribution == "auto" else (distribution,)
+    for d in candidates:
+        if d not in DISTRIBUTIONS:
+            raise ValueError(f"distribution must be auto or one of {', '.join(DISTRIBUTIONS)}, "
+                             f"not {d!r}")
+    out = {}
+    for m in models:
+        fits = [fit_model(data, model=m, distribution=d,
+                          dd_distribution=d if dd_distribution is None else dd_distribution,
+                          **options) for d in candidates]
+        best = min(fits, key=lambda r: r.chi2)
+        if len(fits) > 1:
+            best.distribution_choice = (
+                f"{best.distribution} kept: chi2 " + ", ".join(
+                    f"{r.chi2:.4g} ({r.distribution})" for r in fits))
+            best.seconds = sum(r.seconds for r in fits)
+        out[m] = best
+    return out

@@ -3,10 +3,12 @@ CSV file (:mod:`.measurements`) and tabulated pBRDFs in ``.pbsdf`` files, the
 KAIST database's and Mitsuba's ``measured_polarized`` format (:mod:`.pbsdf`;
 their geometry :mod:`.rusinkiewicz`, the plugin's lookup emulated in
 :mod:`.lookup`, the model tabulated by :mod:`.export`, Mitsuba's plugin as an
-oracle in :mod:`.oracle`). Readers check what they read and name the file,
+oracle in :mod:`.oracle`), and a material's index n + ik against wavelength
+(:mod:`.index_table`). Readers check what they read and name the file,
 line and column (or field) of anything wrong. NumPy only, except
 :mod:`.oracle`, which renders."""
 
+from .index_table import IndexTable, IndexTableError, read_index_table
 from .layouts import LAYOUTS, read_measurements
 from .measurements import (ANGLES, ELEMENTS, OBSERVABLES, MeasurementError, Measurements,
                            check_measurements, write_measurements)
@@ -14,4 +16,5 @@ from .pbsdf import PbsdfError, PbsdfTable, check_renderable, read_pbsdf, write_p
 
 __all__ = ["ANGLES", "ELEMENTS", "OBSERVABLES", "MeasurementError", "Measurements",
            "check_measurements", "LAYOUTS", "read_measurements", "write_measurements",
-           "PbsdfError", "PbsdfTable", "check_renderable", "read_pbsdf", "write_pbsdf"]
+           "PbsdfError", "PbsdfTable", "check_renderable", "read_pbsdf", "write_pbsdf",
+           "IndexTable", "IndexTableError", "read_index_table"]

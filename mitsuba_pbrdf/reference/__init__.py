@@ -98,7 +98,7 @@ from .fresnel import fresnel_amplitudes, fresnel_mueller, jones_to_mueller, rota
 from .geometry import rotation_angles
 from .materials import available_materials, conductor_ior
 from .microfacet import beckmann_D, gaussian_slope_pdf, ggx_D, shadowing_G, smith_G1
-from .model import directional_diffuse, ideal_diffuse, pbrdf, specular
+from .model import directional_diffuse, ideal_diffuse, pbrdf, specular, specular_unpolarized
 from .params import PBRDFParams, dop_unpolarized
 
 __all__ = [
@@ -117,6 +117,7 @@ __all__ = [
     "shadowing_G",
     "rotation_angles",
     "specular",
+    "specular_unpolarized",
     "directional_diffuse",
     "ideal_diffuse",
     "pbrdf",

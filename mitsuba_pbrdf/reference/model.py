@@ -53,6 +53,19 @@ def _widths(sigma, sigma_u, sigma_v):
     return (sigma if sigma_u is None else sigma_u), (sigma if sigma_v is None else sigma_v)
 
 
+def _lobe_DG(angles, g, sigma, widths, shadowing, distribution):
+    """``(D, G)`` of a microfacet lobe of slope width *sigma*, or of the
+    anisotropic *widths* ``(sigma_u, sigma_v)`` where given."""
+    if widths is not None:
+        return _anisotropic_DG(angles, g, *widths, shadowing, distribution)
+    alpha = np.sqrt(2.0) * np.asarray(sigma, dtype=np.float64)
+    # Paper Eq. 3-4: p(alpha)/cos(alpha) is the Beckmann D of the half vector
+    D = (beckmann_D if distribution == "beckmann" else ggx_D)(g["cos_h"], alpha)
+    G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
+                    alpha, shadowing, distribution)
+    return D, G
+
+
 def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove",
              distribution="beckmann", sigma_u=None, sigma_v=None):
     """Specular Mueller BRDF ``fs`` (..., 4, 4) in the global s/p frames (paper Eq. 4-5):
@@ -72,15 +85,7 @@ def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove",
                                 *(np.shape(w) for w in widths or ()))
     above = np.broadcast_to(_above(g), shape)
 
-    if widths is not None:
-        D, G = _anisotropic_DG((theta_i, phi_i, theta_r, phi_r), g, *widths, shadowing,
-                               distribution)
-    else:
-        alpha = np.sqrt(2.0) * np.asarray(sigma, dtype=np.float64)
-        # Paper Eq. 3-4: p(alpha)/cos(alpha) is the Beckmann D of the half vector
-        D = (beckmann_D if distribution == "beckmann" else ggx_D)(g["cos_h"], alpha)
-        G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
-                        alpha, shadowing, distribution)
+    D, G = _lobe_DG((theta_i, phi_i, theta_r, phi_r), g, sigma, widths, shadowing, distribution)
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = D * G / (4.0 * g["cos_i"] * g["cos_r"])
     scale = np.where(above, np.broadcast_to(scale, shape), 0.0)
@@ -99,6 +104,28 @@ def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove",
     return np.where(above[..., None, None], fs, 0.0)
 
 
+def specular_unpolarized(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove",
+                         distribution="beckmann", sigma_u=None, sigma_v=None):
+    """Element 00 of :func:`specular` (1/sr), in the scalar form of paper Eq. 4:
+
+        fs = D(h) G F(beta) / (4 cos ti cos tr),   F = (|r_s|^2 + |r_p|^2) / 2
+
+    the reflectance of unpolarized light. The frame rotations of the Mueller
+    form leave element 00 unchanged (a rotator's first row and column are
+    (1, 0, 0, 0)), so this is the same number for a fraction of the work:
+    what fits of unpolarized measurements evaluate. Arguments as :func:`specular`.
+    """
+    _check_kinds(shadowing, distribution)
+    g = _geometry(theta_i, phi_i, theta_r, phi_r)
+    D, G = _lobe_DG((theta_i, phi_i, theta_r, phi_r), g, sigma,
+                    _widths(sigma, sigma_u, sigma_v), shadowing, distribution)
+    r_s, r_p = fresnel_amplitudes(g["cos_b"], n, k)
+    F = 0.5 * (np.abs(r_s) ** 2 + np.abs(r_p) ** 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fs = D * G * F / (4.0 * g["cos_i"] * g["cos_r"])
+    return np.where(_above(g), fs, 0.0)
+
+
 def directional_diffuse(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing="vgroove",
                         distribution="beckmann", sigma_dd_u=None, sigma_dd_v=None):
     """Directional diffuse BRDF ``fdd = Ddd(h) G / (4 cos ti cos tr)`` (1/sr, a
@@ -107,15 +134,8 @@ def directional_diffuse(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing="vgr
     ``sigma_dd_u``/``sigma_dd_v``: anisotropic, as :func:`specular`."""
     _check_kinds(shadowing, distribution)
     g = _geometry(theta_i, phi_i, theta_r, phi_r)
-    widths = _widths(sigma_dd, sigma_dd_u, sigma_dd_v)
-    if widths is not None:
-        D, G = _anisotropic_DG((theta_i, phi_i, theta_r, phi_r), g, *widths, shadowing,
-                               distribution)
-    else:
-        alpha_dd = np.sqrt(2.0) * np.asarray(sigma_dd, dtype=np.float64)
-        D = (beckmann_D if distribution == "beckmann" else ggx_D)(g["cos_h"], alpha_dd)
-        G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
-                        alpha_dd, shadowing, distribution)
+    D, G = _lobe_DG((theta_i, phi_i, theta_r, phi_r), g, sigma_dd,
+                    _widths(sigma_dd, sigma_dd_u, sigma_dd_v), shadowing, distribution)
     with np.errstate(divide="ignore", invalid="ignore"):
         f = D * G / (4.0 * g["cos_i"] * g["cos_r"])
     return np.where(_above(g), f, 0.0)

@@ -1,0 +1,170 @@
+"""What a fit minimizes: the residual of each measured value, by objective.
+
+Reflectance of metals spans decades (a near-mirror spike of hundreds per
+steradian over a tail of thousandths), and which residual a fit minimizes
+decides which part of that range it reproduces. The objectives apply to the
+unpolarized BRDF ``m00``; the other Mueller elements and DoLP, signed or
+bounded, keep linear residuals with their uncertainties in every objective.
+``y`` is the measured value, ``m`` the model's, ``u`` the value's standard
+uncertainty (given in the file, or assumed: ``rel |y| + abs max|y|``), ``s``
+the relative uncertainty (``u / y`` where given, else ``rel``):
+
+* ``linear``: ``(m - y) / u``. The likelihood of Gaussian noise of the
+  measurement's own uncertainties; with assumed ones (a few per cent of the
+  largest value) everything far below the peak counts for nothing.
+* ``log``: ``ln((m + f) / (y + f)) / s``, with a stated floor ``f`` (default
+  1 % of the smallest positive ``y``; ``y < 0`` counts as 0). The likelihood
+  of multiplicative (log-normal) noise: every decade weighs the same, so the
+  spike and the tail are both fitted. BRDF fitting poses it this way when data
+  span decades (e.g. Ngan, Durand and Matusik 2005, who found linear errors
+  dominated by the peak; Löw et al. 2012).
+* ``relative``: ``(m - y) / (s max(y, f))``, the first-order form of ``log``:
+  symmetric only for small errors (a model too low by any factor costs at most
+  ``1/s``, too high costs without bound), so it biases a fit low.
+* ``cosine``: ``(m - y) cos(theta_i) / (abs max(y cos theta_i))``: uniform
+  weights on the reflected radiance per unit irradiance, ``rho cos theta_i``,
+  the quantity a renderer integrates (the cosine-weighted error of Ngan et al.
+  2005). A weighting, not a noise model: its parameter uncertainties are formal.
+* ``log-cosine``: ``[ln(1 + m cos theta_i) - ln(1 + y cos theta_i)] / s``
+  (Löw, Kronander, Ynnerman and Unger 2012): logarithmic above
+  ``rho cos theta_i ~ 1``, linear below it, so the peak is compressed and the
+  tail of a metal (``rho << 1``) weighs little. Also a weighting: formal
+  uncertainties.
+
+``auto`` (the default) follows the data: ``linear`` when the file gives the
+uncertainties of every fitted quantity, ``log`` when ``m00`` spans more than
+two decades, else ``linear`` with assumed uncertainties.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+__all__ = ["OBJECTIVES", "LIKELIHOODS", "Term", "make_terms", "choose_objective", "log_floor",
+           "decades"]
+
+#: Objective -> one line of what it is, for reports and ``--help``.
+OBJECTIVES = {
+    "linear": "(model - data) / uncertainty",
+    "log": "ln((model + f) / (data + f)) / relative uncertainty",
+    "relative": "(model - data) / (relative uncertainty x data)",
+    "cosine": "(model - data) cos(theta_i), uniform weights (Ngan et al. 2005)",
+    "log-cosine": "ln(1 + model cos(theta_i)) - ln(1 + data cos(theta_i)) (Löw et al. 2012)",
+}
+#: Objectives that are a noise model's likelihood (the others weight).
+LIKELIHOODS = ("linear", "log", "relative")
+#: m00 spanning more decades than this gets the ``log`` objective under ``auto``.
+AUTO_DECADES = 2.0
+
+
+def log_floor(y, floor: Optional[float] = None) -> float:
+    """The ``log`` objective's floor f (1/sr): *floor* when given, else 1 % of
+    the smallest positive value (1e-12 where none is)."""
+    if floor is not None:
+        return float(floor)
+    positive = y[np.isfinite(y) & (y > 0)]
+    return 0.01 * float(positive.min()) if positive.size else 1e-12
+
+
+def decades(y) -> float:
+    """How many decades the positive values of *y* span (0 if fewer than 2)."""
+    positive = y[np.isfinite(y) & (y > 0)]
+    return float(np.log10(positive.max() / positive.min())) if positive.size > 1 else 0.0
+
+
+def choose_objective(data, names, requested="auto"):
+    """``(objective, reason)`` for fitting the quantities *names* of *data*."""
+    if requested != "auto":
+        if requested not in OBJECTIVES:
+            raise ValueError(f"objective must be auto or one of {', '.join(OBJECTIVES)}, "
+                             f"not {requested!r}")
+        return requested, "as requested"
+    if "m00" not in names:
+        return "linear", "no m00 is fitted (the other quantities are always linear)"
+    if all(q in data.uncertainty for q in names):
+        return "linear", "the file gives the uncertainty of every fitted value"
+    span = decades(data.observed["m00"])
+    if span > AUTO_DECADES:
+        return "log", (f"m00 spans {span:.1f} decades and the file gives no uncertainties: "
+                       f"a linear objective with assumed ones would weigh only the largest values")
+    return "linear", (f"m00 spans {span:.1f} decades (at most {AUTO_DECADES:g}): linear with "
+                      f"assumed uncertainties")
+
+
+@dataclass
+class Term:
+    """The residuals of one measured quantity under an objective: the ``rows``
+    of the data that measure it, values ``y``, uncertainties ``u``, relative
+    uncertainties ``s``, the cosine of the incidence angle, and for ``m00`` the
+    floor ``f`` of the logarithmic objectives."""
+    name: str
+    objective: str            # the objective this term follows ("linear" off m00)
+    rows: np.ndarray
+    y: np.ndarray
+    u: np.ndarray
+    s: np.ndarray
+    cos_i: np.ndarray
+    floor: float = 0.0
+    scale: float = 1.0        # cosine: abs x max(y cos theta_i)
+
+    def residuals(self, m):
+        y, s, f = self.y, self.s, self.floor
+        if self.objective == "linear":
+            return (m - y) / self.u
+        if self.objective == "log":
+            return np.log((np.maximum(m, 0.0) + f) / (np.maximum(y, 0.0) + f)) / s
+        if self.objective == "relative":
+            return (m - y) / (s * np.maximum(y, f))
+        if self.objective == "cosine":
+            return (m - y) * self.cos_i / self.scale
+        return (np.log1p(np.maximum(m, 0.0) * self.cos_i)               # log-cosine
+                - np.log1p(np.maximum(y, 0.0) * self.cos_i)) / s
+
+    def derivative(self, m):
+        """d residual / d model value, per value."""
+        s, f = self.s, self.floor
+        if self.objective == "linear":
+            return 1.0 / self.u
+        if self.objective == "log":
+            return np.where(m > 0, 1.0 / (np.maximum(m, 0.0) + f), 0.0) / s
+        if self.objective == "relative":
+            return 1.0 / (s * np.maximum(self.y, f))
+        if self.objective == "cosine":
+            return self.cos_i / self.scale
+        return np.where(m > 0, self.cos_i / (1.0 + np.maximum(m, 0.0) * self.cos_i), 0.0) / s
+
+
+def make_terms(data, objective, rel, abs_, floor=None):
+    """The :class:`Term` of each observed quantity of *data* under *objective*
+    (``m00``; the others linear), with the assumed uncertainties ``rel |y| +
+    abs max|y|`` where the file gives none (:func:`.backends.weights`)."""
+    from .backends import weights
+
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {objective!r}")
+    if floor is not None and not (math.isfinite(floor) and floor > 0):
+        raise ValueError(f"log_floor must be a finite number > 0 (1/sr), got {floor!r}")
+    cos_i = np.cos(np.radians(data.theta_i))
+    terms = []
+    for q, y, u, rows in zip(*weights(data, rel, abs_)):
+        kind = objective if q == "m00" else "linear"
+        f = log_floor(y, floor) if q == "m00" else 0.0
+        if q in data.uncertainty:
+            s = u / np.maximum(np.abs(y), max(f, 1e-300))
+        else:
+            if kind in ("log", "relative", "log-cosine") and not rel > 0:
+                raise ValueError(f"the {kind} objective needs a relative uncertainty > 0 "
+                                 f"(rel_uncertainty, --rel-uncertainty) where the file gives none")
+            s = np.full(len(y), float(rel))
+        term = Term(q, kind, rows, y, u, s, cos_i[rows], f)
+        if kind == "cosine":
+            if not abs_ > 0:
+                raise ValueError("the cosine objective needs an absolute uncertainty > 0 "
+                                 "(abs_uncertainty, --abs-uncertainty)")
+            term.scale = abs_ * float(np.max(np.abs(y) * term.cos_i))
+        terms.append(term)
+    return terms
