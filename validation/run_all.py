@@ -37,6 +37,7 @@ ARGUMENTS = {
     "anisotropic": ([], ["--pairs", "2000", "--samples", "100000"]),
     "fit_pbsdf": ([], ["--quick"]),
     "fit_ptfe": ([], ["--quick"]),
+    "fit_real": ([], ["--quick"]),
     "fit_synthetic": ([], ["--quick"]),
     "furnace": (["--samples", "1048576"], ["--samples", "65536"]),
     "inverse_memory": ([], ["--quick"]),

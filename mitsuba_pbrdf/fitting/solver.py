@@ -4,16 +4,19 @@
 
 **Parameters.** The complex index n + ik per distinct wavelength, and
 ``sigma, ks, kdd, sigma_dd, kid`` shared by all wavelengths (the model:
-``docs/model.md``; the fit: ``docs/fitting.md``). ``--material`` starts n, k from Mitsuba's tabulated spectra (else
-n = 1.5, k = 5); ``--fix`` holds parameters (``n``/``k`` for all
-wavelengths, or ``n@633=1.2`` for one). The *two-component* model is the
+``docs/model.md``; the fit: ``docs/fitting.md``). ``--material`` (or
+``--nk``) gives n, k from tabulated spectra: the start of a polarized fit,
+fixed for unpolarized data, which cannot determine them (else n = 1.5,
+k = 5); ``--fix`` holds parameters (``n``/``k`` for all wavelengths, or
+``n@633=1.2`` for one). What is minimized: :mod:`.objectives`; where it
+starts: :mod:`.starts`; how well it fits, by region: :mod:`.diagnosis`. The *two-component* model is the
 specular lobe plus the ideal diffuse one (``kdd = 0``: the model the paper
 modifies); ``--model both`` (default) fits both and reports each error, as the
 paper compares them.
 
 **Backends.** ``reference`` (default): ``scipy.optimize.least_squares``
 (trust-region reflective, bounds) on the float64 NumPy reference evaluator,
-Jacobian by finite differences. ``drjit``: the same solver on the Dr.Jit
+lobe by lobe (:mod:`.lobes`). ``drjit``: the same solver on the Dr.Jit
 plugin (float32), Jacobian by Dr.Jit forward-mode derivatives (one pass per
 parameter). Both give the same parameters; ``reference`` is faster on the
 data sizes of goniometer measurements (``validation/fit_synthetic.md``, section 3).
