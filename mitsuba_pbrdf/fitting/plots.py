@@ -73,7 +73,8 @@ def _in_plane_panels(fig, grid, data, fitted, band, series, colors, legend_at):
             ok = np.isfinite(y)
             if log:
                 low = np.maximum(low, 0.5 * np.nanmin(np.where(y > 0, y, np.nan)))
-            top.fill_between(x[ok], low[ok], high[ok], color=color, alpha=0.15, lw=0, zorder=0)
+            top.fill_between(x[ok], low[ok], high[ok], color=color, lw=0, zorder=0,
+                             alpha=max(0.04, 0.3 / len(series)))   # overlapping bands stay light
             top.plot(x[ok], y[ok], ".", ms=2.5, color=color, alpha=0.8, zorder=1,
                      label=f"data {label}")
             for model, values in fitted.items():
