@@ -368,3 +368,32 @@ def test_command_line_refuses_bad_fit_options(tmp_path, args, message):
     assert p.returncode == 2 and len(lines) == 1 and message in lines[0], p.stderr
     assert "chi2" not in p.stdout
     assert not os.path.exists(tmp_path / "fit.png")
+
+
+def test_ctrl_c_during_a_fit_exits_130_and_keeps_earlier_outputs(tmp_path, monkeypatch, capfd):
+    """Ctrl-C in the second start of the fit: `interrupted`, exit 130, and the
+    outputs from an earlier run (JSON, plot, scene) are left as they were."""
+    import scipy.optimize
+
+    from mitsuba_pbrdf.cli import main
+
+    outputs = {k: tmp_path / f"al.{k}" for k in ("json", "png", "xml")}
+    for path in outputs.values():
+        path.write_text("earlier")
+    calls = []
+    solve = scipy.optimize.least_squares
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(scipy.optimize, "least_squares", interrupted)
+    status = main(["fit", ALUMINIUM, "--material", "Al", "--json", str(outputs["json"]),
+                   "--plot", str(outputs["png"]), "--scene-out", str(outputs["xml"])])
+    out, err = capfd.readouterr()
+    assert status == 130 and err.strip().endswith("pbrdf fit: interrupted")
+    assert "chi2" not in out and len(calls) == 2
+    assert all(path.read_text() == "earlier" for path in outputs.values())
+    assert sorted(os.listdir(tmp_path)) == ["al.json", "al.png", "al.xml"]
