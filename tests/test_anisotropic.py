@@ -200,6 +200,24 @@ def test_isotropic_scenes_expose_sigma_and_anisotropic_ones_its_refinements():
     assert bsdf.sigma_v is bsdf.sigma                  # sigma gives the width not given
 
 
+@pytest.mark.parametrize("props, anisotropic", [
+    ({}, (False, False)),
+    ({"sigma_u": 0.3}, (True, False)),
+    ({"sigma_dd_v": 0.2}, (False, True)),
+    ({"sigma_u": 0.1, "sigma_v": 0.1, "sigma_dd_u": 0.4}, (True, True)),
+])
+def test_anisotropic_flag_marks_the_anisotropic_lobes(props, anisotropic):
+    """BSDFFlags.Anisotropic is set on each lobe given refined widths and on
+    the BSDF where any is (roughconductor sets it where alpha_u != alpha_v;
+    here the lobe is anisotropic as declared, even with equal widths), never
+    on the Lambertian lobe."""
+    bsdf = mi.load_dict({"type": "pbrdf", "kdd": 0.1, "kid": 0.1, **props})
+    flag = mi.BSDFFlags.Anisotropic
+    got = tuple(bool(bsdf.flags(i) & flag) for i in range(3))
+    assert got == anisotropic + (False,)
+    assert bool(bsdf.flags() & flag) == any(anisotropic)
+
+
 def test_updating_sigma_u_changes_the_lobe_as_loading_it_does():
     """An update through traverse gives the BSDF loaded with that value."""
     use_variant("llvm_ad_spectral_polarized")

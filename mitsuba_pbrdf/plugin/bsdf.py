@@ -1,7 +1,98 @@
 """The ``pbrdf`` plugin: three-component polarized BRDF for metals.
 
-Parameters (declared in :mod:`mitsuba_pbrdf.schema`; the table is appended to
-the class's docstring from there):
+Parameters (declared in :mod:`mitsuba_pbrdf.schema`, each read by name in the
+constructor; the table below is ``schema.rst_table()``, written here so that the
+source reads as the documentation, and ``tests/test_schema.py`` checks that the
+two agree):
+
+.. list-table::
+   :header-rows: 1
+
+   * - Parameter
+     - Type
+     - Description
+     - Default
+     - Flags
+   * - ``material``
+     - string
+     - Named conductor from Mitsuba's tabulated spectra; mutually exclusive with eta and k.
+     - ``Al``
+     - --
+   * - ``eta``
+     - spectrum or texture
+     - Real part n of the metal's complex index of refraction N = n + ik. Valid: > 0.
+     - from material
+     - exposed, differentiable, discontinuous
+   * - ``k``
+     - spectrum or texture
+     - Imaginary part k (extinction coefficient) of the complex index N = n + ik. Valid: >= 0.
+     - from material
+     - exposed, differentiable, discontinuous
+   * - ``sigma``
+     - float or texture
+     - RMS microfacet slope per axis of the specular lobe (paper Eq. 3); Beckmann width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor). Valid: >= 7.07e-05.
+     - 0.1
+     - exposed where the lobe is isotropic, differentiable, discontinuous
+   * - ``sigma_u``
+     - float or texture
+     - RMS slope of the specular lobe along the shading frame's s axis (dp_du); alpha_u = sqrt(2) sigma_u. Giving sigma_u or sigma_v makes the lobe anisotropic. Valid: >= 7.07e-05.
+     - ``sigma``
+     - exposed where the lobe is anisotropic, differentiable, discontinuous
+   * - ``sigma_v``
+     - float or texture
+     - RMS slope of the specular lobe along the shading frame's t axis (n x dp_du); alpha_v = sqrt(2) sigma_v. Valid: >= 7.07e-05.
+     - ``sigma``
+     - exposed where the lobe is anisotropic, differentiable, discontinuous
+   * - ``distribution``
+     - string
+     - Normal distribution of the specular lobe: beckmann (the paper's Gaussian slopes) or ggx (Trowbridge-Reitz), both of width alpha = sqrt(2) sigma. Valid: ``beckmann`` or ``ggx``.
+     - ``beckmann``
+     - --
+   * - ``ks``
+     - spectrum or texture
+     - Weight k_s of the specular (polarizing) lobe (paper Eq. 2). Valid: >= 0.
+     - 1
+     - exposed, differentiable
+   * - ``kdd``
+     - spectrum or texture
+     - Weight k_dd of the directional diffuse (depolarized) lobe (paper Eq. 2). Valid: >= 0.
+     - 0
+     - exposed, differentiable
+   * - ``sigma_dd``
+     - float or texture
+     - RMS slope of the directional diffuse lobe (alpha_dd = sqrt(2) sigma_dd). Valid: >= 7.07e-05.
+     - 0.5
+     - exposed where the lobe is isotropic, differentiable, discontinuous
+   * - ``sigma_dd_u``
+     - float or texture
+     - RMS slope of the directional diffuse lobe along the s axis; giving sigma_dd_u or sigma_dd_v makes that lobe anisotropic. Valid: >= 7.07e-05.
+     - ``sigma_dd``
+     - exposed where the lobe is anisotropic, differentiable, discontinuous
+   * - ``sigma_dd_v``
+     - float or texture
+     - RMS slope of the directional diffuse lobe along the t axis. Valid: >= 7.07e-05.
+     - ``sigma_dd``
+     - exposed where the lobe is anisotropic, differentiable, discontinuous
+   * - ``kid``
+     - spectrum or texture
+     - Weight k_id of the ideal (Lambertian, depolarized) diffuse lobe (paper Eq. 2). Valid: >= 0.
+     - 0
+     - exposed, differentiable
+   * - ``shadowing``
+     - string
+     - Shadowing-masking G: vgroove (Torrance-Sparrow/Blinn, the paper's) or smith (Smith's, as Mitsuba's roughconductor). Valid: ``vgroove`` or ``smith``.
+     - ``vgroove``
+     - --
+   * - ``dd_distribution``
+     - string
+     - Normal distribution of the directional diffuse lobe. Valid: ``beckmann`` or ``ggx``.
+     - ``beckmann``
+     - --
+   * - ``sampling``
+     - string
+     - mixture (lobes chosen by estimated albedo) or cosine (cosine-weighted hemisphere only: the benchmarks' baseline). Valid: ``mixture`` or ``cosine``.
+     - ``mixture``
+     - --
 
 exposed: in ``mi.traverse``; differentiable: gradients flow to it;
 discontinuous: flagged ``ParamFlags.Discontinuous``, as Mitsuba's
@@ -53,6 +144,7 @@ XML::
 
 from __future__ import annotations
 
+from typing import NamedTuple, Optional
 
 import drjit as dr
 import mitsuba as mi
@@ -62,7 +154,8 @@ from ..variant import require_variant
 from . import params
 from .fresnel import fresnel_unpolarized, specular_mueller
 from .ior import complex_ior_textures
-from .lobes import HalfVector, LambertianLobe, MicrofacetLobe
+from .lobes import Evaluation, LambertianLobe, MicrofacetLobe
+from .microfacet import SHADOWING
 
 #: The Mitsuba variant whose ``mi.BSDF`` this module's class derives from;
 #: :func:`mitsuba_pbrdf.registry.variant_module` runs the module once per variant.
@@ -90,95 +183,128 @@ def _depolarized(value):
     return mi.depolarizer(value) if mi.is_polarized else value
 
 
+def _read(props, name):
+    """Float or spectrum parameter *name*, read and checked against its declaration."""
+    return params.declared(props, schema.parameter(name))
+
+
+def _read_choice(props, name):
+    """String parameter *name*, one of its declared choices."""
+    p = schema.parameter(name)
+    return params.choice(props, name, p.choices, p.default)
+
+
+def _read_refinement(props, name, refined):
+    """A refinement (``sigma_u``) as given, else the *refined* parameter's
+    texture (``sigma``) where any of its refinements is given, else None
+    (the lobe is isotropic)."""
+    if name in props:
+        return _read(props, name)
+    if any(r in props for r in schema.REFINEMENTS[schema.parameter(name).refines]):
+        return refined
+    return None
+
+
+class Exposed(NamedTuple):
+    """A parameter as ``traverse`` exposes it: its texture, its flags, and the
+    bounds ``parameters_changed`` re-checks (> 0 where ``positive``, >= ``floor``)."""
+
+    texture: object
+    flags: object
+    positive: bool
+    floor: Optional[float]
+
+
 class PolarizedBRDF(mi.BSDF):
-    __doc__ = __doc__ + "\n" + schema.rst_table()
+    __doc__ = __doc__
 
     def __init__(self, props):
         super().__init__(props)
+        # Each parameter read once by name and checked (schema.py declares them;
+        # tests/test_schema.py checks that these reads match the declarations).
         self.material, self.eta, self.k = _read_ior(props)
-        for p in schema.PARAMETERS:       # every other parameter, read and checked
-            if p.plugin and p.refines:
-                setattr(self, p.name, self._refinement(props, p))
-            elif p.plugin and p.kind in ("float", "spectrum") and p.name not in ("eta", "k"):
-                setattr(self, p.name, params.declared(props, p))
-            elif p.plugin and p.kind == "choice":
-                setattr(self, p.name, params.choice(props, p.name, p.choices, p.default))
+        self.sigma = _read(props, "sigma")
+        self.sigma_u = _read_refinement(props, "sigma_u", self.sigma)
+        self.sigma_v = _read_refinement(props, "sigma_v", self.sigma)
+        self.distribution = _read_choice(props, "distribution")
+        self.ks = _read(props, "ks")
+        self.kdd = _read(props, "kdd")
+        self.sigma_dd = _read(props, "sigma_dd")
+        self.sigma_dd_u = _read_refinement(props, "sigma_dd_u", self.sigma_dd)
+        self.sigma_dd_v = _read_refinement(props, "sigma_dd_v", self.sigma_dd)
+        self.kid = _read(props, "kid")
+        self.shadowing = _read_choice(props, "shadowing")
+        self.dd_distribution = _read_choice(props, "dd_distribution")
+        self.sampling = _read_choice(props, "sampling")
+
         self.lobes = self._build_lobes()
         self.m_components = [lobe.flags | mi.BSDFFlags.FrontSide for lobe in self.lobes]
         self.m_flags = mi.BSDFFlags.Empty
         for flags in self.m_components:
             self.m_flags = self.m_flags | flags
 
-    def _refinement(self, props, p):
-        """A refinement (``sigma_u``) as given, else the refined parameter's
-        texture (``sigma``) where any of its refinements is given, else None
-        (the lobe is isotropic)."""
-        if p.name in props:
-            return params.declared(props, p)
-        if any(name in props for name in schema.REFINEMENTS[p.refines]):
-            return getattr(self, p.refines)
-        return None
-
-    def _anisotropic(self, lobe):
-        """Whether lobe *lobe* was given anisotropic widths."""
-        return (lobe in schema.ANISOTROPIC_WIDTHS
-                and getattr(self, schema.ANISOTROPIC_WIDTHS[lobe][0]) is not None)
-
     def _build_lobes(self):
         """One record per lobe whose weight is not exactly zero, in component
-        order (:data:`schema.LOBES`): specular, directional diffuse, ideal
-        diffuse."""
-        lobes = []
-        for name, (weight, width) in schema.LOBES.items():
-            if not params.is_constant_zero(getattr(self, weight)):
-                widths = [getattr(self, w) for w in
-                          schema.exposed_widths(name, self._anisotropic(name))]
-                lobes.append(self._lobe(name, getattr(self, weight), widths, len(lobes)))
-        return lobes
-
-    def _lobe(self, name, weight, widths, index):
-        """The record of lobe *name*: the polarizing specular lobe, the
-        depolarized directional diffuse lobe (each with one width, or two:
-        anisotropic), the Lambertian lobe."""
+        order: specular, directional diffuse, ideal diffuse. A microfacet lobe
+        with refined widths is anisotropic (``BSDFFlags.Anisotropic``)."""
         glossy, diffuse = mi.BSDFFlags.GlossyReflection, mi.BSDFFlags.DiffuseReflection
         types = {"beckmann": mi.MicrofacetType.Beckmann, "ggx": mi.MicrofacetType.GGX}
-        width_v = widths[1] if len(widths) == 2 else None
-        if name == "specular":
-            return MicrofacetLobe(name, weight, widths[0], types[self.distribution],
-                                  self.shadowing, glossy, index, polarizing=True, width_v=width_v)
-        if name == "directional_diffuse":
-            return MicrofacetLobe(name, weight, widths[0], types[self.dd_distribution],
-                                  self.shadowing, glossy, index, polarizing=False,
-                                  width_v=width_v)
-        return LambertianLobe(name, weight, diffuse, index)
+        shadowing = SHADOWING[self.shadowing]
+        lobes = []
+        if not params.is_constant_zero(self.ks):
+            if self.sigma_u is None:
+                widths, textures = (self.sigma, None), {"ks": self.ks, "sigma": self.sigma}
+            else:
+                widths = (self.sigma_u, self.sigma_v)
+                textures = {"ks": self.ks, "sigma_u": self.sigma_u, "sigma_v": self.sigma_v}
+            flags = glossy if widths[1] is None else glossy | mi.BSDFFlags.Anisotropic
+            lobes.append(MicrofacetLobe("specular", self.ks, widths[0], types[self.distribution],
+                                        shadowing, flags, len(lobes), polarizing=True,
+                                        textures=textures, width_v=widths[1]))
+        if not params.is_constant_zero(self.kdd):
+            if self.sigma_dd_u is None:
+                widths = (self.sigma_dd, None)
+                textures = {"kdd": self.kdd, "sigma_dd": self.sigma_dd}
+            else:
+                widths = (self.sigma_dd_u, self.sigma_dd_v)
+                textures = {"kdd": self.kdd, "sigma_dd_u": self.sigma_dd_u,
+                            "sigma_dd_v": self.sigma_dd_v}
+            flags = glossy if widths[1] is None else glossy | mi.BSDFFlags.Anisotropic
+            lobes.append(MicrofacetLobe("directional_diffuse", self.kdd, widths[0],
+                                        types[self.dd_distribution], shadowing, flags, len(lobes),
+                                        polarizing=False, textures=textures, width_v=widths[1]))
+        if not params.is_constant_zero(self.kid):
+            lobes.append(LambertianLobe("ideal_diffuse", self.kid, diffuse, len(lobes),
+                                        textures={"kid": self.kid}))
+        return lobes
 
     # -------------------------------------------------------------- traversal
 
-    def _parameter_table(self):
-        """name -> (texture, flags, positive, minimum) of every exposed
-        parameter: the index, then each present lobe's weight and width."""
-        exposed = ["eta", "k"]
+    def _exposed(self):
+        """name -> :class:`Exposed` of every parameter ``traverse`` exposes:
+        the index, then each present lobe's weight and widths."""
+        textures = {"eta": self.eta, "k": self.k}
         for lobe in self.lobes:
-            exposed += [schema.LOBES[lobe.name][0],
-                        *schema.exposed_widths(lobe.name, self._anisotropic(lobe.name))]
-        table = {}
-        for name in exposed:
+            textures.update(lobe.textures)
+        exposed = {}
+        for name, texture in textures.items():
             p = schema.parameter(name)
             flags = mi.ParamFlags.Differentiable
             if p.discontinuous:
                 flags = flags | mi.ParamFlags.Discontinuous
-            table[name] = (getattr(self, name), flags, p.positive, p.floor)
-        return table
+            exposed[name] = Exposed(texture, flags, p.positive, p.floor)
+        return exposed
 
     def traverse(self, callback):
-        for name, (texture, flags, _, _) in self._parameter_table().items():
-            callback.put(name, texture, flags)
+        for name, exposed in self._exposed().items():
+            callback.put(name, exposed.texture, exposed.flags)
 
     def parameters_changed(self, keys):
         # Textures refresh their own state; re-check values an update may have broken.
-        for name, (texture, _, positive, minimum) in self._parameter_table().items():
+        for name, exposed in self._exposed().items():
             if not keys or any(k == name or k.startswith(name + ".") for k in keys):
-                params.check_texture_values(name, texture, positive, minimum)
+                params.check_texture_values(name, exposed.texture, exposed.positive,
+                                            exposed.floor)
 
     def to_string(self):
         ior = (f"material = {self.material!r}" if self.material
@@ -193,15 +319,16 @@ class PolarizedBRDF(mi.BSDF):
     # -------------------------------------------------------------- BSDF API
 
     def eval(self, ctx, si, wo, active=True):
-        value, _ = self._eval_pdf(ctx, si, wo, active, want_pdf=False)
-        return value
+        ev = Evaluation.of(si, wo, active)
+        return self._value(ctx, ev)
 
     def pdf(self, ctx, si, wo, active=True):
-        _, pdf = self._eval_pdf(ctx, si, wo, active, want_value=False)
-        return pdf
+        ev = Evaluation.of(si, wo, active)
+        return self._pdf(ctx, ev)
 
     def eval_pdf(self, ctx, si, wo, active=True):
-        return self._eval_pdf(ctx, si, wo, active)
+        ev = Evaluation.of(si, wo, active)
+        return self._value(ctx, ev), self._pdf(ctx, ev)
 
     def sample(self, ctx, si, sample1, sample2, active=True):
         cos_i = mi.Frame3f.cos_theta(si.wi)
@@ -212,15 +339,16 @@ class PolarizedBRDF(mi.BSDF):
                                   mi.Bool(False), dr.zeros(mi.Spectrum))
         if self.sampling == "cosine":
             wo = mi.warp.square_to_cosine_hemisphere(sample2)
-            value, pdf = self._eval_pdf(ctx, si, wo, active)
-            return _sample_record(wo, pdf, mi.UInt32(enabled[0].index),
-                                  mi.UInt32(self._component_flags(enabled[0])), active, value)
+            ev = Evaluation.of(si, wo, active)
+            return _sample_record(wo, self._pdf(ctx, ev), mi.UInt32(enabled[0].index),
+                                  mi.UInt32(self._component_flags(enabled[0])), ev.active,
+                                  self._value(ctx, ev))
         if len(enabled) == 1:
             lobe = enabled[0]
-            wo, pdf, value, h, active = lobe.sample_alone(si, sample2, active)
-            value = self._weighted(lobe, ctx, si, wo, h, value, active)
-            return _sample_record(wo, pdf, mi.UInt32(lobe.index),
-                                  mi.UInt32(self._component_flags(lobe)), active, value)
+            s = lobe.sample_alone(si, sample2, active)
+            value = self._weighted(lobe, ctx, si, s.wo, s.facet_normal, s.value, s.active)
+            return _sample_record(s.wo, s.pdf, mi.UInt32(lobe.index),
+                                  mi.UInt32(self._component_flags(lobe)), s.active, value)
         probs = self._lobe_probabilities(ctx, si, active)
 
         # Pick a lobe with sample1, then draw a direction from it with sample2.
@@ -239,8 +367,9 @@ class PolarizedBRDF(mi.BSDF):
             sampled_type = dr.select(chosen, self._component_flags(lobe), sampled_type)
 
         # One-sample MIS: the weight is the full value over the mixture pdf.
-        value, pdf = self._eval_pdf(ctx, si, wo, active, probs=probs)
-        return _sample_record(wo, pdf, component, sampled_type, active, value)
+        ev = Evaluation.of(si, wo, active)
+        return _sample_record(wo, self._pdf(ctx, ev, probs), component, sampled_type, ev.active,
+                              self._value(ctx, ev))
 
     # -------------------------------------------------------------- internals
 
@@ -287,35 +416,30 @@ class PolarizedBRDF(mi.BSDF):
         return [dr.select(total > 0, estimates[lobe.index] / total, uniform)
                 if lobe.index in estimates else mi.Float(0.0) for lobe in self.lobes]
 
-    def _eval_pdf(self, ctx, si, wo, active, want_value=True, want_pdf=True, probs=None):
-        wi = si.wi
-        cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
-        active = mi.Bool(active) & (cos_i > 0) & (cos_o > 0)
-        half = HalfVector.of(wi, wo, active)
-        enabled = self._enabled_lobes(ctx)
-
+    def _value(self, ctx, ev):
+        """The sum of the enabled lobes' weighted values (0 where inactive)."""
         zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
-        value, pdf = zero, mi.Float(0.0)
-        if want_pdf and self.sampling == "cosine":
+        value = zero
+        for lobe in self._enabled_lobes(ctx):
+            value = value + self._weighted(lobe, ctx, ev.si, ev.wo, ev.half.h, lobe.value(ev),
+                                           ev.active)
+        return dr.select(ev.active, value, zero)
+
+    def _pdf(self, ctx, ev, probs=None):
+        """The mixture density of sampling ``ev.wo``, with the lobe
+        probabilities *probs* where ``sample`` has them already (the cosine
+        density where ``sampling`` is ``cosine``)."""
+        enabled = self._enabled_lobes(ctx)
+        pdf = mi.Float(0.0)
+        if self.sampling == "cosine":
             if enabled:
-                pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
-            want_pdf = False
-        if want_pdf and probs is None:
-            probs = self._lobe_probabilities(ctx, si, active)
-
-        for lobe in enabled:
-            lobe_value, lobe_pdf = lobe.eval_pdf(si, wo, half, active,
-                                                 probs[lobe.index] if want_pdf else None,
-                                                 want_value, want_pdf)
-            if want_pdf:
-                pdf = pdf + lobe_pdf
-            if want_value:
-                value = value + self._weighted(lobe, ctx, si, wo, half.h, lobe_value, active)
-
-        value = dr.select(active, value, zero)
-        pdf = dr.select(active & dr.isfinite(pdf), pdf, 0.0)
-        return value, pdf
-
+                pdf = mi.warp.square_to_cosine_hemisphere_pdf(ev.wo)
+        else:
+            if probs is None:
+                probs = self._lobe_probabilities(ctx, ev.si, ev.active)
+            for lobe in enabled:
+                pdf = pdf + lobe.pdf(ev, probs[lobe.index])
+        return dr.select(ev.active & dr.isfinite(pdf), pdf, 0.0)
 
 
 def _sample_record(wo, pdf, component, sampled_type, active, value):

@@ -13,21 +13,25 @@ A lobe is a weight texture times a normalized shape. Two shapes exist:
 * :class:`LambertianLobe`: ``1 / pi``, cosine-sampled, depolarized: the ideal
   diffuse lobe.
 
-Every method returns the *unweighted* value times ``cos_o`` (what Mitsuba's
-``eval`` returns), its sampling density or a sampled direction, all in the
-local shading frame; the BSDF applies the weight and, for the polarizing
-lobe, the Fresnel Mueller matrix.
+Each lobe has four straight methods, all in the local shading frame:
+``value`` (the *unweighted* value times ``cos_o``, what Mitsuba's ``eval``
+returns), ``pdf`` (the density of sampling ``wo``, times the lobe's selection
+probability), ``sample_direction`` (a direction drawn from it) and
+``sample_alone`` (a :class:`LobeSample`, when it is the only lobe enabled). The
+BSDF applies the weight and, for the polarizing lobe, the Fresnel Mueller
+matrix at the facet normal.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable, Dict, NamedTuple, Optional
 
 import drjit as dr
 import mitsuba as mi
 
-from .microfacet import shadowing_g, visible_g1
+from .microfacet import visible_g1
 
 _INV_PI = 1.0 / math.pi
 _SQRT2 = math.sqrt(2.0)
@@ -56,22 +60,55 @@ class HalfVector:
                           dr.select(active, dr.rcp(4.0 * cos_i), 0.0))
 
 
+class Evaluation(NamedTuple):
+    """One evaluation of the BSDF at ``si`` towards ``wo``: where it is
+    ``active`` (both directions above the surface) and its :class:`HalfVector`."""
+
+    si: object
+    wo: object
+    active: object
+    half: HalfVector
+
+    @staticmethod
+    def of(si, wo, active):
+        active = (mi.Bool(active) & (mi.Frame3f.cos_theta(si.wi) > 0)
+                  & (mi.Frame3f.cos_theta(wo) > 0))
+        return Evaluation(si, wo, active, HalfVector.of(si.wi, wo, active))
+
+
+class LobeSample(NamedTuple):
+    """A direction drawn from one lobe alone: ``wo``, its ``pdf``, the
+    unweighted ``value`` times ``cos_o``, the ``facet_normal`` the Fresnel
+    reflection is taken at (the sampled microfacet normal; the surface normal
+    for the Lambertian lobe, which has no facets) and where it is ``active``."""
+
+    wo: object
+    pdf: object
+    value: object
+    facet_normal: object
+    active: object
+
+
 @dataclass(frozen=True)
 class MicrofacetLobe:
     """A microfacet lobe: ``weight`` (texture), ``width`` (RMS slope sigma,
-    float texture; sigma_u where ``width_v``, sigma_v, is given: anisotropic), ``distribution`` (``mi.MicrofacetType``), ``shadowing``
-    (``"vgroove"`` or ``"smith"``), ``flags`` (its lobe type, ``GlossyReflection``), ``index``
-    (component index), ``polarizing`` (Fresnel Mueller matrix or depolarizer)."""
+    float texture; sigma_u where ``width_v``, sigma_v, is given: anisotropic),
+    ``distribution`` (``mi.MicrofacetType``), ``shadowing`` (a function of
+    :data:`.microfacet.SHADOWING`), ``flags`` (its component's, ``GlossyReflection``
+    and ``Anisotropic`` where it is), ``index`` (component index), ``polarizing``
+    (Fresnel Mueller matrix or depolarizer) and ``textures``, its parameters by
+    name as ``traverse`` exposes them."""
 
     name: str
     weight: object
     width: object
     distribution: object
-    shadowing: str
+    shadowing: Callable
     flags: object
     index: int
     polarizing: bool
-    width_v: object = None
+    textures: Dict[str, object]
+    width_v: Optional[object] = None
 
     def microfacets(self, si, active):
         """Mitsuba's distribution of this lobe at ``si`` (visible-normal sampling),
@@ -87,27 +124,29 @@ class MicrofacetLobe:
         m, _ = self.microfacets(si, active).sample(si.wi, sample2)
         return mi.reflect(si.wi, m)
 
-    def eval_pdf(self, si, wo, half, active, prob, want_value, want_pdf):
-        """``(D G / (4 cos_i), prob x pdf)``: the unweighted value times cos_o
-        (None unless ``want_value``) and the density of sampling ``wo`` times
-        the lobe's selection probability ``prob`` (None unless ``want_pdf``)."""
-        distribution = self.microfacets(si, active)
+    @staticmethod
+    def _D(distribution, half):
         # cos(beta) > 0 whenever both directions are above the horizon; it can
         # only round to 0 (exactly opposite directions on the horizon).
-        D = dr.select(half.cos_beta > 0, distribution.eval(half.h), 0.0)
-        pdf = value = None
-        if want_pdf:
-            # Visible-normal density mapped through the reflection Jacobian.
-            pdf = prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i
-        if want_value:
-            G = shadowing_g(self.shadowing, distribution, si.wi, wo, half.cos_h, half.cos_beta)
-            value = D * G * half.inv_4cos_i
-        return value, pdf
+        return dr.select(half.cos_beta > 0, distribution.eval(half.h), 0.0)
 
-    def sample_alone(self, si, sample2, active):
-        """Sampling when this lobe is the only one enabled: ``(wo, pdf, value,
-        h, active)`` with the value in closed form. D cancels in value / pdf:
-        pdf = D G1(wi) / (4 cos_i) and value = D G / (4 cos_i) = pdf G / G1(wi)."""
+    def value(self, ev: Evaluation):
+        """``D G / (4 cos_i)``: the unweighted value times cos_o."""
+        distribution = self.microfacets(ev.si, ev.active)
+        G = self.shadowing(distribution, ev.si.wi, ev.wo, ev.half.cos_h, ev.half.cos_beta)
+        return self._D(distribution, ev.half) * G * ev.half.inv_4cos_i
+
+    def pdf(self, ev: Evaluation, prob):
+        """``prob`` times the density of sampling ``wo``: the visible-normal
+        density mapped through the reflection Jacobian."""
+        distribution = self.microfacets(ev.si, ev.active)
+        return (prob * self._D(distribution, ev.half) * visible_g1(distribution, ev.si.wi)
+                * ev.half.inv_4cos_i)
+
+    def sample_alone(self, si, sample2, active) -> LobeSample:
+        """Sampling when this lobe is the only one enabled, the value in closed
+        form. D cancels in value / pdf: pdf = D G1(wi) / (4 cos_i) and
+        value = D G / (4 cos_i) = pdf G / G1(wi)."""
         distribution = self.microfacets(si, active)
         m, _ = distribution.sample(si.wi, sample2)
         wo = mi.reflect(si.wi, m)
@@ -115,32 +154,32 @@ class MicrofacetLobe:
         active = active & (mi.Frame3f.cos_theta(wo) > 0) & (cos_beta > 0)
         g1 = visible_g1(distribution, si.wi)
         pdf = distribution.eval(m) * g1 * dr.rcp(4.0 * mi.Frame3f.cos_theta(si.wi))
-        G = shadowing_g(self.shadowing, distribution, si.wi, wo, mi.Frame3f.cos_theta(m), cos_beta)
-        return wo, pdf, G * dr.rcp(g1) * pdf, m, active
+        G = self.shadowing(distribution, si.wi, wo, mi.Frame3f.cos_theta(m), cos_beta)
+        return LobeSample(wo, pdf, G * dr.rcp(g1) * pdf, m, active)
 
 
 @dataclass(frozen=True)
 class LambertianLobe:
-    """The ideal diffuse lobe ``1 / pi``: ``weight`` (texture), ``flags`` (``DiffuseReflection``),
-    ``index``; never polarizing, no width."""
+    """The ideal diffuse lobe ``1 / pi``: ``weight`` (texture), ``flags``
+    (``DiffuseReflection``), ``index``, ``textures``; never polarizing, no width."""
 
     name: str
     weight: object
     flags: object
     index: int
+    textures: Dict[str, object]
     polarizing: bool = False
-    width: object = None
 
     def sample_direction(self, si, sample2, active):
         return mi.warp.square_to_cosine_hemisphere(sample2)
 
-    def eval_pdf(self, si, wo, half, active, prob, want_value, want_pdf):
-        cos_o = mi.Frame3f.cos_theta(wo)
-        value = _INV_PI * cos_o if want_value else None
-        pdf = prob * mi.warp.square_to_cosine_hemisphere_pdf(wo) if want_pdf else None
-        return value, pdf
+    def value(self, ev: Evaluation):
+        return _INV_PI * mi.Frame3f.cos_theta(ev.wo)
 
-    def sample_alone(self, si, sample2, active):
+    def pdf(self, ev: Evaluation, prob):
+        return prob * mi.warp.square_to_cosine_hemisphere_pdf(ev.wo)
+
+    def sample_alone(self, si, sample2, active) -> LobeSample:
         wo = mi.warp.square_to_cosine_hemisphere(sample2)
         pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
-        return wo, pdf, pdf, None, active  # value = cos_o / pi = pdf
+        return LobeSample(wo, pdf, pdf, mi.Vector3f(0.0, 0.0, 1.0), active)   # value = cos_o / pi = pdf

@@ -1,6 +1,7 @@
-"""Microfacet helpers: Smith's masking G1 (exact for Beckmann) and the
-V-groove shadowing of the paper, on Mitsuba's ``MicrofacetDistribution``.
-Directions in the local shading frame (z = surface normal).
+"""Microfacet helpers: Smith's masking G1 (exact for Beckmann) and the two
+shadowing-masking functions a lobe is built with (:data:`SHADOWING`: Smith's,
+the paper's V-groove), on Mitsuba's ``MicrofacetDistribution``. Directions in
+the local shading frame (z = surface normal).
 """
 
 import math
@@ -44,22 +45,26 @@ def visible_g1(distribution, wi):
     return dr.select(cos > 0, dr.select(normal, 1.0, dr.rcp(1.0 + lam)), 0.0)
 
 
-def shadowing_g(kind, distribution, wi, wo, cos_h, cos_beta):
-    """Shadowing-masking G of the facets with normal h (``cos_h`` = h.z,
-    ``cos_beta`` = wi.h = wo.h), for ``kind`` ``"smith"`` or ``"vgroove"``.
+def smith_shadowing(distribution, wi, wo, cos_h, cos_beta):
+    """Smith's shadowing-masking G1(wi) G1(wo) of ``distribution``, without
+    Mitsuba's per-direction facet-side test dot(v, h) cos(v) > 0: for nearly
+    opposite grazing directions float32 rounding of the inputs' lengths can
+    flip one dot product (wi.h and wo.h differ by (|wi|^2 - |wo|^2) / |wi + wo|);
+    the side test is the symmetric cos(beta) > 0 that the caller applies."""
+    return smith_g1(distribution, wi) * smith_g1(distribution, wo)
 
-    * Smith: G1(wi) G1(wo) of ``distribution``, without Mitsuba's
-      per-direction facet-side test dot(v, h) cos(v) > 0: for nearly opposite
-      grazing directions float32 rounding of the inputs' lengths can flip one
-      dot product (wi.h and wo.h differ by (|wi|^2 - |wo|^2) / |wi + wo|); the
-      side test is the symmetric cos(beta) > 0 that the caller applies.
-    * V-groove (Torrance-Sparrow / Blinn, the paper's):
-      min(1, 2 cos_h cos_o / cos_b, 2 cos_h cos_i / cos_b). It depends on
-      the facet normal h alone, not on the distribution's widths, so it is
-      the same for isotropic and anisotropic lobes (docs/model.md).
-    """
-    if kind == "smith":
-        return smith_g1(distribution, wi) * smith_g1(distribution, wo)
+
+def vgroove_shadowing(distribution, wi, wo, cos_h, cos_beta):
+    """The V-groove shadowing-masking of Torrance-Sparrow / Blinn (the paper's),
+    min(1, 2 cos_h cos_o / cos_b, 2 cos_h cos_i / cos_b) for facets with normal
+    h (``cos_h`` = h.z, ``cos_beta`` = wi.h = wo.h). It depends on h alone, not
+    on the distribution's widths, so it is the same for isotropic and
+    anisotropic lobes (docs/model.md)."""
     two_cos_h = 2.0 * cos_h / cos_beta
     return dr.minimum(1.0, two_cos_h * dr.minimum(mi.Frame3f.cos_theta(wi),
                                                    mi.Frame3f.cos_theta(wo)))
+
+
+#: The plugin's ``shadowing`` choices: functions ``(distribution, wi, wo,
+#: cos_h, cos_beta) -> G``, chosen once when the BSDF is loaded.
+SHADOWING = {"smith": smith_shadowing, "vgroove": vgroove_shadowing}
