@@ -253,33 +253,3 @@ def mueller_brdf(bsdf, wi_hat, wo_hat, wavelengths=(450.0, 520.0, 600.0, 690.0),
         wi_hat, mi.mueller.stokes_basis(wi_hat), _global_basis(wi_hat))
     cos = mi.Frame3f.cos_theta(wo)
     return value * dr.select(cos > 0, dr.rcp(cos), 0.0)
-
-
-def mitsuba_beckmann_G1(cos_theta, alpha):
-    """The rational approximation of the Beckmann Smith G1 that Mitsuba 3.9 uses
-    (microfacet.h: "< 0.35% rel. error")."""
-    tan = np.sqrt(1 - cos_theta**2) / cos_theta
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = 1 / (alpha * tan)
-        G1 = np.where(a >= 1.6, 1.0, (3.535 * a + 2.181 * a * a) / (1 + 2.276 * a + 2.577 * a * a))
-    return np.where(tan == 0, 1.0, G1)
-
-
-def pixel_rays(sensor, subpixels):
-    """Rays of ``sensor`` through an S x S grid of points in every pixel (S =
-    ``subpixels``): origins and directions (world), shape (H, W, S*S, 3), and
-    the camera's up vector, which with the ray direction fixes the Stokes frame
-    of Mitsuba's ``stokes`` integrator (x axis = cross(direction, up)). For
-    comparing rendered pixels (box filter) with footprint averages of the
-    reference."""
-    width, height = sensor.film().crop_size()
-    u = (np.arange(subpixels) + 0.5) / subpixels
-    px, py, su, sv = np.meshgrid(np.arange(width), np.arange(height), u, u, indexing="xy")
-    x = ((px + su) / width).ravel()
-    y = ((py + sv) / height).ravel()
-    ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(x, y), mi.Point2f(0.5, 0.5))
-    shape = (height, width, subpixels * subpixels, 3)
-    origin = np.array(ray.o, dtype=np.float64).T.reshape(shape)
-    direction = np.array(ray.d, dtype=np.float64).T.reshape(shape)
-    up = np.array(sensor.world_transform() @ mi.Vector3f(0, 1, 0), dtype=np.float64).ravel()
-    return origin, direction, up

@@ -317,10 +317,23 @@ def write_docs_table(path: str) -> None:
         f.write(text[:start] + markdown_table() + text[start + len(old):])
 
 
-if __name__ == "__main__":      # python -m mitsuba_pbrdf.schema docs/plugin.md
+def write_plugin_docstring_table(path: str) -> None:
+    """Replace the ``.. list-table::`` in the docstring of the plugin module
+    *path* (``mitsuba_pbrdf/plugin/bsdf.py``) by :func:`rst_table`."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    start = text.index(".. list-table::")
+    end = text.index("\n\n", text.index("   * - ", start) + 1)
+    while text.startswith("   ", end + 2) or text.startswith("     ", end + 1):
+        end = text.index("\n\n", end + 1)
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text[:start] + rst_table().rstrip("\n") + text[end:])
+
+
+if __name__ == "__main__":  # python -m mitsuba_pbrdf.schema docs/plugin.md mitsuba_pbrdf/plugin/bsdf.py
     import sys
 
     for target in sys.argv[1:]:
-        write_docs_table(target)
+        (write_plugin_docstring_table if target.endswith(".py") else write_docs_table)(target)
     if len(sys.argv) == 1:
         print(markdown_table(), end="")

@@ -46,7 +46,8 @@ def reference_brdf(config, p, wi, wo, sigma_scale=1.0, angles=None):
     Beckmann lobes Mitsuba's approximate G1 replaces the exact one (the plugin
     evaluates it, like roughconductor), so that the comparison measures float32
     arithmetic only."""
-    from mitsuba_pbrdf.frames import mitsuba_beckmann_G1, to_angles
+    from mitsuba_pbrdf.frames import to_angles
+    from proof.mitsuba_g1 import mitsuba_beckmann_G1
 
     if angles is None:
         angles = to_angles(wo) + to_angles(wi)

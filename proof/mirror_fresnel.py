@@ -21,7 +21,7 @@ Angles in degrees where named ``*_deg``, else radians; wavelengths in nm.
 import numpy as np
 
 from mitsuba_pbrdf import reference
-from mitsuba_pbrdf.diagnostics.physics import in_plane_pair, load_plugin, mueller_global
+from mitsuba_pbrdf.diagnostics.physics import load_plugin, mueller_global
 
 METALS = ("Al", "Cu", "Au", "Ag")
 WAVELENGTHS = (400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0, 800.0)
@@ -32,6 +32,14 @@ ALPHA = np.sqrt(2.0) * SIGMA
 # ---------------------------------------------------------------------------
 # 1. Fresnel reflectance at normal incidence
 # ---------------------------------------------------------------------------
+
+
+def in_plane_pair(theta):
+    """(to_viewer, to_light) unit vectors (n, 3) in the x-z plane: light at +x
+    at ``theta`` (rad) from the normal, viewer in the mirror direction."""
+    theta = np.atleast_1d(np.asarray(theta, dtype=np.float64))
+    to_light = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], axis=1)
+    return to_light * [-1.0, 1.0, 1.0], to_light
 
 def normal_incidence(metals=METALS, wavelengths=WAVELENGTHS, plugin=True):
     """Rows (metal, wavelength, n, k, R closed form, R reference, R plugin)."""

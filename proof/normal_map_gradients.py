@@ -6,7 +6,7 @@ and by central finite differences of the same renders (common random
 numbers). Used by tests/test_normal_recovery.py and
 validation/shape_from_polarization.py.
 
-The scene is :mod:`mitsuba_pbrdf.shading.tilted_plane`'s: a flat plate under
+The scene is :mod:`proof.tilted_plane`'s: a flat plate under
 one directional light, orthographic camera, ``pbrdf`` (gold) with
 ``sampling = "cosine"``. The light is reached only by emitter sampling (a
 BSDF-sampled ray leaves the scene), so ``path`` AD differentiates exactly
@@ -28,7 +28,7 @@ def texel_scene(wrapper: str, texels: int = 3, seed: int = 4, size: int = 8):
     of ``texels`` x ``texels``, and the traverse key of its texels."""
     import mitsuba as mi
 
-    from mitsuba_pbrdf.shading import tilted_plane as tp
+    from proof import tilted_plane as tp
 
     rng = np.random.default_rng(seed)
     nested = {"type": "pbrdf", "material": "Au", "sigma": 0.2, "sampling": "cosine"}

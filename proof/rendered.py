@@ -169,9 +169,7 @@ def expected(name, metal, scene):
     """Per pixel: (valid mask, reference Stokes (H, W, 4) in the camera frame
     for unit irradiance, expected AoLP from geometry (H, W), and the same
     Stokes with 4 x 4 rays per pixel for the footprint-quadrature error)."""
-    from mitsuba_pbrdf import frames
-
-    origin, direction, up = frames.pixel_rays(scene.sensors()[0], SUBPIXELS)
+    origin, direction, up = pixel_rays(scene.sensors()[0], SUBPIXELS)
     mask, normal = hit(name, origin, direction)
     w_i = _normalize(-np.asarray(SCENES[name]["light"], dtype=np.float64))   # towards the light
     w_r = -direction                                                         # towards the camera
@@ -323,3 +321,27 @@ def measure(name, metal, spp=256, passes=8):
         "images": dict(mean=mean, valid=valid, dolp=dolp_mean, dolp_ref=dolp_ref, d_dolp=d_dolp,
                        dolp_se=dolp_se, aolp=aolp_mean, aolp_geo=aolp_geo, polarized=polarized),
     }
+
+
+def pixel_rays(sensor, subpixels):
+    import mitsuba as mi
+
+    """Rays of ``sensor`` through an S x S grid of points in every pixel (S =
+    ``subpixels``): origins and directions (world), shape (H, W, S*S, 3), and
+    the camera's up vector, which with the ray direction fixes the Stokes frame
+    of Mitsuba's ``stokes`` integrator (x axis = cross(direction, up)). For
+    comparing rendered pixels (box filter) with footprint averages of the
+    reference."""
+    import mitsuba as mi
+
+    width, height = sensor.film().crop_size()
+    u = (np.arange(subpixels) + 0.5) / subpixels
+    px, py, su, sv = np.meshgrid(np.arange(width), np.arange(height), u, u, indexing="xy")
+    x = ((px + su) / width).ravel()
+    y = ((py + sv) / height).ravel()
+    ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(x, y), mi.Point2f(0.5, 0.5))
+    shape = (height, width, subpixels * subpixels, 3)
+    origin = np.array(ray.o, dtype=np.float64).T.reshape(shape)
+    direction = np.array(ray.d, dtype=np.float64).T.reshape(shape)
+    up = np.array(sensor.world_transform() @ mi.Vector3f(0, 1, 0), dtype=np.float64).ravel()
+    return origin, direction, up

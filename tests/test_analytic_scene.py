@@ -30,7 +30,8 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import use_variant
-from mitsuba_pbrdf import frames, reference
+from mitsuba_pbrdf import reference
+from proof.rendered import pixel_rays
 
 SCENE = os.path.join(os.path.dirname(__file__), os.pardir, "scenes", "analytic_plane.xml")
 WIDTH, HEIGHT, SPP, PASSES, SUBPIXELS = 64, 48, 512, 4, 8
@@ -70,7 +71,7 @@ def expected_stokes(scene, case, light_dir):
     """pi x the pixel-footprint average of the reference's first Mueller column
     (unpolarized light in), in the camera's Stokes frame, shape (H, W, 4):
     the pixel's Stokes vector in units of a white Lambertian plate's radiance."""
-    origin, direction, up = frames.pixel_rays(scene.sensors()[0], SUBPIXELS)
+    origin, direction, up = pixel_rays(scene.sensors()[0], SUBPIXELS)
     t = -origin[..., 2] / direction[..., 2]
     assert np.all(t > 0), "every camera ray must hit the plate"
     w_r = -direction  # towards the camera, surface frame = world frame (plate normal +z)

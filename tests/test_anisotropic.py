@@ -17,6 +17,7 @@ from mitsuba_pbrdf import frames as mf
 from mitsuba_pbrdf import reference as ref
 from mitsuba_pbrdf import use_variant
 from proof.bad_input import NAN, bitmap
+from proof.mitsuba_g1 import mitsuba_beckmann_G1
 
 SQRT2 = math.sqrt(2.0)
 MODES = [mi.TransportMode.Radiance, mi.TransportMode.Importance]
@@ -54,7 +55,7 @@ def reference_matrix(c, wi_hat, wo_hat):
         ratio = 1.0
         for theta, phi in ((ti, pi_), (tr, pr)):
             alpha = ref.projected_alpha(phi, SQRT2 * u, SQRT2 * v)
-            ratio = ratio * mf.mitsuba_beckmann_G1(np.cos(theta), alpha) / ref.smith_G1(
+            ratio = ratio * mitsuba_beckmann_G1(np.cos(theta), alpha) / ref.smith_G1(
                 np.cos(theta), alpha)
         return ratio[:, None]
 
@@ -109,7 +110,7 @@ def g1_correction(wi, alpha_u, alpha_v):
     """Exact over Mitsuba's rational Beckmann G1 at wi, with the projected width."""
     wi = np.asarray(wi, dtype=np.float64)
     alpha = ref.projected_alpha(np.arctan2(wi[:, 1], wi[:, 0]), alpha_u, alpha_v)
-    return ref.smith_G1(wi[:, 2], alpha) / mf.mitsuba_beckmann_G1(wi[:, 2], alpha)
+    return ref.smith_G1(wi[:, 2], alpha) / mitsuba_beckmann_G1(wi[:, 2], alpha)
 
 
 @pytest.mark.parametrize("distribution", ["beckmann", "ggx"])

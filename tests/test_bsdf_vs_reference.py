@@ -32,6 +32,7 @@ from mitsuba_pbrdf import frames as mf
 from conftest import WAVELENGTHS
 from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import reference as ref
+from proof.mitsuba_g1 import mitsuba_beckmann_G1
 
 N_PAIRS = 10_000
 
@@ -66,7 +67,7 @@ def reference_matrix(config, wi_hat, wo_hat):
         if c["shadowing"] != "smith" or distribution != "beckmann":
             return np.ones((len(ti), 1))
         cos_i, cos_r = np.cos(ti), np.cos(tr)
-        ratio = (mf.mitsuba_beckmann_G1(cos_i, alpha) * mf.mitsuba_beckmann_G1(cos_r, alpha)
+        ratio = (mitsuba_beckmann_G1(cos_i, alpha) * mitsuba_beckmann_G1(cos_r, alpha)
                  / (ref.smith_G1(cos_i, alpha) * ref.smith_G1(cos_r, alpha)))
         return ratio[:, None]
 

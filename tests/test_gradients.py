@@ -53,6 +53,7 @@ from conftest import WAVELENGTHS
 from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import frames as mf
 from mitsuba_pbrdf import reference as ref
+from proof.mitsuba_g1 import mitsuba_beckmann_G1
 
 N_PAIRS = 1500
 PARAMS = ("sigma", "ks", "kdd", "sigma_dd", "kid", "eta", "k")
@@ -95,7 +96,7 @@ def reference_brdf(config, wi_hat, wo_hat, n, k, **override):
     if c["shadowing"] == "smith":
         alpha = math.sqrt(2) * c["sigma"]
         cos_i, cos_r = np.cos(ti), np.cos(tr)
-        ratio = (mf.mitsuba_beckmann_G1(cos_i, alpha) * mf.mitsuba_beckmann_G1(cos_r, alpha)
+        ratio = (mitsuba_beckmann_G1(cos_i, alpha) * mitsuba_beckmann_G1(cos_r, alpha)
                  / (ref.smith_G1(cos_i, alpha) * ref.smith_G1(cos_r, alpha)))
         F = F * ratio[:, None, None, None]
         assert c["dd_distribution"] == "ggx"  # GGX's Smith G1 is exact in both

@@ -392,3 +392,80 @@ def test_the_circle_finder_sees_a_circle(tmp_path):
     assert circles(graph) == [["mitsuba_pbrdf.rendering.narrowband",
                                "mitsuba_pbrdf.rendering.render"]]
     assert faces == {"mitsuba_pbrdf", "mitsuba_pbrdf.rendering"}
+
+
+def _walk_python(folder):
+    """Every .py file below *folder* (an absolute path), recursively."""
+    return sorted(os.path.join(base, f) for base, _, files in os.walk(folder)
+                  for f in files if f.endswith(".py"))
+
+
+def _ast_uses(path):
+    """Names a Python file uses: loaded names, attributes and imported names."""
+    tree = ast.parse(open(path, encoding="utf-8").read())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name) and not isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+        elif isinstance(node, ast.Attribute):
+            names.add(node.attr)
+        elif isinstance(node, ast.alias):
+            names.add(node.name.rsplit(".", 1)[-1])
+    return tree, names
+
+
+def scaffolding_only_names(root=ROOT):
+    """Public module-level functions and classes of the package that only
+    tests/, validation/, proof/ or benchmarks/ use: not the package itself
+    (another module, or the same module beyond the definition), not
+    examples/, not README.md or docs/ (a documented name is public API)."""
+    package = os.path.join(root, "mitsuba_pbrdf")
+    defined, uses = [], {}
+    for path in _walk_python(package):
+        tree, names = _ast_uses(path)
+        uses[path] = names
+        defined += [(node.name, path) for node in tree.body
+                    if isinstance(node, (ast.FunctionDef, ast.ClassDef))
+                    and not node.name.startswith("_")]
+    scaffolding = set()
+    for folder in ("tests", "validation", "proof", "benchmarks"):
+        for path in _walk_python(os.path.join(root, folder)):
+            scaffolding |= _ast_uses(path)[1]
+    public = ""
+    for folder in ("docs", "examples"):
+        for base, _, files in os.walk(os.path.join(root, folder)):
+            public += "".join(open(os.path.join(base, f), encoding="utf-8").read()
+                              for f in files if f.endswith((".md", ".py")))
+    public += open(os.path.join(root, "README.md"), encoding="utf-8").read()
+    found = []
+    for name, path in defined:
+        # a definition is no use: uses[] holds loaded names, attributes and imports
+        used = any(name in names for names in uses.values())
+        if not used and name in scaffolding and not re.search(rf"\b{re.escape(name)}\b", public):
+            found.append(f"{os.path.relpath(path, root)}: {name}")
+    return found
+
+
+def test_the_wheel_ships_only_the_product():
+    """No name defined in the package is there for the tests alone: test and
+    study scaffolding lives in proof/ (docs/layout.md)."""
+    names = scaffolding_only_names()
+    assert not names, names
+
+
+def test_the_test_only_scan_sees_a_test_only_name(tmp_path):
+    for folder in ("mitsuba_pbrdf", "tests", "docs", "examples", "validation", "proof",
+                   "benchmarks"):
+        (tmp_path / folder).mkdir()
+    (tmp_path / "README.md").write_text("# x\n")
+    (tmp_path / "mitsuba_pbrdf" / "a.py").write_text(
+        "def product():\n    return helper_for_tests\n\n\ndef helper_for_tests():\n    pass\n"
+        "\n\ndef documented():\n    pass\n")
+    (tmp_path / "tests" / "test_a.py").write_text(
+        "from mitsuba_pbrdf.a import helper_for_tests, documented\nhelper_for_tests()\n")
+    (tmp_path / "docs" / "a.md").write_text("`documented()` does this.\n")
+    assert scaffolding_only_names(str(tmp_path)) == []        # helper_for_tests is used by product()
+    (tmp_path / "mitsuba_pbrdf" / "a.py").write_text(
+        "def product():\n    pass\n\n\ndef helper_for_tests():\n    pass\n"
+        "\n\ndef documented():\n    pass\n")
+    assert scaffolding_only_names(str(tmp_path)) == ["mitsuba_pbrdf/a.py: helper_for_tests"]

@@ -1,5 +1,5 @@
 """Mitsuba's ``measured_polarized`` as an independent oracle in a render
-(mitsuba_pbrdf.measured.oracle; the full study is validation/measured_oracle.py).
+(proof/measured_oracle.py; the full study is validation/measured_oracle.py).
 
 A table exported from the model and the model itself render the same sphere
 (directional light, orthographic camera, ``stokes`` + ``direct``). Both run in
@@ -24,7 +24,8 @@ matrix unchanged and is rightly invisible.)
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf.measured import export, oracle, pbsdf
+from mitsuba_pbrdf.measured import export, pbsdf
+from proof import measured_oracle as oracle
 from mitsuba_pbrdf.reference.params import PBRDFParams
 
 PARAMS = PBRDFParams(eta=0.9, k=2.4, sigma=0.15, kdd=0.1, sigma_dd=0.5, kid=0.02)

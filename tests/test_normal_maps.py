@@ -41,14 +41,14 @@ NESTED = {
 
 
 def tp():
-    from mitsuba_pbrdf.shading import tilted_plane
+    from proof import tilted_plane
 
     return tilted_plane
 
 
 @functools.lru_cache(maxsize=None)
 def comparison(wrapper, nested, shadowing=True):
-    """A :class:`~mitsuba_pbrdf.shading.tilted_plane.Comparison`, shared by the
+    """A :class:`~proof.tilted_plane.Comparison`, shared by the
     tests (loading and compiling its two scenes is most of their time)."""
     extra = {} if shadowing else {"use_shadowing_function": False}
     return tp().Comparison(wrapper, NESTED[nested], **extra)

@@ -18,7 +18,7 @@ import zlib
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf.frames import mitsuba_beckmann_G1
+from proof.mitsuba_g1 import mitsuba_beckmann_G1
 from mitsuba_pbrdf import reference as ref
 
 METALS = ("Al", "Cu", "Au", "Ag")

@@ -25,7 +25,7 @@ import pytest
 from conftest import as_numpy, hemisphere_pairs, make_si, sample_both, to_vector
 from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import reference
-from mitsuba_pbrdf.frames import mitsuba_beckmann_G1
+from proof.mitsuba_g1 import mitsuba_beckmann_G1
 
 
 def g1_correction(wi, alpha):

@@ -32,7 +32,9 @@ def test_plugin_docstring_holds_the_table():
     doc = plugin_class("pbrdf").__doc__
     for p in schema.PARAMETERS:
         assert f"``{p.name}``" in doc
-    assert schema.rst_table() in doc
+    assert schema.rst_table() in doc, (
+        "plugin/bsdf.py's parameter table is out of date: run "
+        "`python -m mitsuba_pbrdf.schema mitsuba_pbrdf/plugin/bsdf.py`")
 
 
 @pytest.mark.parametrize("p", VALUED, ids=lambda p: p.name)

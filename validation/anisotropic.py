@@ -32,6 +32,7 @@ if ROOT not in sys.path:          # python validation/anisotropic.py from anywhe
 
 import mitsuba_pbrdf  # noqa: E402
 from mitsuba_pbrdf import frames, reference  # noqa: E402
+from proof.mitsuba_g1 import mitsuba_beckmann_G1  # noqa: E402
 
 mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
 
@@ -84,7 +85,7 @@ IRES = 32
 
 def g1_ratio(wi, alpha_u, alpha_v):
     alpha = reference.projected_alpha(np.arctan2(wi[:, 1], wi[:, 0]), alpha_u, alpha_v)
-    return reference.smith_G1(wi[:, 2], alpha) / frames.mitsuba_beckmann_G1(wi[:, 2], alpha)
+    return reference.smith_G1(wi[:, 2], alpha) / mitsuba_beckmann_G1(wi[:, 2], alpha)
 
 
 def roughconductor_rows(pairs):

@@ -44,17 +44,18 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from validation import common  # noqa: E402
 from mitsuba_pbrdf.diagnostics import furnace  # noqa: E402
+from proof import furnace_study  # noqa: E402
 
 
 def figure(rows):
     plt = common.pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(13, 5.0))
-    colors = dict(zip(furnace.SIGMAS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
+    colors = dict(zip(furnace_study.SIGMAS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
     styles = {"vgroove": "-", "smith": "--", "none": ":"}
     for ax, lobe, title in ((axes[0], "beckmann", "Beckmann microfacet lobe, F = 1 "
                              "(specular geometry)"),
                             (axes[1], "ggx", "GGX directional diffuse lobe")):
-        for sigma in furnace.SIGMAS:
+        for sigma in furnace_study.SIGMAS:
             for shadowing in ("vgroove", "smith", "none"):
                 sel = [r for r in rows if r["lobe"] == lobe and r["sigma"] == sigma
                        and r["shadowing"] == shadowing]
@@ -75,9 +76,9 @@ def figure(rows):
     ax = axes[2]
     for metal, color in (("Al", "tab:gray"), ("Cu", "tab:orange")):
         x = np.linspace(0, 89.5, 200)
-        ax.plot(x, [furnace.fresnel_reflectance(metal, a) for a in x], ":", color=color,
+        ax.plot(x, [furnace_study.fresnel_reflectance(metal, a) for a in x], ":", color=color,
                 label=f"{metal}: flat-surface Fresnel R")
-        for shadowing in furnace.SHADOWING:
+        for shadowing in furnace_study.SHADOWING:
             sel = [r for r in rows if r["lobe"] == metal and r["shadowing"] == shadowing]
             xs = [r["angle"] for r in sel]
             ax.plot(xs, [r["reference"] for r in sel], styles[shadowing], color=color,
@@ -114,10 +115,10 @@ def _summary(rows):
 
 def report(samples=1 << 20, plugin=True):
     start = time.perf_counter()
-    rows = furnace.study(samples, plugin=plugin)
+    rows = furnace_study.study(samples, plugin=plugin)
     path = figure(rows)
     for r in rows:
-        r["z"] = furnace.compare(r)
+        r["z"] = furnace_study.compare(r)
     z = [r["z"] for r in rows if not np.isnan(r["z"]) and r["lobe"] != "lambert"]
     lambert = [r["plugin"] for r in rows if r["lobe"] == "lambert"]
     smith = [abs(r["plugin"] / r["reference"] - 1) for r in rows
@@ -184,7 +185,7 @@ def findings(rows):
     lines = []
     for lobe in ("beckmann", "ggx"):
         name = "Beckmann microfacet lobe (F = 1)" if lobe == "beckmann" else "GGX lobe"
-        for shadowing in furnace.SHADOWING + (("none",) if lobe == "beckmann" else ()):
+        for shadowing in furnace_study.SHADOWING + (("none",) if lobe == "beckmann" else ()):
             sel = [r for r in rows if r["lobe"] == lobe and r["shadowing"] == shadowing]
             if not sel:
                 continue
@@ -208,9 +209,9 @@ def findings(rows):
     for lobe in ("beckmann", "ggx"):
         name = "Beckmann (F = 1)" if lobe == "beckmann" else "GGX"
         parts = []
-        for angle in (min(furnace.ANGLES), max(furnace.ANGLES)):
+        for angle in (min(furnace_study.ANGLES), max(furnace_study.ANGLES)):
             more, less = [], []
-            for sigma in furnace.SIGMAS:
+            for sigma in furnace_study.SIGMAS:
                 v = [r["reference"] for r in rows if (r["lobe"], r["sigma"], r["angle"],
                                                       r["shadowing"]) == (lobe, sigma, angle, "vgroove")]
                 m = [r["reference"] for r in rows if (r["lobe"], r["sigma"], r["angle"],

@@ -16,7 +16,7 @@ with ``pbrdf`` in the same scenes (``llvm_ad_spectral_polarized``).
 2. **Predicted interpolation error**: emulation against the float64 model at
    random pairs (both directions within 84 deg of the normal).
 3. **Direct lighting**: a sphere under a directional light, orthographic
-   camera (``mitsuba_pbrdf.measured.oracle``): per-pixel S0 (relative), DoLP
+   camera (``proof/measured_oracle.py``): per-pixel S0 (relative), DoLP
    and AoLP (deg) of ``measured_polarized`` minus ``pbrdf``, against the
    per-pixel bound predicted before rendering (largest sub-pixel difference of
    the emulated table and the model, plus float32 floors of 1e-4, 1e-4,
@@ -98,7 +98,8 @@ def interpolation_error(path, n):
 
 
 def compare_direct(path, size, spp):
-    from mitsuba_pbrdf.measured import oracle, pbsdf
+    from mitsuba_pbrdf.measured import pbsdf
+    from proof import measured_oracle as oracle
     scene = lambda b: oracle.sphere_scene(b, size, spp)
     t0 = time.perf_counter()
     model = oracle.render_stokes(scene(plugin()), seed=3)
@@ -129,7 +130,7 @@ def compare_direct(path, size, spp):
 
 def compare_path(path, size, spp, passes):
     """Path-traced sphere on a floor: per-pixel z-scores of the difference."""
-    from mitsuba_pbrdf.measured import oracle
+    from proof import measured_oracle as oracle
 
     def scene(bsdf):
         import mitsuba as mi

@@ -5,7 +5,7 @@ linear height ramp) against the plane physically tilted by the same normal.
     python validation/normal_maps.py --quick    # three tilts, four azimuths
 
 Writes ``validation/normal_maps.md``. Scene
-(:class:`mitsuba_pbrdf.shading.tilted_plane.Comparison`): an orthographic camera
+(:class:`proof.tilted_plane.Comparison`): an orthographic camera
 looking straight down at a plane, one directional light near the mirror
 direction but 25° of azimuth off the plane of incidence, 8 x 8 pixels, 4 spp.
 Every pixel sees the same geometry, and both renders draw the same random
@@ -50,7 +50,7 @@ def aolp_error(a, b):
 
 def measure(tilts, azimuths):
     """{(wrapper, tilt): (max AoLP error, max |ΔDoLP|, min S0 ratio, max S0 ratio)}."""
-    from mitsuba_pbrdf.shading.tilted_plane import Comparison
+    from proof.tilted_plane import Comparison
 
     results = {}
     for wrapper in WRAPPERS:

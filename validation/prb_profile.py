@@ -20,11 +20,11 @@ order, it times (seconds, medians over the repetitions):
 * ``render_backward``: split into its kernels with ``dr.kernel_history()``
   (the film-adjoint kernel, and the trace + replay kernel);
 * ``trace``: ``stokes_prb.render`` (the trace loop without storing vertices);
-* replay parts, by builds of the replay with one part left out
-  (:class:`mitsuba_pbrdf.integrators.replay.ReplayParts`; their gradients
-  are wrong, their times tell each part's share): the emitter re-sampling,
-  the BSDF evaluation towards the emitter sample, the BSDF evaluation along
-  the sampled direction, the whole backward propagation.
+* ``--parts``: ``render_backward`` without Dr.Jit's ``ScatterReduceLocal``.
+  (The replay-part rows of validation/prb_profile.md, builds of the replay
+  with one part left out and wrong gradients on purpose, were measured with a
+  profiling switch that the production replay no longer carries; to measure
+  them again, check out commit 0d27115 and run ``--parts`` there.)
 
 Prints a Markdown table with the command; ``--out`` also writes it.
 """
@@ -77,7 +77,7 @@ def main(argv=None):
     args.add_argument("--spp", type=int, default=64)
     args.add_argument("--reps", type=int, default=5)
     args.add_argument("--parts", action="store_true",
-                      help="also time builds of the replay with one part left out")
+                      help="also time render_backward without ScatterReduceLocal")
     args.add_argument("--only", help="time only the primal render and the parts whose names "
                       "contain one of these comma-separated words")
     args.add_argument("--out")
@@ -151,7 +151,7 @@ def main(argv=None):
 
     backward_grads = {}
 
-    def backward(parts=None, local_reduce=True, name="render_backward"):
+    def backward(local_reduce=True, name="render_backward"):
         def run():
             with dr.scoped_set_flag(dr.JitFlag.ScatterReduceLocal, local_reduce):
                 run_backward()
@@ -160,14 +160,11 @@ def main(argv=None):
             for k in keys:
                 dr.enable_grad(params[k])
             params.update()
-            saved = replay_module.ReplayParts.override
-            replay_module.ReplayParts.override = parts
             try:
                 prb.render_backward(scene, params, grad_image, sensor, seed=6, spp=args.spp)
                 backward_grads[name] = {k: np.array(dr.grad(params[k]), np.float64).ravel()
                                         for k in keys}
             finally:
-                replay_module.ReplayParts.override = saved
                 for k in keys:
                     dr.disable_grad(params[k])
                 params.update()
@@ -183,12 +180,6 @@ def main(argv=None):
             "trace (render)": trace,
             "render_backward": backward()}
     if args.parts:
-        full = replay_module.ReplayParts()
-        for name, change in (("without emitter re-sampling", {"emitter": False}),
-                             ("without BSDF eval to emitter", {"bsdf_emitter": False}),
-                             ("without BSDF eval along sample", {"bsdf_sample": False})):
-            jobs["render_backward " + name] = backward(full.replace(**change),
-                                                       name="render_backward " + name)
         name = "render_backward without ScatterReduceLocal"
         jobs[name] = backward(local_reduce=False, name=name)
     if args.only:

@@ -52,14 +52,6 @@ NORMAL_FLOOR = {"reference": 1e-290, "plugin": 1e-30}
 # Evaluation in the global s/p frames
 # ---------------------------------------------------------------------------
 
-def in_plane_pair(theta):
-    """(to_viewer, to_light) unit vectors (n, 3) in the x-z plane: light at +x
-    at ``theta`` (rad) from the normal, viewer in the mirror direction."""
-    theta = np.atleast_1d(np.asarray(theta, dtype=np.float64))
-    to_light = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], axis=1)
-    return to_light * [-1.0, 1.0, 1.0], to_light
-
-
 def mueller_global(bsdf, to_viewer, to_light, wavelengths, mode="radiance"):
     """:func:`mitsuba_pbrdf.frames.eval_global` of any Mitsuba BSDF over any
     number of wavelengths (nm; 4 per call): (n, len(wavelengths), 4, 4), 1/sr."""

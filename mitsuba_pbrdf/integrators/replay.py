@@ -22,34 +22,14 @@ Stokes vectors are ``mi.SpectrumEntry`` (4 components, each an
 
 from __future__ import annotations
 
-import dataclasses
 
 import drjit as dr
 import mitsuba as mi
 
 from ..plugin.rotators import to_world_mueller
 
-__all__ = ["VertexStore", "ReplayParts", "trace", "replay", "column0", "mueller_times",
+__all__ = ["VertexStore", "trace", "replay", "column0", "mueller_times",
            "times_mueller"]
-
-
-@dataclasses.dataclass(frozen=True)
-class ReplayParts:
-    """Which parts of a vertex the replay evaluates (all by default). Leaving
-    one out gives wrong gradients: validation/prb_profile.py times builds
-    without a part to measure its share. ``override`` (class attribute), when
-    set, replaces the parts of every replay."""
-    emitter: bool = True        # emitter re-sampled from its random numbers
-    bsdf_emitter: bool = True   # BSDF evaluated towards the emitter sample
-    bsdf_sample: bool = True    # BSDF evaluated along the sampled direction
-    override = None
-
-    def replace(self, **changes):
-        return dataclasses.replace(self, **changes)
-
-    @classmethod
-    def current(cls):
-        return cls.override or cls()
 
 
 # ------------------------------------------------------------ Stokes algebra
@@ -262,10 +242,6 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
     whose BSDF sample is not smooth (delta, null: polarizers, smooth
     conductors), whose weight ``eval`` cannot give."""
     ctx = mi.BSDFContext()
-    parts = ReplayParts.current()
-    # plain booleans: the loop state may not hold a frozen dataclass
-    with_emitter, with_bsdf_emitter = parts.emitter, parts.bsdf_emitter
-    with_bsdf_sample = parts.bsdf_sample
     reverse = store.adjoint == "reverse"
     ray = mi.Ray3f(dr.detach(ray))
     width = dr.width(ray)
@@ -299,26 +275,16 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
             E = column0(emitter.eval(si, mis_bsdf > 0)) * mis_bsdf
             # emitter sample again from its random numbers (derivatives of
             # the emitter's radiance); visibility and MIS weight as traced
-            if dr.hint(with_emitter, mode="scalar"):
-                ds, em_weight = scene.sample_emitter_direction(si, rec["em_sample"], False,
-                                                               em_ok)
-                wo_em = si.to_local(ds.d)
-            else:
-                wo_em, em_weight = rec["wo"], mi.Spectrum(1.0)
+            ds, em_weight = scene.sample_emitter_direction(si, rec["em_sample"], False, em_ok)
+            wo_em = si.to_local(ds.d)
             le_em = column0(em_weight)
 
             # the BSDF towards the emitter sample and along the sampled
             # direction (f(theta) / pdf: detached sampling) ...
             wo = rec["wo"]
             pdf = rec["pdf"]
-            if dr.hint(with_bsdf_emitter, mode="scalar"):
-                f_em = bsdf.eval(ctx, si, wo_em, em_ok)
-            else:
-                f_em = mi.Spectrum(dr.detach(wo_em.x))
-            if dr.hint(with_bsdf_sample, mode="scalar"):
-                f = bsdf.eval(ctx, si, wo, has_next & smooth)
-            else:
-                f = mi.Spectrum(wo.x)
+            f_em = bsdf.eval(ctx, si, wo_em, em_ok)
+            f = bsdf.eval(ctx, si, wo, has_next & smooth)
             f_em = to_world_mueller(si, f_em, -wo_em, si.wi)
             E[em_ok] = E + mueller_times(f_em, le_em) * rec["mis_em"]
             scale = dr.select(has_next & smooth & (pdf > 0), rec["rr"] / pdf, 0.0)

@@ -2,11 +2,11 @@
 CSV file (:mod:`.measurements`) and tabulated pBRDFs in ``.pbsdf`` files, the
 KAIST database's and Mitsuba's ``measured_polarized`` format (:mod:`.pbsdf`;
 their geometry :mod:`.rusinkiewicz`, the plugin's lookup emulated in
-:mod:`.lookup`, the model tabulated by :mod:`.export`, Mitsuba's plugin as an
-oracle in :mod:`.oracle`), and a material's index n + ik against wavelength
-(:mod:`.index_table`). Readers check what they read and name the file,
-line and column (or field) of anything wrong. NumPy only, except
-:mod:`.oracle`, which renders."""
+:mod:`.lookup`, the model tabulated by :mod:`.export`; Mitsuba's plugin as an
+oracle is the tests' and studies' ``proof/measured_oracle.py``), and a
+material's index n + ik against wavelength (:mod:`.index_table`). Readers check
+what they read and name the file, line and column (or field) of anything
+wrong. NumPy only."""
 
 from .index_table import IndexTable, IndexTableError, read_index_table
 from .layouts import LAYOUTS, read_measurements

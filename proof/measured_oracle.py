@@ -27,10 +27,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import reference as ref
-from .lookup import lookup
-from .pbsdf import PbsdfTable
-from .rusinkiewicz import angles, global_axis
+from mitsuba_pbrdf import reference as ref
+from mitsuba_pbrdf.measured.lookup import lookup
+from mitsuba_pbrdf.measured.pbsdf import PbsdfTable
+from mitsuba_pbrdf.measured.rusinkiewicz import angles, global_axis
 
 __all__ = ["sphere_scene", "render_stokes", "quantities", "predict_direct", "LIGHT"]
 
@@ -77,7 +77,7 @@ def render_stokes(scene: dict, seed=0):
     the camera's Stokes frame."""
     import mitsuba as mi
 
-    from ..stokes.image import from_mitsuba, luminance_stokes
+    from mitsuba_pbrdf.stokes.image import from_mitsuba, luminance_stokes
 
     loaded = mi.load_dict(scene)
     image = mi.render(loaded, seed=seed)

@@ -139,7 +139,7 @@ class Comparison:
         :func:`light_towards`."""
         import mitsuba as mi
 
-        from ..stokes.image import from_mitsuba
+        from mitsuba_pbrdf.stokes.image import from_mitsuba
 
         normal = tilted_normal(tilt, azimuth)
         towards = light_towards(tilt, azimuth)
