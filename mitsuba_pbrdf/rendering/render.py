@@ -47,6 +47,7 @@ from ..registry import use_variant
 from ..shading import warn_unpolarized_wrappers
 from ..variant import default_variant
 from .bands import SpectralBands, parse_bands, require_spectral_bands
+from ..numbers import MAX_SPP
 from .cube import check_cube_spp, cube_image, cube_pass, load_cube_scene
 from .mitsuba_errors import SceneLoadError, interrupted, scene_load_errors
 from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
@@ -191,6 +192,8 @@ def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] =
     for name, value in (("spp", spp), ("passes", passes)):
         if value is not None and int(value) < 1:
             raise ParameterError(name, f"must be at least 1, got {value}")
+        if value is not None and int(value) > MAX_SPP:
+            raise ParameterError(name, f"must be at most {MAX_SPP} (2^24), got {value}")
     if variant is None:
         variant = default_variant()
     require_polarized(variant)
