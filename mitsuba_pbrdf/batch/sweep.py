@@ -351,6 +351,10 @@ def load_sweep(path) -> Sweep:
     if not isinstance(table, dict):
         _fail(path, f"params must be a table ([params]), got {table!r}")
     values = {key: _param_values(path, key, v) for key, v in table.items()}
+    if math.prod(len(v) for v in values.values()) > MAX_JOBS:   # before anything per job
+        shape = " x ".join(f"{len(v)} {k}" for k, v in values.items())
+        _fail(path, f"params: {shape} = {math.prod(len(v) for v in values.values())} jobs; "
+                    f"at most {MAX_JOBS} in one sweep (split it into several sweep files)")
     declared = declared_parameters(scene)
     if declared is not None:
         for key in values:
@@ -370,10 +374,6 @@ def load_sweep(path) -> Sweep:
         _fail(path, f"out: cannot write in {out}: {e.strerror}")
 
     keys = list(values)
-    if math.prod(len(v) for v in values.values()) > MAX_JOBS:
-        shape = " x ".join(f"{len(v)} {k}" for k, v in values.items())
-        _fail(path, f"params: {shape} = {math.prod(len(v) for v in values.values())} jobs; "
-                    f"at most {MAX_JOBS} in one sweep (split it into several sweep files)")
     combos = [dict(zip(keys, combo)) for combo in itertools.product(*values.values())]
     varying = [key for key in keys if len(values[key]) > 1]
     names = _job_names(combos, varying, os.path.splitext(os.path.basename(scene))[0])

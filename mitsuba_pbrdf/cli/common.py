@@ -229,14 +229,17 @@ def picture_kwargs(args, image=None) -> dict:
     return options
 
 
-def report_quality(image, band, source: str, command: str):
+def report_quality(image, band, source: str, command: str, bands=None):
     """Warn (one line on stderr) about unusable pixels of *image*; a
-    :class:`CliError` when none is usable. Returns the assessment."""
-    from ..stokes.quality import assess
+    :class:`CliError` when none is usable in *band* (None: the luminance
+    vector) or in any of *bands* (:func:`~mitsuba_pbrdf.stokes.quality.require_usable`).
+    Returns the assessment of *band*."""
+    from ..stokes.quality import UnusableImageError, require_usable
 
-    quality = assess(image, band)
-    if quality.usable == 0:
-        raise CliError(f"{source}: no usable pixel: {quality.summary()}")
+    try:
+        quality = require_usable(image, source, bands=bands, band=band)
+    except UnusableImageError as e:
+        raise CliError(str(e)) from None
     if quality.count:
         print(f"{PROG} {command}: warning: {source}: {quality.summary()}; marked in the "
               "picture (see its legend)", file=sys.stderr)

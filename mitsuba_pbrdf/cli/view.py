@@ -47,12 +47,25 @@ def run(args) -> int:
 
 def _cube_sheet(args, image, out: str, existed: bool) -> int:
     """``--cube`` / ``--spectrum``: the contact sheet (and the spectrum CSV)."""
-    from ..pictures.cube_sheet import parse_region, save_cube_sheet, write_spectrum_csv
+    from ..pictures.cube_sheet import (parse_region, region_spectrum, save_cube_sheet,
+                                       write_spectrum_csv)
+    from ..stokes.quality import UnusableImageError, require_usable
 
     if args.band is not None:
         raise CliError("--band draws one band; --cube and --spectrum draw them all")
     warn_unused_picture_options(args, None, "view")
     region = None if args.spectrum is None else parse_region(args.spectrum, image)
+    if region is not None:
+        try:
+            region_spectrum(image, region)  # ParameterError naming --spectrum
+        except ValueError:
+            try:  # the whole image's verdict first, where it is the cause
+                require_usable(image, args.exr, bands=image.bands)
+            except UnusableImageError as e:
+                raise CliError(str(e)) from None
+            raise
+    # the unusable-pixel rule, for every band the sheet draws
+    report_quality(image, None, args.exr, "view", bands=image.bands)
     csv = os.path.splitext(out)[0] + ".csv"
     if region is not None:
         check_outputs(("--out", csv))
