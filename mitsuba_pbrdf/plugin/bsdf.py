@@ -178,7 +178,8 @@ class PolarizedBRDF(mi.BSDF):
         # Textures refresh their own state; re-check values an update may have broken.
         for name, (texture, _, positive, minimum) in self._parameter_table().items():
             if not keys or any(k == name or k.startswith(name + ".") for k in keys):
-                params.check_texture_values(name, texture, positive, minimum)
+                params.check_texture_values(name, texture, positive, minimum,
+                                            spectral=schema.parameter(name).kind == "spectrum")
 
     def to_string(self):
         ior = (f"material = {self.material!r}" if self.material
