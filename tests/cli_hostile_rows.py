@@ -62,6 +62,28 @@ ROWS = [
      "--sigma: must be >= 7.07e-05", "{tmp}/p.png"),
     ("plot: --sigma-v below the floor", ["plot", "--sigma-v", "5e-324", "--out", "{tmp}/p.png"],
      2, "--sigma-v: must be >= 7.07e-05", "{tmp}/p.png"),
+    # recover-normals (the library's checks: tests/test_normal_recovery.py)
+    ("recover-normals: --seed -1", ["recover-normals", "{plate}", "--targets", "{exr8}",
+     "--out", "{tmp}/rn", "--seed", "-1"], 2, "--seed: must be an integer in [0, 2^32 - 1]",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: --seed 2^40", ["recover-normals", "{plate}", "--targets", "{exr8}",
+     "--out", "{tmp}/rn", "--seed", str(2 ** 40)], 2, "--seed: must be an integer in",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: an all-zero target", ["recover-normals", "{plate}", "--targets",
+     "{zero8}", "--out", "{tmp}/rn", "--iterations", "1"], 2,
+     "--targets: target 0 is zero everywhere", "{tmp}/rn/recovery.json"),
+    ("recover-normals: a target with S0 < 0 everywhere", ["recover-normals", "{plate}",
+     "--targets", "{negative8}", "--out", "{tmp}/rn", "--iterations", "1"], 2,
+     "--targets: target 0: no usable pixel", "{tmp}/rn/recovery.json"),
+    ("recover-normals: an all-zero polcam frame", ["recover-normals", "{plate}", "--targets",
+     "{zero_frame}", "--out", "{tmp}/rn", "--observables", "polcam", "--iterations", "1"], 2,
+     "--targets: target 0 is zero everywhere", "{tmp}/rn/recovery.json"),
+    ("recover-normals: a NaN truth", ["recover-normals", "{plate}", "--targets", "{exr8}",
+     "--out", "{tmp}/rn", "--iterations", "1", "--truth", "{nan_truth}"], 2,
+     "--truth: truth has non-finite values", "{tmp}/rn/recovery.json"),
+    ("recover-normals: a zero-length truth", ["recover-normals", "{plate}", "--targets",
+     "{exr8}", "--out", "{tmp}/rn", "--iterations", "1", "--truth", "{zero_truth}"], 2,
+     "--truth: 16 normals have zero length", "{tmp}/rn/recovery.json"),
     # files named in their errors
     ("fit: a binary file", ["fit", "{binary}"], 2, "binary.csv: not a text (UTF-8) CSV file",
      None),
@@ -96,6 +118,9 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
             s[index] = value
         return tweak
 
+    from mitsuba_pbrdf.stokes.exr import write_exr
+
+    zeros = np.zeros((8, 8), np.float32)
     many = "".join(f"p{i} = {list(range(10))}\n" for i in range(7))
     (tmp_path / "binary.csv").write_bytes(bytes(range(256)) * 8)
     (tmp_path / "nul.csv").write_text("theta_i,phi_i\n\0\0\n")
@@ -108,4 +133,12 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
         cube_band_nan=_cube(tmp_path / "cube_band_nan.exr", set_((Ellipsis, 2), np.nan)),
         cube_pixel_nan=_cube(tmp_path / "cube_pixel_nan.exr", set_((1, 1), np.nan)),
         negative_exr=stokes_exr(tmp_path / "negative.exr", set_((Ellipsis, 0, slice(None)), -1.0)),
-        binary=str(tmp_path / "binary.csv"), nul_csv=str(tmp_path / "nul.csv"))
+        binary=str(tmp_path / "binary.csv"), nul_csv=str(tmp_path / "nul.csv"),
+        exr8=stokes_exr(tmp_path / "good8.exr", h=8, w=8),
+        zero8=stokes_exr(tmp_path / "zero8.exr", set_((Ellipsis,), 0.0), h=8, w=8),
+        negative8=stokes_exr(tmp_path / "negative8.exr", set_((Ellipsis, 0, slice(None)), -1.0),
+                             h=8, w=8),
+        zero_frame=str(write_exr(tmp_path / "zero_mosaic.exr", {"Y": zeros})),
+        nan_truth=str(write_exr(tmp_path / "nan_truth.exr",
+                                {c: np.full((4, 4), np.nan, np.float32) for c in "XYZ"})),
+        zero_truth=str(write_exr(tmp_path / "zero_truth.exr", {c: zeros[:4, :4] for c in "XYZ"})))

@@ -65,7 +65,7 @@ def run(args) -> int:
     if args.lr_end is None:
         args.lr_end = LR_END
     check_options(args.observables, args.parametrization, args.iterations, args.spp,
-                   args.smoothness, args.lr, args.lr_end)
+                  args.smoothness, args.lr, args.lr_end, seed=args.seed)
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"--out: {args.out} is not a folder")
     paths = {name: os.path.join(args.out, name) for name in OUTPUTS}
@@ -118,9 +118,10 @@ def run(args) -> int:
         summary["roughness"] = result.roughness.tolist()
     write_json(paths["recovery.json"], summary)
     print(f"wrote {', '.join(paths.values())}")
+    errors = summary.get("angular_error_deg") or {}
     print(f"loss {result.loss[0]:.4g} -> {result.loss[-1]:.4g} in {result.seconds:.1f} s"
-          + (f"; angular error median {summary['angular_error_deg']['median']:.2f} deg "
-             f"(start {summary['start_error_deg']['median']:.2f})" if truth is not None else ""))
+          + (f"; angular error median {errors['median']:.2f} deg "
+             f"(start {summary['start_error_deg']['median']:.2f})" if errors else ""))
     return 0
 
 
