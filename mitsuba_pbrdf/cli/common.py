@@ -26,6 +26,7 @@ import sys
 from typing import Optional
 
 from ..errors import ParameterError, describe_error, one_line
+from ..interrupts import discard, interrupted, release
 
 PROG = "pbrdf"
 EXIT_ERROR = 2
@@ -53,15 +54,29 @@ def run_command(func, args, command: str) -> int:
     """Run ``func(args)`` with the command line's one error path (see the module
     docstring); returns the exit status."""
     if os.environ.get(TRACEBACK_VARIABLE, "") not in ("", "0"):
+        release()
         return func(args)
     prefix = f"{PROG} {command}"
     try:
-        return func(args)
+        # SIGINT is held from the package's import (mitsuba_pbrdf.interrupts)
+        # until the command's long work starts
+        try:
+            status = func(args)
+        except BaseException:
+            release()  # a SIGINT that came while held wins over the error
+            raise
+        discard()      # done: every output is written, a late SIGINT changes nothing
+        release()
+        return status
     except KeyboardInterrupt:
         sys.stdout.flush()
         print(f"{prefix}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (CliError, OSError, ValueError, RuntimeError, MemoryError) as e:
+        if interrupted(e):  # Ctrl-C that Dr.Jit or Mitsuba wrapped (dr.while_loop ...)
+            sys.stdout.flush()
+            print(f"{prefix}: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
         print(f"{prefix}: error: {option_message(e, args)}", file=sys.stderr)
         return EXIT_ERROR
     except Exception as e:  # a bug: still one line, and how to see more

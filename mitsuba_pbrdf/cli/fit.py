@@ -11,6 +11,8 @@ import os
 import sys
 from typing import Optional, Sequence
 
+from ..interrupts import release
+from ..outputs import together
 from ..outputs import atomic_path, write_json
 from .common import CliError, check_outputs, float_list, one_line, positive_int
 from .model_options import add_model_arguments
@@ -80,11 +82,12 @@ def _read(args):
 
 def run(args) -> int:
     """``pbrdf fit``."""
-    from ..fitting import fit_models, plot_fit, report
+    from ..fitting import fit_models, report
     from ..fitting.report import undetermined_warning
 
     init, fix = _check_options(args)
     table, data = _read(args)
+    release()  # read and checked: Ctrl-C from here on stops the fit (mitsuba_pbrdf.interrupts)
     try:
         models = ("three", "two") if args.model == "both" else (args.model,)
         results = fit_models(data, models, backend=args.backend, shadowing=args.shadowing,
@@ -105,6 +108,18 @@ def run(args) -> int:
     for r in results.values():
         if r.undetermined:
             print(undetermined_warning(r), file=sys.stderr)
+    with together():  # the plot and the JSON, or neither (mitsuba_pbrdf.outputs)
+        _write_outputs(args, table, data, results)
+    if args.plot:
+        print(f"\nplot: {args.plot}")
+    if args.json:
+        print(f"results: {args.json}")
+    return 0
+
+
+def _write_outputs(args, table, data, results):
+    from ..fitting import plot_fit
+
     if args.plot:
         title = os.path.basename(args.data)
         with atomic_path(args.plot) as tmp:
@@ -113,11 +128,8 @@ def run(args) -> int:
                 plot_table_fit(table, results, tmp, title=title)
             else:
                 plot_fit(data, results, tmp, title=title)
-        print(f"\nplot: {args.plot}")
     if args.json:
         write_json(args.json, {m: r.as_dict() for m, r in results.items()})
-        print(f"results: {args.json}")
-    return 0
 
 
 def add_parser(subparsers):

@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 
 from ..errors import ParameterError
+from ..outputs import together
 from .common import (CliError, check_outputs, finite_float, one_line, option_message,
                      require_file)
 
@@ -62,7 +63,8 @@ def run(args) -> int:
     check_outputs(*[("--out", p) for p in paths.values()])
     metadata = {k: v for k, v in image.metadata.items() if not k.startswith("time_")}
     metadata["source"] = os.path.basename(args.exr)
-    write_polcam_files(outputs, args.out, stem, metadata)
+    with together():  # all the files or none (mitsuba_pbrdf.interrupts)
+        write_polcam_files(outputs, args.out, stem, metadata)
     print(f"wrote {len(paths)} files in {args.out}: "
           + ", ".join(os.path.basename(p) for p in paths.values()))
     return 0

@@ -16,6 +16,7 @@ import os
 from .common import (CliError, check_outputs, one_line, picture_kwargs, picture_options,
                      report_quality, require_file)
 from .unused_options import warn_unused_picture_options
+from ..outputs import together
 
 
 def run(args) -> int:
@@ -72,12 +73,13 @@ def _cube_sheet(args, image, out: str, existed: bool) -> int:
     if not image.metadata.get("title"):
         image.metadata["title"] = os.path.basename(args.exr)
     dolp_max = args.dolp_max if args.dolp_max == "auto" else float(args.dolp_max)
-    path = save_cube_sheet(out, image, region=region, dolp_max=dolp_max,
-                           min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap)
+    with together():  # the sheet and the CSV, or neither (mitsuba_pbrdf.interrupts)
+        path = save_cube_sheet(out, image, region=region, dolp_max=dolp_max,
+                               min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap)
+        written = write_spectrum_csv(csv, image, region) if region is not None else None
     print(f"{'replaced' if existed else 'wrote'} {path} ({len(image.bands)} bands)")
     if region is not None:
-        print(f"wrote {write_spectrum_csv(csv, image, region)} (Stokes spectrum, "
-              f"{region.describe()})")
+        print(f"wrote {written} (Stokes spectrum, {region.describe()})")
     return 0
 
 

@@ -43,6 +43,7 @@ from typing import Mapping, Optional
 import numpy as np
 
 from ..errors import ParameterError
+from ..interrupts import release as release_interrupts
 from ..registry import use_variant
 from ..shading import warn_unpolarized_wrappers
 from ..variant import default_variant
@@ -308,6 +309,7 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
                        budget=samples_per_pass(backend))
     seeds = pass_seeds(seed, len(plan))
 
+    release_interrupts()  # loaded: Ctrl-C from here on stops between passes
     history_was_on = dr.flag(dr.JitFlag.KernelHistory)
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     dr.kernel_history()  # clear what earlier work left there
