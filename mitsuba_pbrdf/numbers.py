@@ -23,12 +23,36 @@ from typing import Iterable, Optional
 
 from .errors import ParameterError
 
-__all__ = ["MAX_SPP", "parse_float", "range_count", "bounded_int", "product_count"]
+__all__ = ["MAX_SPP", "INT_OPTION_LIMITS", "parse_float", "range_count", "bounded_int",
+           "product_count", "int_limit", "check_int_option"]
 
 #: Most samples per pixel of one render or sweep job (2^24, 16.7 million): a
 #: render's pass plan is a list of passes, and Mitsuba's samplers count samples
 #: in 32 bits; nothing near this is a render that ends.
 MAX_SPP = 1 << 24
+
+
+#: The largest magnitude an integer option takes, by its name (``dest``); the
+#: others: 2^31 - 1. The commands check the lower bounds themselves, with
+#: their own messages; this only keeps integers no command can use (2^63 - 1
+#: samples, workers or starts) from reaching the work.
+INT_OPTION_LIMITS = {"seed": (1 << 32) - 1, "spp": MAX_SPP, "passes": MAX_SPP,
+                     "workers": 1024, "drjit_threads": 4096, "cores": 4096}
+DEFAULT_INT_LIMIT = (1 << 31) - 1
+
+
+def int_limit(dest: str) -> int:
+    """The largest magnitude of the integer option *dest*
+    (:data:`INT_OPTION_LIMITS`)."""
+    return INT_OPTION_LIMITS.get(dest, DEFAULT_INT_LIMIT)
+
+
+def check_int_option(option: str, dest: str, value) -> None:
+    """:class:`~mitsuba_pbrdf.errors.ParameterError` naming *option* when the
+    integer *value* is beyond :func:`int_limit`."""
+    high = int_limit(dest)
+    if value is not None and abs(int(value)) > high:
+        raise ParameterError(option, f"must be an integer of at most {high}, got {value}")
 
 
 def parse_float(text, parameter: str, what: str = "a number") -> float:

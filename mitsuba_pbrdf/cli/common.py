@@ -117,11 +117,13 @@ def parse_panels(text: str):
     try:
         return parse(text)
     except ValueError as e:
-        raise CliError(str(e)) from e
+        raise CliError(f"--panels: {e}") from e
 
 
 def require_file(path: str, what: str):
     """A :class:`CliError` unless *path* is an existing file."""
+    if not path:
+        raise CliError(f"{what} not found: '' (an empty path)")
     if not os.path.exists(path):
         raise CliError(f"{what} not found: {path}")
     if not os.path.isfile(path):

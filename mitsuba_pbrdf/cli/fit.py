@@ -14,7 +14,8 @@ from typing import Optional, Sequence
 from ..interrupts import release
 from ..outputs import together
 from ..outputs import atomic_path, write_json
-from .common import CliError, check_outputs, float_list, one_line, positive_int
+from .common import (CliError, check_outputs, float_list, one_line, positive_int,
+                     require_file)
 from .model_options import add_model_arguments
 
 
@@ -57,8 +58,7 @@ def _read(args):
     from ..measured.selection import select_observables, select_wavelengths
 
     path = args.data
-    if not os.path.exists(path):
-        raise CliError(f"measurement file not found: {path}")
+    require_file(path, "measurement file")
     wavelengths = float_list(args.wavelength, "--wavelength") if args.wavelength else None
     if wavelengths and not all(math.isfinite(w) and w > 0 for w in wavelengths):
         raise CliError(f"--wavelength takes wavelengths in nm, > 0, got {args.wavelength!r}")
@@ -74,7 +74,10 @@ def _read(args):
         if wavelengths:
             data = select_wavelengths(data, wavelengths)
         if args.observables:
-            data = select_observables(data, args.observables.split(","))
+            try:
+                data = select_observables(data, args.observables.split(","))
+            except MeasurementError as e:
+                raise CliError(f"--observables: {one_line(e)}") from e
         return None, data
     except (MeasurementError, PbsdfError, ValueError) as e:
         raise CliError(one_line(e)) from e

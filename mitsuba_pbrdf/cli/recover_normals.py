@@ -60,7 +60,7 @@ def run(args) -> int:
 
     require_file(args.scene, "scene")
     for path in args.targets:
-        require_file(path, "target")
+        require_file(path, "--targets: target")
     if args.truth:
         require_file(args.truth, "--truth file")
     if args.lr_end is None:
