@@ -183,8 +183,9 @@ def _eval_1_values(name, tex):
     si = dr.zeros(mi.SurfaceInteraction3f, uu.size)
     si.uv = mi.Point2f(uu.ravel(), vv.ravel()) if resolution > 1 else mi.Point2f(0.5, 0.5)
     try:
-        values = tex.eval_1(si)
-        dr.eval(values)
+        with dr.suspend_grad():  # a check: no derivative graph (parameters_changed runs in AD)
+            values = tex.eval_1(si)
+            dr.eval(values)
         return np.asarray(values, dtype=np.float64).ravel()
     except Exception as e:  # noqa: BLE001 - Mitsuba's refusal, a RuntimeError today
         reason = " ".join(str(e).split("\n")[-1].split()) or type(e).__name__
