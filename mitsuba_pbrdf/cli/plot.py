@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from ..interrupts import release
 from .common import CliError, check_outputs, float_list, one_line
 from .model_options import add_model_arguments, params_from_args
 
@@ -19,6 +20,7 @@ def run(args) -> int:
     if not all(math.isfinite(w) and 0 < w < 1e5 for w in wavelengths):
         raise CliError(f"--wavelengths takes wavelengths in nm, finite and > 0, got "
                        f"{args.wavelengths!r}")
+    release()  # checked: the plot is NumPy and matplotlib (mitsuba_pbrdf.interrupts)
     try:
         params.validate()
         check_theta_i(args.theta_i)

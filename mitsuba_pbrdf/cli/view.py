@@ -16,6 +16,7 @@ import os
 from .common import (CliError, check_outputs, one_line, picture_kwargs, picture_options,
                      report_quality, require_file)
 from .unused_options import warn_unused_picture_options
+from ..interrupts import release
 from ..outputs import together
 
 
@@ -34,6 +35,7 @@ def run(args) -> int:
         image = read_stokes_exr(args.exr)
     except (StokesChannelError, ValueError) as e:
         raise CliError(one_line(e)) from e
+    release()  # read: drawing is plain Python, Ctrl-C stops it at once (mitsuba_pbrdf.interrupts)
     if args.cube or args.spectrum is not None:
         return _cube_sheet(args, image, out, existed)
     picture = picture_kwargs(args, image)
