@@ -37,12 +37,20 @@ Sub-packages, one concern each:
   registering the plugins in them.
 """
 
-from .registry import install_hook, register, use_variant
-from .variant import SUPPORTED_MITSUBA, UnknownVariantError, VariantNotSetError
+# Ctrl-C while Mitsuba and Dr.Jit are imported cannot come back as a clean
+# KeyboardInterrupt: SIGINT is held meanwhile (mitsuba_pbrdf.interrupts), and
+# for the pbrdf command line until its command releases it.
+from . import interrupts as _interrupts
+
+_interrupts.hold_for_command_line()
+with _interrupts.held():  # for the command line: already held, kept held
+    from .registry import install_hook, register, use_variant
+    from .variant import SUPPORTED_MITSUBA, UnknownVariantError, VariantNotSetError
+
+    install_hook()
 
 __version__ = "0.1.0"
 
 __all__ = ["__version__", "SUPPORTED_MITSUBA", "VariantNotSetError", "UnknownVariantError",
            "use_variant", "register"]
 
-install_hook()

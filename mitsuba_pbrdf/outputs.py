@@ -30,8 +30,10 @@ import os
 import stat
 import tempfile
 
-__all__ = ["OutputError", "check_writable", "atomic_path", "write_bytes", "write_text",
-           "write_json"]
+from . import interrupts
+
+__all__ = ["OutputError", "check_writable", "atomic_path", "together", "write_bytes",
+           "write_text", "write_json"]
 
 
 class OutputError(OSError):
@@ -101,6 +103,10 @@ def atomic_path(path):
     os.close(fd)
     try:
         yield tmp
+        if _together["on"]:  # replaced with the others at the end of together()
+            _together["files"].append((tmp, path))
+            return
+        interrupts.before_replace()  # Ctrl-C came while held: never replace the output
         os.chmod(tmp, _new_file_mode(path))
         os.replace(tmp, path)
     except BaseException as e:
@@ -110,6 +116,42 @@ def atomic_path(path):
                 and e.filename in (None, tmp, path):  # e.g. a full disk: name the output
             raise _error(e.errno or errno.EIO, path, e.strerror) from e
         raise
+
+
+_together = {"on": False, "files": []}
+
+
+@contextlib.contextmanager
+def together():
+    """Outputs that belong together (a render's EXR and PNG, a camera's
+    frames): each :func:`atomic_path` inside fills its temporary file, and
+    all of them replace their destinations at the end, at once. An error, or a
+    Ctrl-C before that end (SIGINT is held meanwhile:
+    :mod:`mitsuba_pbrdf.interrupts`), removes them all and replaces nothing.
+    Nested, the outer one decides."""
+    if _together["on"]:
+        yield
+        return
+    outer_hold = interrupts.is_held()
+    interrupts.before_replace()       # a SIGINT that came already: nothing is written
+    interrupts.hold()
+    _together["on"], committed = True, False
+    try:
+        yield
+        interrupts.before_replace()   # one that came while writing: nothing is replaced
+        for tmp, path in _together["files"]:
+            os.chmod(tmp, _new_file_mode(path))
+            os.replace(tmp, path)
+        committed = True
+        interrupts.discard()          # one during the renames (microseconds) changes nothing
+    finally:
+        if not committed:
+            for tmp, _ in _together["files"]:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+        _together["on"], _together["files"] = False, []
+        if not outer_hold:
+            interrupts.release()
 
 
 def write_bytes(path, data: bytes) -> str:

@@ -28,6 +28,7 @@ import importlib.util
 import logging
 import sys
 
+from .interrupts import held
 from .variant import UnknownVariantError, _mitsuba, require_variant
 
 __all__ = ["PLUGINS", "register", "use_variant", "install_hook", "variant_module", "plugin_class"]
@@ -106,13 +107,15 @@ def use_variant(name: str) -> None:
         raise UnknownVariantError(
             f"unknown Mitsuba variant {name!r}; available: {', '.join(available)}"
         )
-    try:
-        mi.set_variant(name)
-    except (ImportError, RuntimeError) as e:
-        raise UnknownVariantError(
-            f"Mitsuba variant {name!r} cannot be used here: {' '.join(str(e).split())}"
-        ) from e
-    register()  # the variant hook has done it already, unless the variant did not change
+    # held: set_variant imports the variant's extension and calls the hook from C++
+    with held():
+        try:
+            mi.set_variant(name)
+        except (ImportError, RuntimeError) as e:
+            raise UnknownVariantError(
+                f"Mitsuba variant {name!r} cannot be used here: {' '.join(str(e).split())}"
+            ) from e
+        register()  # the variant hook has done it already, unless the variant did not change
 
 
 def _on_variant_change(old, new):

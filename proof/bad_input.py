@@ -74,6 +74,13 @@ def cases():
         ({"sigma_dd": bitmap(-1.0), "kdd": 0.2}, ValueError, "'sigma_dd'"),
         ({"eta": bitmap(-1.0), "k": 1.0}, ValueError, "'eta'"),
         ({"eta": 1.0, "k": bitmap(INF)}, ValueError, "'k'"),
+        # a float parameter evaluated as the kernel does (eval_1): an RGB bitmap in a
+        # spectral variant has no one value per point (issue 28)
+        ({"sigma_u": {"type": "bitmap", "bitmap": mi.Bitmap(np.full((8, 8, 3), 0.3, np.float32))}},
+         ValueError, "'sigma_u' takes one value per point"),
+        ({"sigma_dd_v": {"type": "bitmap", "bitmap": mi.Bitmap(np.full((8, 8, 3), 0.3,
+                                                                     np.float32))}, "kdd": 0.2},
+         ValueError, "'sigma_dd_v' takes one value per point"),
         ({"eta": {"type": "irregular", "wavelengths": "400, 700", "values": "1.2, -0.5"},
           "k": 1.0}, None, '"eta"'),
         ({"eta": {"type": "regular", "wavelength_min": 400, "wavelength_max": 700,

@@ -68,3 +68,17 @@ def test_command_line_plots_an_anisotropic_surface(tmp_path):
                           "--out", str(tmp_path / "x.png")], capture_output=True, text=True,
                          cwd=ROOT, timeout=300)
     assert bad.returncode == 2 and "sigma_v" in bad.stderr and bad.stderr.count("\n") == 1
+
+
+def test_export_describes_the_anisotropic_directional_diffuse_widths(tmp_path, capsys):
+    """pbrdf export's line named sigma_dd only, though it tabulated sigma_dd_u
+    (issue 28); the description now gives both widths of that lobe."""
+    from mitsuba_pbrdf.cli import main
+
+    out = str(tmp_path / "t.pbsdf")
+    assert main(["export", "--kdd", "0.2", "--sigma-dd-u", "0.3", "--grid", "4x6x6",
+                 "--out", out]) == 0
+    line = capsys.readouterr().out
+    assert "σdd_u=0.3, σdd_v=0.5" in line, line
+    table = PBRDFParams(material="Al", kdd=0.2, sigma_dd_u=0.3)
+    assert "σdd=" not in table.label()

@@ -251,3 +251,20 @@ def test_a_zero_texel_of_an_rgb_roughness_bitmap_is_caught_in_spectral_variants(
         texels[3, 5] = value
         tex = {"type": "bitmap", "bitmap": mi.Bitmap(texels), "filter_type": "nearest"}
         check_message(load_error({"kdd": 0.3, "sigma_dd": tex}), ValueError, "'sigma_dd'")
+
+
+def test_an_8_bit_rgb_png_as_a_float_parameter_is_refused_at_load(tmp_path):
+    """An ordinary 8-bit RGB PNG as sigma_u loaded and then failed in the render
+    with 'drjit.custom(...): error ... (see above)', naming neither the
+    parameter nor the file (issue 28); the load-time check now evaluates it
+    with eval_1, as the kernel does."""
+    from PIL import Image
+
+    use_variant("llvm_ad_spectral_polarized")
+    path = tmp_path / "rough.png"
+    Image.fromarray(np.full((8, 8, 3), 80, np.uint8)).save(path)
+    check_message(load_error({"sigma_u": {"type": "bitmap", "filename": str(path)}}),
+                  ValueError, "'sigma_u' takes one value per point")
+    grey = tmp_path / "grey.png"
+    Image.fromarray(np.full((8, 8), 80, np.uint8)).save(grey)   # one channel: accepted
+    assert load_error({"sigma_u": {"type": "bitmap", "filename": str(grey)}}) is None

@@ -21,6 +21,7 @@ import time
 import numpy as np
 import pytest
 
+from cli_hostile_rows import ROWS, hostile_files
 from mitsuba_pbrdf import cli
 from mitsuba_pbrdf import variant as variant_module
 from mitsuba_pbrdf.cli import main
@@ -310,6 +311,10 @@ TABLE = [
 ]
 
 
+# the rows of the surfaces added since (issue 28), kept in their own module
+TABLE += ROWS
+
+
 def nist_files(tmp_path):
     """Files in NIST's layout, each with one fault, from the PTFE subset's
     header and first rows."""
@@ -352,7 +357,7 @@ def files(tmp_path):
     sweep = tmp_path / "sweep.toml"
     sweep.write_text(f'scene = "{scene}"\nout = "out"\n')
     return dict(tmp=str(tmp_path), scene=str(scene), sweep=str(sweep), exr=good, plate=plate, plain_exr=plain,
-                y_exr=y_exr,
+                y_exr=y_exr, **hostile_files(tmp_path, scene, stokes_exr),
                 **nist_files(tmp_path),
                 odd_exr=stokes_exr(tmp_path / "odd.exr", h=13),
                 nan_exr=stokes_exr(tmp_path / "nan.exr", set_nan),

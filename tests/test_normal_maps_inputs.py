@@ -45,6 +45,16 @@ def _normalmap_with(colours, nested=None):
       "h": {"type": "bitmap", "raw": True,
             "bitmap": mi.Bitmap(np.array([[[0.0], [np.inf]], [[0.0], [0.0]]], np.float32))}},
      "height texture contains NaN or infinite values"),
+    # issue 28: inward normals, a boolean scale, a height without a gradient
+    (_normalmap_with(np.zeros((2, 2, 3))), "'normalmap' has 4 of 4 texels pointing into the "
+                                           "surface"),
+    (_normalmap_with([[[0.5, 0.5, 1.0], [0.5, 0.5, 0.3]]] * 2),
+     "'normalmap' has 2 of 4 texels pointing into the surface"),
+    ({"type": "polarized_bumpmap", "bsdf": NESTED["roughconductor"], "scale": True,
+      "h": {"type": "bitmap", "raw": True, "bitmap": mi.Bitmap(np.zeros((2, 2, 1), np.float32))}},
+     "parameter 'scale' must be a finite number, got True"),
+    ({"type": "polarized_bumpmap", "bsdf": NESTED["roughconductor"],
+      "h": {"type": "checkerboard"}}, "the height texture (Checkerboard) has no UV gradient"),
 ])
 def test_bad_input_is_a_one_line_error_at_load(scene, message):
     with pytest.raises(Exception) as error:
@@ -62,6 +72,28 @@ def test_zero_texel_set_through_traverse_is_refused():
     params = mi.traverse(scene)
     params["plate.bsdf.normalmap.data"] = mi.TensorXf(np.full((2, 2, 3), 0.5, np.float32))
     with pytest.raises(Exception, match="texel of zero length"):
+        params.update()
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("plate.bsdf.scale", float("nan"), "parameter 'scale' must be a finite number"),
+    ("plate.bsdf.scale", float("inf"), "parameter 'scale' must be a finite number"),
+    ("plate.bsdf.nested_texture.data", np.nan, "height texture contains NaN or infinite"),
+])
+def test_bump_map_updates_through_traverse_are_checked(key, value, message):
+    """The bump map re-checks its height and scale on every update, as the
+    normal map checks its texels (issue 28: a NaN got through)."""
+    heights = np.linspace(0, 1, 16, dtype=np.float32).reshape(4, 4, 1)
+    bump = {"type": "polarized_bumpmap", "bsdf": NESTED["roughconductor"],
+            "h": {"type": "bitmap", "raw": True, "bitmap": mi.Bitmap(heights)}}
+    params = mi.traverse(mi.load_dict(tp().scene(tp().plane(bump))))
+    if key.endswith(".data"):
+        data = np.array(params[key])
+        data[1, 2] = value
+        params[key] = mi.TensorXf(data)
+    else:
+        params[key] = value
+    with pytest.raises(Exception, match=message):
         params.update()
 
 

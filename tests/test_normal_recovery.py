@@ -243,8 +243,31 @@ def test_bad_inputs_name_the_parameter(small_problem):
          "targets"),
         (dict(scene=scene, targets=targets, fit_roughness=True), "fit_roughness"),
         (dict(scene="/nonexistent/scene.xml", targets=targets), "scene"),
+        # issue 28
+        (dict(scene=scene, targets=targets, seed=-1), "seed"),
+        (dict(scene=scene, targets=targets, seed=2 ** 40), "seed"),
+        (dict(scene=scene, targets=targets, seed=1.5), "seed"),
+        (dict(scene=scene, targets=targets, max_depth=0), "max_depth"),
+        (dict(scene=scene, targets=targets, max_depth=1), "max_depth"),
+        (dict(scene=scene, targets=[np.zeros_like(targets[0])]), "targets"),
+        (dict(scene=scene, targets=[-np.abs(targets[0])]), "targets"),
+        (dict(scene=scene, targets=[np.full(targets[0].shape, "a")]), "targets"),
+        (dict(scene=scene, targets=["target.exr"]), "targets"),
+        (dict(scene=scene, targets=targets[0]), "targets"),
+        (dict(scene=scene, targets=[np.zeros((32, 32))], observables="polcam"), "targets"),
+        (dict(scene=scene, targets=[-np.ones((32, 32))], observables="polcam"), "targets"),
+        (dict(scene=scene, targets=targets, start=np.full(truth.shape, np.nan)), "start"),
+        (dict(scene=scene, targets=targets, start=np.zeros(truth.shape)), "start"),
+        (dict(scene=scene, targets=targets, start="flat"), "start"),
+        (dict(scene=scene, targets=targets, start=truth[:4]), "start"),
+        (dict(scene=scene, targets=targets, truth=np.full(truth.shape, np.nan)), "truth"),
+        (dict(scene=scene, targets=targets, truth=np.zeros(truth.shape)), "truth"),
+        (dict(scene=scene, targets=targets, truth=truth[:, :4]), "truth"),
     ]
     for kwargs, name in cases:
+        calls = []
         with pytest.raises(ParameterError) as info:
-            recover_normals(iterations=kwargs.pop("iterations", 1), **kwargs)
+            recover_normals(iterations=kwargs.pop("iterations", 1),
+                            callback=lambda *a: calls.append(a), **kwargs)
         assert info.value.parameter == name, (name, str(info.value))
+        assert not calls, (name, "refused only after fitting")

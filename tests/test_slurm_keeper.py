@@ -146,3 +146,34 @@ def test_at_the_cap_the_sweep_stops_with_one_line_and_pending_rows(tmp_path, cap
     rows = list(read_manifest(load_sweep(path).manifest).values())
     # cancelled before their worker imported Mitsuba: none rendered, none failed
     assert len(rows) == 4 and {r["status"] for r in rows} == {"pending"}
+
+
+def test_a_request_larger_than_the_nodes_names_cores_memory_and_the_node_size(monkeypatch):
+    """sbatch's 'Requested node configuration is not available' for the
+    default 4 cores on 2-CPU nodes (issue 28) names --cores, --memory and
+    the nodes' size (Slurm's answers stubbed: sbatch --test-only, sinfo)."""
+    import subprocess
+
+    from mitsuba_pbrdf.batch import slurm
+    from mitsuba_pbrdf.batch.slurm_options import slurm_options
+
+    def fake(*argv, timeout=30.0):
+        if argv[0] == "sbatch":
+            return subprocess.CompletedProcess(argv, 1, "", "sbatch: error: Batch job "
+                                               "submission failed: Requested node "
+                                               "configuration is not available\n")
+        assert argv[:2] == ("sinfo", "-h")
+        return subprocess.CompletedProcess(argv, 0, "2 1998\n2 1998+\n", "")
+
+    monkeypatch.setattr(slurm, "_slurm", fake)
+    with pytest.raises(SlurmError) as info:
+        slurm._test_only("#!/bin/sh\n", slurm_options(), "debug")
+    message = str(info.value)
+    assert "\n" not in message
+    for words in ("Requested node configuration is not available", "--cores 4",
+                  "--memory 4GB", "partition 'debug' have at most 2 CPUs and 1998 MB"):
+        assert words in message, message
+    # within the nodes' size, sbatch's own reason alone
+    with pytest.raises(SlurmError) as info:
+        slurm._test_only("#!/bin/sh\n", slurm_options(cores=2, memory="1GB"), "debug")
+    assert "--cores" not in str(info.value)

@@ -82,6 +82,60 @@ class WorkerSetup(_plugin_base()):
 
 
 @contextlib.contextmanager
+def _workers_ignore_sigint():
+    """While the local cluster starts its worker processes, multiprocessing
+    starts them through a two-line shell script that ignores SIGINT and runs
+    this Python: an ignored signal stays ignored through exec, and Python keeps
+    it so, so the workers never see a terminal's Ctrl-C, not even while they
+    import (a worker interrupted in its imports printed a traceback, and the
+    cluster's close then failed). The sweep's own process handles Ctrl-C;
+    WorkerSetup keeps ignoring it in restarted workers."""
+    import shlex
+    import stat
+    import sys
+    import tempfile
+    from multiprocessing import spawn
+
+    previous = spawn.get_executable()   # bytes or str
+    python = os.fsdecode(previous or sys.executable)
+    with tempfile.TemporaryDirectory(prefix="pbrdf-worker-") as folder:
+        script = os.path.join(folder, "python")
+        with open(script, "w") as f:
+            f.write(f"#!/bin/sh\ntrap '' INT\nexec {shlex.quote(python)} "
+                    '"$@"\n')
+        os.chmod(script, stat.S_IRWXU)
+        spawn.set_executable(script)
+        try:
+            yield
+        finally:
+            spawn.set_executable(previous)
+
+
+@contextlib.contextmanager
+def _closed_if_interrupted():
+    """Around a LocalCluster's construction: if it is interrupted (Ctrl-C),
+    the half-started cluster, which the caller never got, is closed here
+    (quietly: its workers may not have started, and the process is about to
+    exit) and taken off Dask's list of clusters to close at exit, whose
+    attempt would print a traceback."""
+    from distributed.deploy.spec import SpecCluster
+
+    before = set(map(id, SpecCluster._instances))
+    try:
+        yield
+    except BaseException:
+        # what the interrupted start-up left (a nanny that failed to start, a task
+        # whose result nobody reads) would be logged with tracebacks at exit
+        for name in ("distributed", "asyncio", "tornado"):
+            logging.getLogger(name).disabled = True
+        for cluster in [c for c in list(SpecCluster._instances) if id(c) not in before]:
+            with contextlib.suppress(Exception):
+                cluster.close(timeout=5)
+            SpecCluster._instances.discard(cluster)
+        raise
+
+
+@contextlib.contextmanager
 def connect(workers: Optional[int] = None, scheduler: Optional[str] = None,
             drjit_threads: Optional[int] = None,
             allowed_failures: int = ALLOWED_FAILURES):
@@ -106,8 +160,9 @@ def connect(workers: Optional[int] = None, scheduler: Optional[str] = None,
     settings = {"distributed.scheduler.worker-saturation": 1.0,
                 "distributed.scheduler.allowed-failures": int(allowed_failures)}
     with dask.config.set(settings):
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0", silence_logs=logging.CRITICAL)
+        with _workers_ignore_sigint(), _closed_if_interrupted():
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=":0", silence_logs=logging.CRITICAL)
         try:
             client = Client(cluster)
             try:

@@ -29,11 +29,11 @@ import tempfile
 import threading
 import time
 import uuid
-from typing import Callable, Dict, List, Optional
+from typing import Callable, Dict, List, Optional, Tuple
 
 from .cluster import ALLOWED_FAILURES, WorkerSetup
 from .slurm_keeper import REPLACE_INTERVAL_S, Keeper, ResubmissionCap
-from .slurm_options import SlurmError, SlurmOptions, format_walltime
+from .slurm_options import SlurmError, SlurmOptions, format_walltime, parse_memory
 
 __all__ = ["connect_slurm", "slurm_cluster_class", "SlurmWorkerSetup", "check_partition",
            "job_states", "job_ended", "REPLACE_INTERVAL_S"]
@@ -169,16 +169,44 @@ class SlurmWorkerSetup(WorkerSetup):
                                        "job": os.environ.get("SLURM_JOB_ID", "")})
 
 
-def _test_only(script: str):
-    """``sbatch --test-only`` of the worker job script: SlurmError with sbatch's reason."""
+def node_sizes(partition: str) -> Optional[Tuple[int, int]]:
+    """The largest CPU count and memory (MB) of the nodes of *partition*
+    (``sinfo``), or None where Slurm does not say."""
+    done = _slurm("sinfo", "-h", "-p", partition, "-o", "%c %m")
+    sizes = []
+    for line in done.stdout.splitlines() if done.returncode == 0 else []:
+        parts = line.replace("+", "").split()
+        if len(parts) == 2 and all(p.isdigit() for p in parts):
+            sizes.append((int(parts[0]), int(parts[1])))
+    if not sizes:
+        return None
+    return max(c for c, _ in sizes), max(m for _, m in sizes)
+
+
+def _test_only(script: str, options: Optional[SlurmOptions] = None,
+               partition: Optional[str] = None):
+    """``sbatch --test-only`` of the worker job script: SlurmError with sbatch's
+    reason; where the job asks more than the partition's nodes have, the
+    message names ``--cores`` and ``--memory`` and the nodes' size."""
     with tempfile.NamedTemporaryFile("w", suffix=".sh", delete=False) as f:
         f.write(script)
     try:
         done = _slurm("sbatch", "--test-only", f.name)
     finally:
         os.unlink(f.name)
-    if done.returncode != 0:
-        raise SlurmError(f"sbatch refuses the worker job: {_first_line(done)}")
+    if done.returncode == 0:
+        return
+    reason = f"sbatch refuses the worker job: {_first_line(done)}"
+    sizes = node_sizes(partition) if options is not None and partition else None
+    if sizes is not None:
+        cpus, megabytes = sizes
+        asked_mb = parse_memory(options.memory) / 2 ** 20
+        if options.cores > cpus or asked_mb > megabytes:
+            raise SlurmError(f"{reason}: a worker job asks --cores {options.cores} and --memory "
+                             f"{options.memory}, and the nodes of partition {partition!r} have "
+                             f"at most {cpus} CPUs and {megabytes} MB; lower --cores or "
+                             f"--memory (or cores, memory in the sweep's [slurm] table)")
+    raise SlurmError(reason)
 
 
 def _stop(keeper: Optional[Keeper]):
@@ -267,7 +295,7 @@ def _session(cluster_class, options: SlurmOptions, partition: str, log_directory
         scheduler_options={"dashboard_address": None}, silence_logs=logging.CRITICAL)
     keeper = None
     try:
-        _test_only(cluster.job_script())
+        _test_only(cluster.job_script(), options, partition)
         client = Client(cluster)
         try:
             client.register_plugin(SlurmWorkerSetup(options.cores))

@@ -41,6 +41,8 @@ import zlib
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
+from ..numbers import MAX_SPP
+
 __all__ = ["SweepError", "Job", "Sweep", "OUTPUTS", "POLCAM_KEYS", "MANIFEST_NAME", "load_sweep",
            "format_value", "job_seed"]
 
@@ -65,6 +67,9 @@ FIXED_COLUMNS = ("job", "seed", "spp", "status", "seconds", "file", "aov", "polc
 _KEYS = ("scene", "spp", "seed", "out", "variant", "bands", "outputs", "polcam", "params",
          "slurm")
 _NAME_MAX = 120
+#: Most jobs in one sweep: their names, seeds and manifest rows are built
+#: before the first render (10^5 jobs: seconds and tens of MB).
+MAX_JOBS = 100_000
 
 
 class SweepError(ValueError):
@@ -315,6 +320,8 @@ def load_sweep(path) -> Sweep:
     out = os.path.normpath(os.path.join(folder, os.path.expanduser(
         _string(path, "out", data["out"]))))
     spp = _int(path, "spp", data["spp"], 1) if "spp" in data else None
+    if spp is not None and spp > MAX_SPP:   # a render's passes are a list: bounded
+        _fail(path, f"spp must be at most {MAX_SPP} (2^24), got {spp}")
     seed = _int(path, "seed", data.get("seed", 0), 0, 0xFFFFFFFF)
     variant = _string(path, "variant", data["variant"]) if "variant" in data else None
     if variant is not None:
@@ -344,6 +351,10 @@ def load_sweep(path) -> Sweep:
     if not isinstance(table, dict):
         _fail(path, f"params must be a table ([params]), got {table!r}")
     values = {key: _param_values(path, key, v) for key, v in table.items()}
+    if math.prod(len(v) for v in values.values()) > MAX_JOBS:   # before anything per job
+        shape = " x ".join(f"{len(v)} {k}" for k, v in values.items())
+        _fail(path, f"params: {shape} = {math.prod(len(v) for v in values.values())} jobs; "
+                    f"at most {MAX_JOBS} in one sweep (split it into several sweep files)")
     declared = declared_parameters(scene)
     if declared is not None:
         for key in values:

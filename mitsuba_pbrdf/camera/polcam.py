@@ -40,6 +40,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..outputs import atomic_path
 from ..stokes.image import StokesImage, luminance_stokes
+from ..stokes.quality import require_usable
 
 __all__ = ["ANGLES", "MONO_LAYOUT", "BAYER_LAYOUT", "COLOUR_CUBE_REFUSAL", "polarizer_images",
            "malus", "mono_layout", "colour_layout", "mono_mosaic", "colour_mosaic", "SensorModel",
@@ -256,6 +257,14 @@ def polcam_outputs(image: StokesImage, sensor: str = "mono", band: Optional[str]
     if bad:
         raise ValueError(f"{bad} non-finite Stokes values (NaN or infinite); a camera image "
                          "needs finite ones")
+    # the unusable-pixel rule of every reader (all-negative S0 is no camera image)
+    if sensor == "colour":
+        require_usable(image, bands=("R", "G", "B")
+                       if all(b in image.bands for b in "RGB") else None)
+    elif band is not None or len(image.bands) == 1:
+        require_usable(image, band=band or image.bands[0])
+    else:
+        require_usable(image, bands=image.bands if is_cube(image) else None)
     if sensor == "mono" and band is None and is_cube(image):
         return _cube_outputs(image, model)
     if sensor == "mono":

@@ -50,7 +50,8 @@ import sys
 from typing import List, Optional
 
 from . import batch, export, fit, gallery, plot, polcam, recover_normals, render, view
-from .common import PROG, run_command, version_text
+from ..numbers import check_int_option
+from .common import PROG, CliError, run_command, version_text
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
 COMMANDS = (render, view, polcam, plot, gallery, fit, export, batch, recover_normals)
@@ -69,12 +70,33 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _bounded_integers(func, parser, command):
+    """``func`` preceded by the bounds of every integer option of *command*
+    (:func:`mitsuba_pbrdf.numbers.check_int_option`: 2^63 - 1 samples,
+    workers or starts never reach the work)."""
+    sub = next(a for a in parser._actions
+               if isinstance(a, argparse._SubParsersAction)).choices[command]
+    integers = [a for a in sub._actions if a.type is int]
+
+    def run(args):
+        for action in integers:
+            name = action.option_strings[-1] if action.option_strings else action.dest
+            try:
+                check_int_option(name, action.dest, getattr(args, action.dest, None))
+            except ValueError as e:
+                raise CliError(str(e)) from None
+        return func(args)
+
+    return run
+
+
 def main(argv: Optional[List[str]] = None) -> int:
     """Run the command line; returns the exit status: 0, 2 on error
     (:func:`~.common.run_command`), 130 when interrupted (Ctrl-C). Usage
     errors found by argparse exit through ``SystemExit(2)`` as usual."""
-    args = build_parser().parse_args(argv)
-    return run_command(args.func, args, args.command)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    return run_command(_bounded_integers(args.func, parser, args.command), args, args.command)
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import sys
 
+from ..interrupts import release
 from .batch_slurm import slurm_arguments, slurm_settings
 from .common import PROG, CliError, positive_int, progress_options, require_file, show_progress
 
@@ -32,6 +33,7 @@ def run(args) -> int:
         raise CliError("pbrdf batch needs Dask: pip install 'mitsuba-pbrdf[batch]' "
                        "(or 'dask[distributed]')") from None
     slurm = slurm_settings(args, sweep)
+    release()  # checked: Ctrl-C from here on stops the sweep (mitsuba_pbrdf.interrupts)
 
     summary = run_sweep(sweep, workers=args.workers, scheduler=args.scheduler,
                         drjit_threads=args.drjit_threads, progress=show_progress(args),

@@ -26,6 +26,7 @@ import sys
 from typing import Optional
 
 from ..errors import ParameterError, describe_error, one_line
+from ..interrupts import discard, interrupted, release
 
 PROG = "pbrdf"
 EXIT_ERROR = 2
@@ -53,15 +54,29 @@ def run_command(func, args, command: str) -> int:
     """Run ``func(args)`` with the command line's one error path (see the module
     docstring); returns the exit status."""
     if os.environ.get(TRACEBACK_VARIABLE, "") not in ("", "0"):
+        release()
         return func(args)
     prefix = f"{PROG} {command}"
     try:
-        return func(args)
+        # SIGINT is held from the package's import (mitsuba_pbrdf.interrupts)
+        # until the command's long work starts
+        try:
+            status = func(args)
+        except BaseException:
+            release()  # a SIGINT that came while held wins over the error
+            raise
+        discard()      # done: every output is written, a late SIGINT changes nothing
+        release()
+        return status
     except KeyboardInterrupt:
         sys.stdout.flush()
         print(f"{prefix}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (CliError, OSError, ValueError, RuntimeError, MemoryError) as e:
+        if interrupted(e):  # Ctrl-C that Dr.Jit or Mitsuba wrapped (dr.while_loop ...)
+            sys.stdout.flush()
+            print(f"{prefix}: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
         print(f"{prefix}: error: {option_message(e, args)}", file=sys.stderr)
         return EXIT_ERROR
     except Exception as e:  # a bug: still one line, and how to see more
@@ -102,11 +117,13 @@ def parse_panels(text: str):
     try:
         return parse(text)
     except ValueError as e:
-        raise CliError(str(e)) from e
+        raise CliError(f"--panels: {e}") from e
 
 
 def require_file(path: str, what: str):
     """A :class:`CliError` unless *path* is an existing file."""
+    if not path:
+        raise CliError(f"{what} not found: '' (an empty path)")
     if not os.path.exists(path):
         raise CliError(f"{what} not found: {path}")
     if not os.path.isfile(path):
@@ -229,14 +246,17 @@ def picture_kwargs(args, image=None) -> dict:
     return options
 
 
-def report_quality(image, band, source: str, command: str):
+def report_quality(image, band, source: str, command: str, bands=None):
     """Warn (one line on stderr) about unusable pixels of *image*; a
-    :class:`CliError` when none is usable. Returns the assessment."""
-    from ..stokes.quality import assess
+    :class:`CliError` when none is usable in *band* (None: the luminance
+    vector) or in any of *bands* (:func:`~mitsuba_pbrdf.stokes.quality.require_usable`).
+    Returns the assessment of *band*."""
+    from ..stokes.quality import UnusableImageError, require_usable
 
-    quality = assess(image, band)
-    if quality.usable == 0:
-        raise CliError(f"{source}: no usable pixel: {quality.summary()}")
+    try:
+        quality = require_usable(image, source, bands=bands, band=band)
+    except UnusableImageError as e:
+        raise CliError(str(e)) from None
     if quality.count:
         print(f"{PROG} {command}: warning: {source}: {quality.summary()}; marked in the "
               "picture (see its legend)", file=sys.stderr)

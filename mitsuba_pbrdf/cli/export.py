@@ -9,6 +9,7 @@ import os
 import shutil
 import time
 
+from ..interrupts import release
 from .common import CliError, check_outputs, float_list, option_message
 from .model_options import add_model_arguments, params_from_args
 
@@ -48,6 +49,7 @@ def run(args) -> int:
         if need > free:
             raise CliError(f"--out: the table needs {need / 2**30:.2f} GiB and {folder} has "
                            f"{free / 2**30:.2f} GiB free")
+        release()  # checked: Ctrl-C from here on stops the export (mitsuba_pbrdf.interrupts)
         t0 = time.perf_counter()
         export_pbsdf(args.out, params, grid, [int(w) for w in wavelengths])
     except (ValueError, PbsdfError) as e:  # parameter -> option (grid -> --grid)

@@ -11,9 +11,12 @@ import os
 import sys
 from typing import Optional, Sequence
 
+from ..interrupts import release
+from ..outputs import together
 from ..outputs import atomic_path, write_json
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
-from .common import CliError, check_outputs, float_list, one_line, positive_int
+from .common import (CliError, check_outputs, float_list, one_line, positive_int,
+                     require_file)
 from .fit_progress import FitProgressDisplay
 from .model_options import add_model_arguments
 
@@ -83,8 +86,7 @@ def _read(args):
     from ..measured.selection import select_observables, select_wavelengths
 
     path = args.data
-    if not os.path.exists(path):
-        raise CliError(f"measurement file not found: {path}")
+    require_file(path, "measurement file")
     wavelengths = float_list(args.wavelength, "--wavelength") if args.wavelength else None
     if wavelengths and not all(math.isfinite(w) and w > 0 for w in wavelengths):
         raise CliError(f"--wavelength takes wavelengths in nm, > 0, got {args.wavelength!r}")
@@ -100,7 +102,10 @@ def _read(args):
         if wavelengths:
             data = select_wavelengths(data, wavelengths)
         if args.observables:
-            data = select_observables(data, args.observables.split(","))
+            try:
+                data = select_observables(data, args.observables.split(","))
+            except MeasurementError as e:
+                raise CliError(f"--observables: {one_line(e)}") from e
         return None, data
     except (MeasurementError, PbsdfError, ValueError) as e:
         raise CliError(one_line(e)) from e
@@ -108,7 +113,7 @@ def _read(args):
 
 def run(args) -> int:
     """``pbrdf fit``."""
-    from ..fitting import fit_models, plot_fit, report
+    from ..fitting import fit_models, report
     from ..fitting.report import undetermined_warning
 
     init, fix = _check_options(args)
@@ -116,6 +121,7 @@ def run(args) -> int:
     table, data = _read(args)
     models = ("three", "two") if args.model == "both" else (args.model,)
     fits = len(models) * (2 if args.distribution == "auto" else 1)
+    release()  # read and checked: Ctrl-C from here on stops the fit (mitsuba_pbrdf.interrupts)
     try:
         with FitProgressDisplay(fits) as shown:
             results = fit_models(data, models, backend=args.backend, shadowing=args.shadowing,
@@ -139,6 +145,21 @@ def run(args) -> int:
             print(undetermined_warning(r), file=sys.stderr)
         for warning in r.warnings:
             print(warning, file=sys.stderr)
+    with together():  # the plot, the JSON and the scene, or none (mitsuba_pbrdf.outputs)
+        kept = _write_outputs(args, table, data, results)
+    if args.plot:
+        print(f"\nplot: {args.plot}")
+    if args.json:
+        print(f"results: {args.json}")
+    if args.scene_out:
+        print(f"scene: {args.scene_out} (the {kept.model}-component fit as a pbrdf BSDF)")
+    return 0
+
+
+def _write_outputs(args, table, data, results):
+    """Write the plot, the JSON and the scene; returns the fit the scene holds."""
+    from ..fitting import plot_fit
+
     if args.plot:
         title = os.path.basename(args.data)
         with atomic_path(args.plot) as tmp:
@@ -147,16 +168,14 @@ def run(args) -> int:
                 plot_table_fit(table, results, tmp, title=title)
             else:
                 plot_fit(data, results, tmp, title=title)
-        print(f"\nplot: {args.plot}")
     if args.json:
         write_json(args.json, {m: r.as_dict() for m, r in results.items()})
-        print(f"results: {args.json}")
+    kept = results["three"] if "three" in results else next(iter(results.values()))
     if args.scene_out:
         from ..fitting.scene_out import write_fitted_scene
-        kept = results["three"] if "three" in results else next(iter(results.values()))
-        write_fitted_scene(kept, args.scene_out, material=args.material)
-        print(f"scene: {args.scene_out} (the {kept.model}-component fit as a pbrdf BSDF)")
-    return 0
+        write_fitted_scene(kept, args.scene_out, material=args.material,
+                           source=os.path.basename(args.data))
+    return kept
 
 
 def add_parser(subparsers):

@@ -15,7 +15,7 @@ def run(args) -> int:
     only = [i.strip() for i in args.only.split(",") if i.strip()] if args.only else None
     unknown = [i for i in only or [] if i not in GALLERY_ITEMS]
     if unknown:
-        raise CliError(f"unknown gallery item(s) {', '.join(unknown)}; "
+        raise CliError(f"--only: unknown gallery item(s) {', '.join(unknown)}; "
                        f"choose from {', '.join(GALLERY_ITEMS)}")
     positive_int("--spp", args.spp)
     if not 0 < args.scale < 100:

@@ -44,6 +44,12 @@ def params_from_args(args):
     if (args.eta is not None or args.k is not None) and args.material is not None:
         raise CliError("give --material or --eta and --k, not both")
     values = {name: getattr(args, name) for name in schema.names(reference=True)}
+    for p in schema.PARAMETERS:   # the plugin's floors (Mitsuba's), as load_dict has them
+        value = values.get(p.name)
+        if p.floor is not None and p.cli and isinstance(value, float) \
+                and 0 < value < p.floor:
+            raise CliError(f"{p.option}: must be >= {p.floor:.3g} (the plugin's floor: "
+                           f"Mitsuba clamps narrower widths), got {value:g}")
     if args.eta is None and args.k is None and args.material is None:
         values["material"] = schema.DEFAULTS["material"]
     return PBRDFParams(**values)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import math
+
+from ..interrupts import release
 from .common import CliError, check_outputs, float_list, one_line
 from .model_options import add_model_arguments, params_from_args
 
@@ -9,12 +12,18 @@ from .model_options import add_model_arguments, params_from_args
 def run(args) -> int:
     """``pbrdf plot``."""
     from ..figures.pbrdf_plots import save_pbrdf_plot
+    from ..reference.params import check_theta_i
 
     params = params_from_args(args)
     wavelengths = float_list(args.wavelengths, "--wavelengths")
     check_outputs(("--out", args.out))
+    if not all(math.isfinite(w) and 0 < w < 1e5 for w in wavelengths):
+        raise CliError(f"--wavelengths takes wavelengths in nm, finite and > 0, got "
+                       f"{args.wavelengths!r}")
+    release()  # checked: the plot is NumPy and matplotlib (mitsuba_pbrdf.interrupts)
     try:
         params.validate()
+        check_theta_i(args.theta_i)
         if not (-360.0 <= args.phi_i <= 360.0):
             raise ValueError(f"--phi-i must be in [-360, 360] degrees, got {args.phi_i:g}")
         path = save_pbrdf_plot(args.out, params, args.theta_i, wavelengths, phi_i=args.phi_i)

@@ -13,6 +13,8 @@ from __future__ import annotations
 import os
 
 from ..errors import ParameterError
+from ..interrupts import release
+from ..outputs import together
 from .common import (CliError, check_outputs, finite_float, one_line, option_message,
                      require_file)
 
@@ -50,6 +52,7 @@ def run(args) -> int:
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"--out: {args.out} is not a folder")
     stem = os.path.splitext(os.path.basename(args.exr))[0]
+    release()  # checked: what follows is NumPy, Ctrl-C stops it at once (mitsuba_pbrdf.interrupts)
     try:
         image = read_stokes_exr(args.exr)
         outputs = polcam_outputs(image, sensor=args.sensor, band=args.band, model=model)
@@ -62,7 +65,8 @@ def run(args) -> int:
     check_outputs(*[("--out", p) for p in paths.values()])
     metadata = {k: v for k, v in image.metadata.items() if not k.startswith("time_")}
     metadata["source"] = os.path.basename(args.exr)
-    write_polcam_files(outputs, args.out, stem, metadata)
+    with together():  # all the files or none (mitsuba_pbrdf.interrupts)
+        write_polcam_files(outputs, args.out, stem, metadata)
     print(f"wrote {len(paths)} files in {args.out}: "
           + ", ".join(os.path.basename(p) for p in paths.values()))
     return 0

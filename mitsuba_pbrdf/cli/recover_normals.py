@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import os
 
+from ..interrupts import release
+from ..outputs import together
 from .common import (CliError, check_outputs, chosen_variant, progress_options, require_file,
                      show_progress, variant_help)
 
@@ -52,20 +54,19 @@ def run(args) -> int:
     import numpy as np
 
     from ..inverse.normals import LR_END, check_options, find_normalmap
-    from ..outputs import write_json
     from ..registry import use_variant
     from ..rendering.progress import progress_reporter
     from ..rendering.render import load_scene, require_polarized
 
     require_file(args.scene, "scene")
     for path in args.targets:
-        require_file(path, "target")
+        require_file(path, "--targets: target")
     if args.truth:
         require_file(args.truth, "--truth file")
     if args.lr_end is None:
         args.lr_end = LR_END
     check_options(args.observables, args.parametrization, args.iterations, args.spp,
-                   args.smoothness, args.lr, args.lr_end)
+                  args.smoothness, args.lr, args.lr_end, seed=args.seed)
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"--out: {args.out} is not a folder")
     paths = {name: os.path.join(args.out, name) for name in OUTPUTS}
@@ -84,6 +85,8 @@ def run(args) -> int:
 
     from ..inverse.normals import recover_normals
 
+    release()  # loaded and checked: Ctrl-C from here on stops the fit (mitsuba_pbrdf.interrupts)
+
     with progress_reporter(args.iterations, "recover-normals", show_progress(args),
                            steps=args.iterations, unit="it") as bar:
         result = recover_normals(scene, targets, observables=args.observables,
@@ -94,13 +97,26 @@ def run(args) -> int:
                                  truth=truth, seed=args.seed,
                                  callback=lambda it, loss: bar.update(1))
 
-    from ..pictures.png import save_png
-    from ..stokes.exr import write_exr
+    normals = result.normals.astype(np.float32)
+    with together():  # the three outputs, or none (mitsuba_pbrdf.outputs)
+        summary = _write(paths, args, result, normals, truth)
+    print(f"wrote {', '.join(paths.values())}")
+    errors = summary.get("angular_error_deg") or {}
+    print(f"loss {result.loss[0]:.4g} -> {result.loss[-1]:.4g} in {result.seconds:.1f} s"
+          + (f"; angular error median {errors['median']:.2f} deg "
+             f"(start {summary['start_error_deg']['median']:.2f})" if errors else ""))
+    return 0
+
+
+def _write(paths, args, result, normals, truth):
     import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    normals = result.normals.astype(np.float32)
+    from ..outputs import write_json
+    from ..pictures.png import save_png
+    from ..stokes.exr import write_exr
+
+    matplotlib.use("Agg")
     write_exr(paths["normals.exr"], {c: normals[..., i] for i, c in enumerate("XYZ")},
               {"source": os.path.basename(args.scene), "frame": "tangent (x = dp_du, z = n)"})
     fig = plt.figure(figsize=(3, 3))
@@ -117,11 +133,7 @@ def run(args) -> int:
     if result.roughness is not None:
         summary["roughness"] = result.roughness.tolist()
     write_json(paths["recovery.json"], summary)
-    print(f"wrote {', '.join(paths.values())}")
-    print(f"loss {result.loss[0]:.4g} -> {result.loss[-1]:.4g} in {result.seconds:.1f} s"
-          + (f"; angular error median {summary['angular_error_deg']['median']:.2f} deg "
-             f"(start {summary['start_error_deg']['median']:.2f})" if truth is not None else ""))
-    return 0
+    return summary
 
 
 def add_parser(subparsers):

@@ -16,6 +16,7 @@ from .common import (PROG, CliError, check_outputs, chosen_variant, parse_define
                      picture_kwargs, picture_options, progress_options, report_quality,
                      show_progress, variant_help)
 from .unused_options import warn_unused_picture_options
+from ..outputs import together
 
 
 def _out_stem(out: Optional[str], scene_path: str) -> str:
@@ -85,8 +86,9 @@ def run(args) -> int:
                                + (f" in {passes} passes" if passes > 1 else "")
                                + (f", {band.describe()}" if band is not None else "")
                                + (f", {request.bands.describe()}" if request.bands else ""))
-    exr = write_stokes_exr(exr_path, image)
-    png = save_overview_png(png_path, image, quality=quality, **picture)
+    with together():  # both outputs or neither (mitsuba_pbrdf.interrupts)
+        exr = write_stokes_exr(exr_path, image)
+        png = save_overview_png(png_path, image, quality=quality, **picture)
     print(_wrote(exr, existed[0],
                  f" ({image.width}x{image.height}, Stokes bands {','.join(image.bands)})"))
     print(_wrote(png, existed[1]))

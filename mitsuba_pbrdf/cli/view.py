@@ -16,6 +16,8 @@ import os
 from .common import (CliError, check_outputs, one_line, picture_kwargs, picture_options,
                      report_quality, require_file)
 from .unused_options import warn_unused_picture_options
+from ..interrupts import release
+from ..outputs import together
 
 
 def run(args) -> int:
@@ -33,6 +35,7 @@ def run(args) -> int:
         image = read_stokes_exr(args.exr)
     except (StokesChannelError, ValueError) as e:
         raise CliError(one_line(e)) from e
+    release()  # read: drawing is plain Python, Ctrl-C stops it at once (mitsuba_pbrdf.interrupts)
     if args.cube or args.spectrum is not None:
         return _cube_sheet(args, image, out, existed)
     picture = picture_kwargs(args, image)
@@ -47,24 +50,38 @@ def run(args) -> int:
 
 def _cube_sheet(args, image, out: str, existed: bool) -> int:
     """``--cube`` / ``--spectrum``: the contact sheet (and the spectrum CSV)."""
-    from ..pictures.cube_sheet import parse_region, save_cube_sheet, write_spectrum_csv
+    from ..pictures.cube_sheet import (parse_region, region_spectrum, save_cube_sheet,
+                                       write_spectrum_csv)
+    from ..stokes.quality import UnusableImageError, require_usable
 
     if args.band is not None:
         raise CliError("--band draws one band; --cube and --spectrum draw them all")
     warn_unused_picture_options(args, None, "view")
     region = None if args.spectrum is None else parse_region(args.spectrum, image)
+    if region is not None:
+        try:
+            region_spectrum(image, region)  # ParameterError naming --spectrum
+        except ValueError:
+            try:  # the whole image's verdict first, where it is the cause
+                require_usable(image, args.exr, bands=image.bands)
+            except UnusableImageError as e:
+                raise CliError(str(e)) from None
+            raise
+    # the unusable-pixel rule, for every band the sheet draws
+    report_quality(image, None, args.exr, "view", bands=image.bands)
     csv = os.path.splitext(out)[0] + ".csv"
     if region is not None:
         check_outputs(("--out", csv))
     if not image.metadata.get("title"):
         image.metadata["title"] = os.path.basename(args.exr)
     dolp_max = args.dolp_max if args.dolp_max == "auto" else float(args.dolp_max)
-    path = save_cube_sheet(out, image, region=region, dolp_max=dolp_max,
-                           min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap)
+    with together():  # the sheet and the CSV, or neither (mitsuba_pbrdf.interrupts)
+        path = save_cube_sheet(out, image, region=region, dolp_max=dolp_max,
+                               min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap)
+        written = write_spectrum_csv(csv, image, region) if region is not None else None
     print(f"{'replaced' if existed else 'wrote'} {path} ({len(image.bands)} bands)")
     if region is not None:
-        print(f"wrote {write_spectrum_csv(csv, image, region)} (Stokes spectrum, "
-              f"{region.describe()})")
+        print(f"wrote {written} (Stokes spectrum, {region.describe()})")
     return 0
 
 

@@ -31,6 +31,8 @@ from typing import Callable, List, Optional
 import numpy as np
 
 from ..errors import ParameterError
+from .normal_inputs import (check_max_depth, check_normal_field, check_seed, check_targets,
+                            render_seed)
 from .fit_steps import LR_END, learning_rates, summed_gradients  # noqa: F401 (re-exported)
 
 OBSERVABLES = ("intensity", "stokes", "polcam")
@@ -64,9 +66,10 @@ class NormalRecovery:
     info: dict = field(default_factory=dict)
 
     def error_stats(self, which: str = "angular_error") -> dict:
-        """Median and 90th percentile (degrees) over the visible texels."""
+        """Median and 90th percentile (degrees) over the visible texels ({}
+        without a truth or a visible texel: never NaN, which JSON cannot hold)."""
         err = getattr(self, which)
-        if err is None:
+        if err is None or not np.any(self.visible):
             return {}
         values = err[self.visible]
         return {"median": float(np.median(values)), "p90": float(np.percentile(values, 90))}
@@ -305,7 +308,7 @@ class _Texels:
 
 
 def check_options(observables, parametrization, iterations, spp, smoothness, lr, lr_end=LR_END,
-                  lr_decay=None):
+                  lr_decay=None, seed=0, max_depth=3):
     """ParameterError naming the first bad option of :func:`recover_normals`
     (checked before any scene is loaded; the command line calls it first)."""
     if observables not in OBSERVABLES:
@@ -324,6 +327,8 @@ def check_options(observables, parametrization, iterations, spp, smoothness, lr,
     for name, value in (("lr_end", lr_end), ("lr_decay", lr_decay)):
         if value is not None and not (np.isfinite(value) and 0 < value <= 1):
             raise ParameterError(name, f"must be a number in (0, 1], got {value!r}")
+    check_seed(seed)
+    check_max_depth(max_depth)
 
 
 
@@ -357,17 +362,14 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
     import drjit as dr
     import mitsuba as mi
 
-    check_options(observables, parametrization, iterations, spp, smoothness, lr, lr_end, lr_decay)
+    check_options(observables, parametrization, iterations, spp, smoothness, lr, lr_end, lr_decay,
+                  seed, max_depth)
     rates = learning_rates(lr, iterations, lr_end, lr_decay)
     scene = _load(scene)
     key, _ = find_normalmap(scene)
     sensors = scene.sensors()
-    if not isinstance(targets, (list, tuple)) or len(targets) != len(sensors):
-        raise ParameterError("targets", f"needs one image per sensor ({len(sensors)}), got "
-                                        f"{len(targets) if isinstance(targets, (list, tuple)) else type(targets).__name__}")
-    for i, t in enumerate(targets):
-        if not np.all(np.isfinite(np.asarray(t, np.float64))):
-            raise ParameterError("targets", f"target {i} has non-finite values")
+    targets = check_targets(targets, len(sensors), observables,
+                            lambda i: film_channels(scene, i))
     integrator = mi.load_dict({"type": "stokes_prb", "max_depth": int(max_depth)})
     params = mi.traverse(scene)
     shape = tuple(params[key].shape)
@@ -378,9 +380,9 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
     start_normals = np.zeros(shape, np.float32)
     start_normals[..., 2] = 1.0
     if start is not None:
-        start_normals = np.asarray(start, np.float32)
-        if start_normals.shape != shape:
-            raise ParameterError("start", f"must have the normal map's shape {shape}")
+        start_normals = check_normal_field(start, "start", shape).astype(np.float32)
+    if truth is not None:
+        truth = check_normal_field(truth, "truth", shape)
     texels = _Texels(parametrization, start_normals)
     sigma_key = None
     if fit_roughness:
@@ -410,7 +412,7 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
         def view_value(view, it=it):
             normals = apply()
             image = mi.render(scene, params, sensor=view, integrator=integrator, spp=spp,
-                              seed=seed + 7919 * it + 31 * view)
+                              seed=render_seed(seed, it, view))
             value = losses[view](image)
             if smoothness > 0 and view == 0:
                 penalty[0] = smoothness * float(texels.smoothness(dr.detach(normals))[0])
@@ -448,9 +450,6 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
     if sigma_key:
         out.roughness = np.array(opt["sigma"], np.float64)[..., 0]
     if truth is not None:
-        truth = np.asarray(truth, np.float64)
-        if truth.shape != shape:
-            raise ParameterError("truth", f"must have the normal map's shape {shape}")
         out.angular_error = angular_error(normals, truth)
         out.start_error = angular_error(start_normals, truth)
     return out

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError
+from ..numbers import range_count
 from ..reference.params import PBRDFParams
 from .pbsdf import write_pbsdf
 from .rusinkiewicz import angles, directions, global_to_facet
@@ -132,7 +133,8 @@ def parse_bands(text, what="bands"):
         start, stop, step = (int(v) for v in numbers)
         if step <= 0 or stop < start:
             raise ParameterError(what, f"{item!r} needs STEP > 0 and STOP >= START")
-        if (stop - start) // step + 1 > MAX_BANDS:
+        if stop > start and range_count(start, stop, step, what, MAX_BANDS, item,
+                                        "steps") + 1 > MAX_BANDS:
             raise ParameterError(what, f"{item!r} gives more than {MAX_BANDS} wavelengths")
         out.extend(range(start, stop + 1, step))
     if len(out) > MAX_BANDS:

@@ -125,8 +125,14 @@ def read_table(path, what):
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise MeasurementError(f"{path}: no such file")
-    with open(path, newline="", encoding="utf-8-sig") as f:
-        text = f.read()
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            text = f.read()
+    except UnicodeDecodeError as e:  # a binary file: name it, and where it stops being text
+        raise MeasurementError(f"{path}: not a text (UTF-8) CSV file: byte "
+                               f"0x{e.object[e.start]:02x} at offset {e.start}") from None
+    if "\0" in text:
+        raise MeasurementError(f"{path}: not a text CSV file (it holds NUL bytes)")
     # (line number in the file, line): comments and blank lines are skipped
     # but keep their place in the numbering of the error messages
     lines = [(number, line) for number, line in enumerate(text.splitlines(), start=1)

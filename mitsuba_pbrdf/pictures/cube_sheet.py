@@ -23,7 +23,7 @@ from ..errors import ParameterError
 from ..stokes.image import StokesImage
 from .png import save_png
 
-__all__ = ["Region", "SHEET_OPTIONS", "parse_region", "stokes_spectrum", "band_centres",
+__all__ = ["Region", "SHEET_OPTIONS", "parse_region", "region_spectrum", "stokes_spectrum", "band_centres",
            "cube_sheet_figure", "save_cube_sheet", "write_spectrum_csv"]
 
 
@@ -75,10 +75,35 @@ def band_centres(image: StokesImage) -> np.ndarray:
     return np.array(out)
 
 
+def region_spectrum(image: StokesImage, region: Region):
+    """The mean Stokes vector per band, shape (n_bands, 4), float64, of the
+    pixels of *region* usable in every band (:mod:`mitsuba_pbrdf.stokes.quality`),
+    and how many pixels that is. :class:`ParameterError` naming ``spectrum``
+    when a band is not named after its wavelength (``460nm``: the CSV's
+    ``centre_nm``) or when no pixel of the region is usable."""
+    from ..stokes.quality import assess
+
+    centres = band_centres(image)
+    if not np.all(np.isfinite(centres)):
+        raise ParameterError("spectrum", f"a Stokes spectrum needs bands named after their "
+                             f"wavelengths (a cube of pbrdf render --bands, e.g. 460nm); "
+                             f"this image has bands {', '.join(image.bands)}")
+    rows = slice(region.y, region.y + region.height)
+    cols = slice(region.x, region.x + region.width)
+    usable = np.ones((region.height, region.width), bool)
+    for band in image.bands:
+        usable &= ~assess(image, band).unusable[rows, cols]
+    if not usable.any():
+        raise ParameterError("spectrum", f"{region.describe()}: no pixel is usable in every "
+                             "band (non-finite, S0 < 0 or degree of polarization > 1)")
+    block = image.stokes[rows, cols].astype(np.float64)[usable]   # (n, 4, bands)
+    return block.mean(axis=0).T, int(usable.sum())
+
+
 def stokes_spectrum(image: StokesImage, region: Region) -> np.ndarray:
-    """Mean Stokes vector of *region* per band, shape (n_bands, 4), float64."""
-    block = image.stokes[region.y:region.y + region.height, region.x:region.x + region.width]
-    return block.astype(np.float64).mean(axis=(0, 1)).T
+    """Mean Stokes vector of *region*'s usable pixels per band, shape
+    (n_bands, 4), float64 (:func:`region_spectrum`)."""
+    return region_spectrum(image, region)[0]
 
 
 def write_spectrum_csv(path, image: StokesImage, region: Region) -> str:

@@ -206,13 +206,15 @@ def _read_refinement(props, name, refined):
 
 
 class Exposed(NamedTuple):
-    """A parameter as ``traverse`` exposes it: its texture, its flags, and the
-    bounds ``parameters_changed`` re-checks (> 0 where ``positive``, >= ``floor``)."""
+    """A parameter as ``traverse`` exposes it: its texture, its flags, and what
+    ``parameters_changed`` re-checks (> 0 where ``positive``, >= ``floor``; a
+    ``spectral`` texture, or a float one evaluated as the kernel does)."""
 
     texture: object
     flags: object
     positive: bool
     floor: Optional[float]
+    spectral: bool
 
 
 class PolarizedBRDF(mi.BSDF):
@@ -292,7 +294,7 @@ class PolarizedBRDF(mi.BSDF):
             flags = mi.ParamFlags.Differentiable
             if p.discontinuous:
                 flags = flags | mi.ParamFlags.Discontinuous
-            exposed[name] = Exposed(texture, flags, p.positive, p.floor)
+            exposed[name] = Exposed(texture, flags, p.positive, p.floor, p.kind == "spectrum")
         return exposed
 
     def traverse(self, callback):
@@ -304,7 +306,7 @@ class PolarizedBRDF(mi.BSDF):
         for name, exposed in self._exposed().items():
             if not keys or any(k == name or k.startswith(name + ".") for k in keys):
                 params.check_texture_values(name, exposed.texture, exposed.positive,
-                                            exposed.floor)
+                                            exposed.floor, spectral=exposed.spectral)
 
     def to_string(self):
         ior = (f"material = {self.material!r}" if self.material

@@ -70,7 +70,7 @@ def texture(props, name, default, *, spectral, positive=False, minimum=None):
     except RuntimeError as error:  # e.g. an inline spectrum Mitsuba refuses
         reason = str(error).strip().splitlines()[-1]
         raise ValueError(f"pbrdf: parameter '{name}' is invalid: {reason}") from None
-    check_texture_values(name, tex, positive, minimum)
+    check_texture_values(name, tex, positive, minimum, spectral=spectral)
     return tex
 
 
@@ -84,7 +84,7 @@ _RGB_ABOVE_ONE = ("pbrdf: parameter '{name}' is an RGB colour above 1 ({colour})
                   "(e.g. value=\"360:1.5, 550:1.2, 830:2.0\") or a material")
 
 
-def check_texture_values(name, tex, positive=False, minimum=None):
+def check_texture_values(name, tex, positive=False, minimum=None, spectral=True):
     """Raise if texture ``tex`` holds or evaluates to a NaN, infinite or
     negative value (zero when ``positive``, below ``minimum`` when given).
 
@@ -93,9 +93,13 @@ def check_texture_values(name, tex, positive=False, minimum=None):
     RGB colours and three-channel bitmaps as spectral-upsampling coefficients;
     those, and tabulated spectra (zero outside their wavelength range), are
     also evaluated at every texel centre and at wavelengths spanning Mitsuba's
-    spectral range.
+    spectral range. A float parameter (``spectral`` false) is also evaluated
+    the way the kernel evaluates it, with ``eval_1``: a texture that cannot
+    give one value per point (an RGB bitmap in a spectral variant, such as an
+    ordinary 8-bit PNG) is refused naming the parameter.
     """
-    for values in texture_values(tex):
+    evaluated = [] if spectral else [_eval_1_values(name, tex)]
+    for values in texture_values(tex) + evaluated:
         if values.size == 0:
             continue
         if not np.all(np.isfinite(values)):
@@ -161,6 +165,35 @@ def _evaluated_values(tex, resolution, wavelengths=(360.0, 830.0, 24)):
         si.wavelengths = mi.UnpolarizedSpectrum(*(float(b) for b in block))
         out.append(np.asarray(tex.eval(si), dtype=np.float64).ravel())
     return np.concatenate(out)
+
+
+def _eval_1_values(name, tex):
+    """``tex.eval_1`` at the texel centres (as :func:`_evaluated_values`);
+    ValueError naming *name* when the texture has no ``eval_1``."""
+    resolution = 1
+    params = mi.traverse(tex)
+    for key in params.keys():
+        if key.split(".")[-1] == "data" and hasattr(params[key], "shape"):
+            resolution = min(max(resolution, *tuple(params[key].shape)[:2]),
+                             _MAX_EVALUATED_RESOLUTION)
+    if mi.variant().startswith("scalar"):
+        resolution = 1
+    u = (np.arange(resolution) + 0.5) / resolution
+    uu, vv = np.meshgrid(u, u)
+    si = dr.zeros(mi.SurfaceInteraction3f, uu.size)
+    si.uv = mi.Point2f(uu.ravel(), vv.ravel()) if resolution > 1 else mi.Point2f(0.5, 0.5)
+    try:
+        with dr.suspend_grad():  # a check: no derivative graph (parameters_changed runs in AD)
+            values = tex.eval_1(si)
+            dr.eval(values)
+        return np.asarray(values, dtype=np.float64).ravel()
+    except Exception as e:  # noqa: BLE001 - Mitsuba's refusal, a RuntimeError today
+        reason = " ".join(str(e).split("\n")[-1].split()) or type(e).__name__
+        if "monochromatic" in str(e):
+            reason = ("an RGB texture cannot give one value per point in a spectral variant "
+                      "(e.g. an ordinary 8-bit RGB PNG)")
+        raise ValueError(f"pbrdf: parameter '{name}' takes one value per point (eval_1): "
+                         f"{reason}; give a number or a one-channel bitmap (raw = true)") from None
 
 
 def is_constant_zero(tex):

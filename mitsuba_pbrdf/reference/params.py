@@ -58,7 +58,12 @@ class _ParamsMethods:
             sigma = f"σu={u:g}, σv={v:g}"
         parts = [what, sigma + (", GGX" if self.distribution == "ggx" else ""), f"ks={self.ks:g}"]
         if self.kdd:
-            parts.append(f"kdd={self.kdd:g} (σdd={self.sigma_dd:g}, {self.dd_distribution})")
+            width = f"σdd={self.sigma_dd:g}"
+            if self.sigma_dd_u is not None or self.sigma_dd_v is not None:
+                u = self.sigma_dd if self.sigma_dd_u is None else self.sigma_dd_u
+                v = self.sigma_dd if self.sigma_dd_v is None else self.sigma_dd_v
+                width = f"σdd_u={u:g}, σdd_v={v:g}"
+            parts.append(f"kdd={self.kdd:g} ({width}, {self.dd_distribution})")
         if self.kid:
             parts.append(f"kid={self.kid:g}")
         parts.append(f"G={self.shadowing}")

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError
+from ..numbers import range_count
 from .narrowband import CIE_RANGE
 
 __all__ = ["SpectralBands", "parse_bands", "require_spectral_bands", "MAX_BANDS"]
@@ -100,13 +101,12 @@ def _item_edges(item: str, whole: str) -> list:
     start, stop, step = values
     if step <= 0 or stop <= start:
         raise ParameterError("bands", f"the range {item!r} needs START < STOP and STEP > 0")
-    count = (stop - start) / step
+    # bounded before rounding: a denormal STEP (1e-320) makes the quotient infinite
+    count = range_count(start, stop, step, "bands", MAX_BANDS, item, "bands")
     n = int(round(count))
     if abs(count - n) > 1e-6 * max(1.0, count):
         raise ParameterError("bands", f"the range {item!r}: STOP - START is not a whole number "
                              f"of {step:g} nm steps")
-    if n > MAX_BANDS:
-        raise ParameterError("bands", f"{item!r} is {n} bands; at most {MAX_BANDS}")
     return [(start + i * step, start + (i + 1) * step) for i in range(n)]
 
 

@@ -12,23 +12,13 @@ from __future__ import annotations
 import re
 from contextlib import contextmanager
 
+from ..interrupts import held, interrupted
+
 __all__ = ["SceneLoadError", "interrupted", "condense", "scene_load_errors"]
 
 
 class SceneLoadError(RuntimeError):
     """Mitsuba could not load the scene (its parser's message, on one line)."""
-
-
-def interrupted(error: BaseException) -> bool:
-    """Whether *error* is Ctrl-C that Mitsuba or Dr.Jit wrapped (it was raised
-    inside the plugin's Python code while they were calling it)."""
-    seen = set()
-    while error is not None and id(error) not in seen:
-        if isinstance(error, KeyboardInterrupt) or "KeyboardInterrupt" in str(error):
-            return True
-        seen.add(id(error))
-        error = error.__cause__ or error.__context__
-    return False
 
 
 def condense(message: str) -> str:
@@ -41,10 +31,13 @@ def condense(message: str) -> str:
 @contextmanager
 def scene_load_errors():
     """Around a Mitsuba scene loader: its ``RuntimeError`` becomes
-    :class:`SceneLoadError`, or ``KeyboardInterrupt`` where it was Ctrl-C."""
-    try:
-        yield
-    except RuntimeError as e:
-        if interrupted(e):
-            raise KeyboardInterrupt from e
-        raise SceneLoadError(condense(str(e))) from e
+    :class:`SceneLoadError`, or ``KeyboardInterrupt`` where it was Ctrl-C.
+    SIGINT is held while Mitsuba loads (it calls the plugins' Python
+    constructors from C++: :mod:`mitsuba_pbrdf.interrupts`) and delivered after."""
+    with held():
+        try:
+            yield
+        except RuntimeError as e:
+            if interrupted(e):
+                raise KeyboardInterrupt from e
+            raise SceneLoadError(condense(str(e))) from e

@@ -43,10 +43,12 @@ from typing import Mapping, Optional
 import numpy as np
 
 from ..errors import ParameterError
+from ..interrupts import release as release_interrupts
 from ..registry import use_variant
 from ..shading import warn_unpolarized_wrappers
 from ..variant import default_variant
 from .bands import SpectralBands, parse_bands, require_spectral_bands
+from ..numbers import MAX_SPP
 from .cube import check_cube_spp, cube_image, cube_pass, load_cube_scene
 from .mitsuba_errors import SceneLoadError, interrupted, scene_load_errors
 from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
@@ -191,6 +193,8 @@ def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] =
     for name, value in (("spp", spp), ("passes", passes)):
         if value is not None and int(value) < 1:
             raise ParameterError(name, f"must be at least 1, got {value}")
+        if value is not None and int(value) > MAX_SPP:
+            raise ParameterError(name, f"must be at most {MAX_SPP} (2^24), got {value}")
     if variant is None:
         variant = default_variant()
     require_polarized(variant)
@@ -305,6 +309,7 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
                        budget=samples_per_pass(backend))
     seeds = pass_seeds(seed, len(plan))
 
+    release_interrupts()  # loaded: Ctrl-C from here on stops between passes
     history_was_on = dr.flag(dr.JitFlag.KernelHistory)
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     dr.kernel_history()  # clear what earlier work left there

@@ -12,7 +12,9 @@
      - texture (``bitmap`` with ``raw`` = true, one channel)
      - The height field, in scene units per unit of ``scale`` (any name).
        Only its UV gradient matters: a constant offset changes nothing.
-       Non-finite heights are refused at load time.
+       Non-finite heights, and textures without a UV gradient
+       (``eval_1_grad``: a ``checkerboard``), are refused at load time and
+       at ``parameters_changed``.
      - (required)
      - |exposed|, |differentiable|, |discontinuous|
    * - (nested plugin)
@@ -22,7 +24,8 @@
      - |exposed|, |differentiable|, |discontinuous|
    * - ``scale``
      - float
-     - Multiplier of the height gradient; finite.
+     - Multiplier of the height gradient; a finite number (not a
+       boolean), re-checked at ``parameters_changed``.
      - 1.0
      - |exposed|
    * - ``flip_invalid_normals``
@@ -94,7 +97,8 @@ _NAME = "polarized_bumpmap"
 
 def check_heights(texture):
     """Raise a one-line ``ValueError`` if the height texture stores a NaN or
-    infinite value."""
+    infinite value, or cannot be evaluated the way the kernel evaluates it
+    (``eval_1_grad``: a bitmap has it, a ``checkerboard`` has not)."""
     params = mi.traverse(texture)
     for key in params.keys():
         if key.split(".")[-1] in ("data", "value"):
@@ -102,6 +106,30 @@ def check_heights(texture):
                                 else params[key], dtype=np.float64)
             if not np.all(np.isfinite(values)):
                 raise ValueError(f"{_NAME}: the height texture contains NaN or infinite values")
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.uv = mi.Point2f(0.5, 0.5)
+    try:
+        with dr.suspend_grad():  # a check: no derivative graph (parameters_changed runs in AD)
+            grad = texture.eval_1_grad(si)
+            dr.eval(grad)
+        finite = bool(np.all(np.isfinite(np.array([np.asarray(grad.x), np.asarray(grad.y)],
+                                                  dtype=np.float64))))
+    except Exception as e:  # noqa: BLE001 - Mitsuba's "not implemented", whatever its type
+        reason = " ".join(str(e).split()) or type(e).__name__
+        raise ValueError(f"{_NAME}: the height texture ({texture.class_name()}) has no UV "
+                         f"gradient, which the bump map needs (eval_1_grad: {reason}); give a "
+                         "one-channel bitmap with raw = true") from None
+    if not finite:
+        raise ValueError(f"{_NAME}: the height texture's gradient is NaN or infinite")
+
+
+def check_scale(scale):
+    """The bump map's ``scale`` as a float: a finite number, not a boolean
+    (``true`` is not a scale); a one-line ``ValueError`` otherwise."""
+    if isinstance(scale, bool) or not isinstance(scale, (int, float)) \
+            or not math.isfinite(scale):
+        raise ValueError(f"{_NAME}: parameter 'scale' must be a finite number, got {scale!r}")
+    return float(scale)
 
 
 def bumpmap_frame(texture, scale, si, flip_invalid_normals, active):
@@ -152,10 +180,7 @@ class PolarizedBumpMap(mi.BSDF):
                              f"found {len(textures)}")
         self.nested_texture = next(iter(textures.values()))
         check_heights(self.nested_texture)
-        scale = props.get("scale", 1.0)
-        if not isinstance(scale, (int, float)) or not math.isfinite(scale):
-            raise ValueError(f"{_NAME}: parameter 'scale' must be a finite number, got {scale!r}")
-        self.scale = mi.Float(scale)
+        self.scale = mi.Float(check_scale(props.get("scale", 1.0)))
         self.flip_invalid_normals = flag(props, _NAME, "flip_invalid_normals", True)
         self.use_shadowing_function = flag(props, _NAME, "use_shadowing_function", True)
         self.m_components = [self.nested_bsdf.flags(i)
@@ -169,8 +194,14 @@ class PolarizedBumpMap(mi.BSDF):
         callback.put("scale", self.scale, mi.ParamFlags.NonDifferentiable)
 
     def parameters_changed(self, keys):
-        if not keys or any(k.startswith("nested_texture.") for k in keys):
+        # every update re-checked, as at load time (the normal map does the same)
+        if not keys or any(k.startswith("nested_texture") for k in keys):
             check_heights(self.nested_texture)
+        if not keys or "scale" in keys:
+            values = np.atleast_1d(np.asarray(dr.detach(self.scale), dtype=np.float64))
+            if values.size != 1 or not np.all(np.isfinite(values)):
+                raise ValueError(f"{_NAME}: parameter 'scale' must be a finite number, got "
+                                 f"{values.tolist()}")
 
     def frame(self, si, active=True):
         return bumpmap_frame(self.nested_texture, self.scale, si, self.flip_invalid_normals,

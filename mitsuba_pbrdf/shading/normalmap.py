@@ -14,7 +14,8 @@
        colour = (n + 1) / 2 per component (x along the shading tangent
        ``dp_du``, z along the shading normal; (0.5, 0.5, 1) changes nothing).
        Need not be unit length; a texel whose decoded normal is shorter than
-       1e-3 (no direction) or not finite is refused at load time and at
+       1e-3 (no direction), points into the surface (z < 0: blue below 0.495,
+       e.g. an all-zero texel) or is not finite is refused at load time and at
        ``parameters_changed`` (every texel of a raw bitmap; other textures on
        a 64 x 64 grid of uv).
      - (required)
@@ -95,6 +96,11 @@ VARIANT = mi.variant()
 #: texel's step is 2/255 = 0.008 per component).
 MIN_NORMAL_LENGTH = 1e-3
 
+#: A texel whose decoded normal has z below -this x its length points into the
+#: surface and is refused (the tolerance keeps 8-bit encodings of tangent
+#: normals, blue 127 for 127.5, which decode to z = -0.004).
+INWARD_TOLERANCE = 0.01
+
 _NAME = "polarized_normalmap"
 
 
@@ -137,6 +143,14 @@ def check_normal_texels(texture):
                          f"{short}, colour {tuple(round(c, 4) for c in (normals[short] + 1) / 2)}"
                          f" decodes to a normal of length {lengths[short]:.2g}); "
                          f"(0.5, 0.5, 1) is the unperturbed normal")
+    inward = normals[:, 2] < -INWARD_TOLERANCE * lengths
+    if np.any(inward):
+        first = int(np.argmax(inward))
+        raise ValueError(f"{_NAME}: parameter 'normalmap' has {int(inward.sum())} of "
+                         f"{len(normals)} texels pointing into the surface (texel {first}, "
+                         f"colour {tuple(round(float(c), 4) for c in (normals[first] + 1) / 2)} decodes "
+                         f"to z = {normals[first, 2]:.3g} < 0); the blue channel must be >= 0.5 "
+                         "((0.5, 0.5, 1) is the unperturbed normal)")
 
 
 def normalmap_frame(texture, si, flip_invalid_normals, active):

@@ -28,6 +28,12 @@ Which Stokes vector is checked, and how strictly:
     q = assess(image)            # or assess(image, band="R")
     q.unusable                   # (H, W) bool mask
     print(q.summary())           # "3 of 768 pixels unusable (2 non-finite, 1 with DoP > 1)"
+    require_usable(image, "cube.exr", bands=image.bands)  # ValueError if a band has none
+
+The rule every reader of Stokes data applies (``view``, ``view --cube``,
+``view --spectrum``, ``polcam``, the targets of ``recover-normals``):
+:func:`require_usable` refuses an image in which a judged Stokes vector
+(the luminance one, or each band it will draw or convert) has no usable pixel.
 """
 
 from __future__ import annotations
@@ -39,7 +45,8 @@ import numpy as np
 
 from .image import StokesImage, luminance_stokes
 
-__all__ = ["LUMINANCE_TOLERANCE", "BAND_TOLERANCE", "StokesQuality", "assess"]
+__all__ = ["LUMINANCE_TOLERANCE", "BAND_TOLERANCE", "StokesQuality", "assess",
+           "require_usable", "UnusableImageError"]
 
 #: Relative tolerance of the luminance Stokes vector (see the module docstring).
 LUMINANCE_TOLERANCE = 1e-3
@@ -115,3 +122,23 @@ def assess(image: StokesImage, band: Optional[str] = None) -> StokesQuality:
     black = bool(finite.any()) and not bool(np.any(luminance[finite] > 0))
     return StokesQuality(non_finite=~finite, negative_s0=negative, overpolarized=over,
                          black=black, what=what)
+
+
+class UnusableImageError(ValueError):
+    """A Stokes image (or one of its bands) has no usable pixel."""
+
+
+def require_usable(image: StokesImage, source: Optional[str] = None, bands=None,
+                   band: Optional[str] = None):
+    """The unusable-pixel rule of every reader of Stokes data: the assessment
+    of *band* (None: the luminance vector), and of each of *bands* when given
+    (a cube's readers draw or convert every band); :class:`UnusableImageError`
+    naming *source* (the file) when one of them has no usable pixel. Returns
+    the assessment of *band*."""
+    quality = assess(image, band)
+    judged = [(band, quality)] + [(b, assess(image, b)) for b in (bands or ()) if b != band]
+    for name, q in judged:
+        if q.usable == 0:
+            where = f"{source}: " if source else ""
+            raise UnusableImageError(f"{where}no usable pixel: {q.summary()}")
+    return quality

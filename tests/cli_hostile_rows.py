@@ -1,0 +1,145 @@
+"""The rows of tests/test_cli_hostile.py's table for the surfaces added since
+it was written (issue 28: cubes, sweeps, the NIST layout, recover-normals,
+anisotropy, normal and bump maps), and the files they need.
+
+Each row as in that table: (case, argv, exit status, text of the one line,
+file that must not exist afterwards). ``{tmp}`` and the other names are the
+keys of :func:`hostile_files` and of the table's ``files`` fixture.
+"""
+
+import numpy as np
+
+#: (case, argv, exit status, text of the one line, file that must not exist)
+ROWS = [
+    # one number parser: float extremes and bounded counts
+    ("render: --bands with a denormal step", ["render", "{scene}", "--bands", "400:500:1e-320"],
+     2, "--bands: '400:500:1e-320' is more than 1e308 bands; at most 64", "{tmp}/out"),
+    ("render: --bands with a huge range", ["render", "{scene}", "--bands", "400:1e308:1e-308"],
+     2, "--bands: '400:1e308:1e-308' is more than 1e308 bands; at most 64", "{tmp}/out"),
+    ("render: --spp 2^63-1", ["render", "{scene}", "--spp", str(2 ** 63 - 1)], 2,
+     "--spp: must be an integer of at most 16777216", "{tmp}/out"),
+    ("render: --passes 2^63-1", ["render", "{scene}", "--spp", "1", "--passes",
+                                 str(2 ** 63 - 1)], 2,
+     "--passes: must be an integer of at most 16777216", "{tmp}/out"),
+    ("export: --bands with a denormal step", ["export", "--bands", "400:500:1e-320",
+                                              "--out", "{tmp}/h.pbsdf"], 2,
+     "--bands: '400:500:1e-320' must be a whole number of nm", "{tmp}/h.pbsdf"),
+    ("batch: spp 2^63-1", ["batch", "{sweep_huge_spp}"], 2,
+     "spp must be at most 16777216 (2^24), got 9223372036854775807", "{tmp}/out/manifest.csv"),
+    ("batch: bands with a denormal step", ["batch", "{sweep_denormal_bands}"], 2,
+     "bands: '400:500:1e-320' is more than 1e308 bands; at most 64", "{tmp}/out/manifest.csv"),
+    ("batch: 10^7 jobs", ["batch", "{sweep_many_jobs}"], 2,
+     "= 10000000 jobs; at most 100000 in one sweep", "{tmp}/out/manifest.csv"),
+    # one unusable-pixel rule for every reader of Stokes data
+    ("view --cube: all-NaN cube", ["view", "{cube_nan}", "--cube", "--out", "{tmp}/c.png"], 2,
+     "no usable pixel", "{tmp}/c.png"),
+    ("view --cube: S0 < 0 everywhere", ["view", "{cube_negative}", "--cube", "--out",
+                                        "{tmp}/c.png"], 2, "192 with S0 < 0", "{tmp}/c.png"),
+    ("view --cube: one band all NaN", ["view", "{cube_band_nan}", "--cube", "--out",
+                                       "{tmp}/c.png"], 2, "no usable pixel", "{tmp}/c.png"),
+    ("view --spectrum: all-NaN cube", ["view", "{cube_nan}", "--spectrum", "1,1", "--out",
+                                       "{tmp}/c.png"], 2, "no usable pixel", "{tmp}/c.csv"),
+    ("view --spectrum: the pixel is NaN", ["view", "{cube_pixel_nan}", "--spectrum", "1,1",
+                                           "--out", "{tmp}/c.png"], 2,
+     "--spectrum: pixel (1, 1): no pixel is usable in every band", "{tmp}/c.csv"),
+    ("view --spectrum: an RGB image (no wavelengths)", ["view", "{exr}", "--spectrum", "1,1",
+                                                        "--out", "{tmp}/c.png"], 2,
+     "--spectrum: a Stokes spectrum needs bands named after their wavelengths", "{tmp}/c.csv"),
+    ("polcam: cube with S0 < 0 everywhere", ["polcam", "{cube_negative}", "--out",
+                                             "{tmp}/cam"], 2, "no usable pixel", "{tmp}/cam"),
+    ("polcam: S0 < 0 everywhere", ["polcam", "{negative_exr}", "--out", "{tmp}/cam"], 2,
+     "no usable pixel", "{tmp}/cam"),
+    ("polcam: one band with S0 < 0", ["polcam", "{negative_exr}", "--band", "G", "--out",
+                                      "{tmp}/cam"], 2, "no usable pixel", "{tmp}/cam"),
+    # floors from the schema
+    ("export: --sigma-u below the floor", ["export", "--sigma-u", "1e-300", "--out",
+                                           "{tmp}/h.pbsdf"], 2,
+     "--sigma-u: must be >= 7.07e-05", "{tmp}/h.pbsdf"),
+    ("export: --sigma-dd-u below the floor", ["export", "--kdd", "0.2", "--sigma-dd-u", "1e-9",
+                                              "--out", "{tmp}/h.pbsdf"], 2,
+     "--sigma-dd-u: must be >= 7.07e-05", "{tmp}/h.pbsdf"),
+    ("plot: --sigma below the floor", ["plot", "--sigma", "1e-5", "--out", "{tmp}/p.png"], 2,
+     "--sigma: must be >= 7.07e-05", "{tmp}/p.png"),
+    ("plot: --sigma-v below the floor", ["plot", "--sigma-v", "5e-324", "--out", "{tmp}/p.png"],
+     2, "--sigma-v: must be >= 7.07e-05", "{tmp}/p.png"),
+    # recover-normals (the library's checks: tests/test_normal_recovery.py)
+    ("recover-normals: --seed -1", ["recover-normals", "{plate}", "--targets", "{exr8}",
+     "--out", "{tmp}/rn", "--seed", "-1"], 2, "--seed: must be an integer in [0, 2^32 - 1]",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: --seed 2^40", ["recover-normals", "{plate}", "--targets", "{exr8}",
+     "--out", "{tmp}/rn", "--seed", str(2 ** 40)], 2,
+     "--seed: must be an integer of at most 4294967295",
+     "{tmp}/rn/normals.exr"),
+    ("recover-normals: an all-zero target", ["recover-normals", "{plate}", "--targets",
+     "{zero8}", "--out", "{tmp}/rn", "--iterations", "1"], 2,
+     "--targets: target 0 is zero everywhere", "{tmp}/rn/recovery.json"),
+    ("recover-normals: a target with S0 < 0 everywhere", ["recover-normals", "{plate}",
+     "--targets", "{negative8}", "--out", "{tmp}/rn", "--iterations", "1"], 2,
+     "--targets: target 0: no usable pixel", "{tmp}/rn/recovery.json"),
+    ("recover-normals: an all-zero polcam frame", ["recover-normals", "{plate}", "--targets",
+     "{zero_frame}", "--out", "{tmp}/rn", "--observables", "polcam", "--iterations", "1"], 2,
+     "--targets: target 0 is zero everywhere", "{tmp}/rn/recovery.json"),
+    ("recover-normals: a NaN truth", ["recover-normals", "{plate}", "--targets", "{exr8}",
+     "--out", "{tmp}/rn", "--iterations", "1", "--truth", "{nan_truth}"], 2,
+     "--truth: truth has non-finite values", "{tmp}/rn/recovery.json"),
+    ("recover-normals: a zero-length truth", ["recover-normals", "{plate}", "--targets",
+     "{exr8}", "--out", "{tmp}/rn", "--iterations", "1", "--truth", "{zero_truth}"], 2,
+     "--truth: 16 normals have zero length", "{tmp}/rn/recovery.json"),
+    # files named in their errors
+    ("fit: a binary file", ["fit", "{binary}"], 2, "binary.csv: not a text (UTF-8) CSV file",
+     None),
+    ("fit: a file with NUL bytes", ["fit", "{nul_csv}"], 2,
+     "nul.csv: not a text CSV file (it holds NUL bytes)", None),
+]
+
+
+def _cube(path, tweak=None):
+    from mitsuba_pbrdf.rendering.bands import parse_bands
+    from mitsuba_pbrdf.rendering.cube import cube_image
+    from mitsuba_pbrdf.stokes.exr import write_stokes_exr
+
+    stokes = np.zeros((12, 16, 4, 4), np.float32)
+    stokes[:, :, 0] = 1.0
+    stokes[:, :, 1] = 0.2
+    if tweak is not None:
+        tweak(stokes)
+    return str(write_stokes_exr(path, cube_image(stokes, parse_bands("450:530:20"), {})))
+
+
+def hostile_files(tmp_path, scene, stokes_exr) -> dict:
+    """The files of :data:`ROWS` in *tmp_path*; *scene*: the tiny scene,
+    *stokes_exr(path, tweak)*: the table's Stokes EXR writer."""
+    def sweep(name, body):
+        path = tmp_path / f"{name}.toml"
+        path.write_text(f'scene = "{scene}"\nout = "out"\n' + body)
+        return str(path)
+
+    def set_(index, value):
+        def tweak(s):
+            s[index] = value
+        return tweak
+
+    from mitsuba_pbrdf.stokes.exr import write_exr
+
+    zeros = np.zeros((8, 8), np.float32)
+    many = "".join(f"p{i} = {list(range(10))}\n" for i in range(7))
+    (tmp_path / "binary.csv").write_bytes(bytes(range(256)) * 8)
+    (tmp_path / "nul.csv").write_text("theta_i,phi_i\n\0\0\n")
+    return dict(
+        sweep_huge_spp=sweep("huge_spp", f"spp = {2 ** 63 - 1}\n"),
+        sweep_denormal_bands=sweep("denormal", 'bands = "400:500:1e-320"\n'),
+        sweep_many_jobs=sweep("many", "[params]\n" + many),
+        cube_nan=_cube(tmp_path / "cube_nan.exr", set_((Ellipsis,), np.nan)),
+        cube_negative=_cube(tmp_path / "cube_negative.exr", set_((Ellipsis, 0, slice(None)), -1.0)),
+        cube_band_nan=_cube(tmp_path / "cube_band_nan.exr", set_((Ellipsis, 2), np.nan)),
+        cube_pixel_nan=_cube(tmp_path / "cube_pixel_nan.exr", set_((1, 1), np.nan)),
+        negative_exr=stokes_exr(tmp_path / "negative.exr", set_((Ellipsis, 0, slice(None)), -1.0)),
+        binary=str(tmp_path / "binary.csv"), nul_csv=str(tmp_path / "nul.csv"),
+        exr8=stokes_exr(tmp_path / "good8.exr", h=8, w=8),
+        zero8=stokes_exr(tmp_path / "zero8.exr", set_((Ellipsis,), 0.0), h=8, w=8),
+        negative8=stokes_exr(tmp_path / "negative8.exr", set_((Ellipsis, 0, slice(None)), -1.0),
+                             h=8, w=8),
+        zero_frame=str(write_exr(tmp_path / "zero_mosaic.exr", {"Y": zeros})),
+        nan_truth=str(write_exr(tmp_path / "nan_truth.exr",
+                                {c: np.full((4, 4), np.nan, np.float32) for c in "XYZ"})),
+        zero_truth=str(write_exr(tmp_path / "zero_truth.exr", {c: zeros[:4, :4] for c in "XYZ"})))

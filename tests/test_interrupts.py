@@ -1,0 +1,211 @@
+"""Ctrl-C at any instant (mitsuba_pbrdf.interrupts, mitsuba_pbrdf.outputs.together).
+
+In process (fast): a SIGINT that comes while held is recorded and delivered
+as KeyboardInterrupt when released; an output is never replaced while one is
+pending; outputs written together are all replaced or none; a KeyboardInterrupt
+that Dr.Jit wraps (``dr.while_loop``) is reported as an interruption (exit
+130), not as an error (exit 2).
+
+For real (slow): ``pbrdf render``, ``render --bands``, ``fit``, ``batch`` and
+``recover-normals`` get SIGINT at random delays from 0 to 2 s after they
+start, with earlier outputs in place. Each run must end in one of: exit 130
+with ``pbrdf COMMAND: interrupted`` as the last line of stderr and no
+traceback, every earlier output unchanged and no temporary file; exit 0 (the
+signal came after the work was done), every output complete; or, in the
+first tens of milliseconds, Python's own start-up (the signal killed the
+interpreter before its handler was installed, or interrupted site.py: no line
+of this package ran, nothing was written). The delays are printed (``-s``)
+with the seed that drew them.
+"""
+
+import os
+import random
+import signal
+import sys
+
+import numpy as np
+import pytest
+
+from mitsuba_pbrdf import interrupts
+from mitsuba_pbrdf.cli import main
+from mitsuba_pbrdf.outputs import together, write_text
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
+
+
+def _sigint_now():
+    os.kill(os.getpid(), signal.SIGINT)
+
+
+def test_a_held_sigint_is_delivered_on_release():
+    with pytest.raises(KeyboardInterrupt):
+        with interrupts.held():
+            _sigint_now()
+            assert interrupts.pending()       # recorded, not raised
+    assert not interrupts.pending() and not interrupts.is_held()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_no_output_is_replaced_while_a_sigint_is_pending(tmp_path):
+    target = write_text(tmp_path / "a.txt", "old\n")
+    with pytest.raises(KeyboardInterrupt):
+        with interrupts.held():
+            _sigint_now()
+            write_text(target, "new\n")
+    assert open(target).read() == "old\n" and os.listdir(tmp_path) == ["a.txt"]
+
+
+def test_outputs_written_together_are_replaced_together_or_not_at_all(tmp_path):
+    a, b = write_text(tmp_path / "a.txt", "old a\n"), write_text(tmp_path / "b.txt", "old b\n")
+    with pytest.raises(KeyboardInterrupt):
+        with together():
+            write_text(a, "new a\n")
+            _sigint_now()                     # Ctrl-C between the two writes
+            write_text(b, "new b\n")
+    assert [open(p).read() for p in (a, b)] == ["old a\n", "old b\n"]
+    with pytest.raises(ValueError):
+        with together():
+            write_text(a, "new a\n")
+            raise ValueError("the second output failed")
+    assert open(a).read() == "old a\n"
+    with together():
+        write_text(a, "new a\n")
+        write_text(b, "new b\n")
+        assert open(a).read() == "old a\n"   # replaced at the end only
+    assert [open(p).read() for p in (a, b)] == ["new a\n", "new b\n"]
+    assert sorted(os.listdir(tmp_path)) == ["a.txt", "b.txt"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_sigint_before_a_command_ends_is_delivered_by_run_command(capfd):
+    from mitsuba_pbrdf.cli.common import run_command
+
+    def command(args):
+        _sigint_now()      # recorded: the command line holds SIGINT until released
+        raise ValueError("an error after Ctrl-C")
+
+    interrupts.hold()
+    assert run_command(command, None, "render") == 130
+    assert capfd.readouterr().err.strip() == "pbrdf render: interrupted"
+    assert not interrupts.is_held()
+
+
+def test_a_keyboard_interrupt_wrapped_by_drjit_is_an_interruption(capfd):
+    """dr.while_loop wraps a KeyboardInterrupt raised in its body in a
+    RuntimeError ('encountered an exception (see above)'), as recover-normals
+    met it; the command line says interrupted and exits 130, not 2."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.cli.common import run_command
+
+    def body(i):
+        raise KeyboardInterrupt
+
+    def command(args):
+        dr.while_loop((mi.UInt32(0),), lambda i: i < 3, body)
+
+    assert run_command(command, None, "recover-normals") == 130
+    out, err = capfd.readouterr()
+    assert err.strip().splitlines()[-1] == "pbrdf recover-normals: interrupted"
+
+
+@pytest.mark.parametrize("orig_argv, argv0, holds", [
+    (["python", "-m", "mitsuba_pbrdf", "render"], "-m", True),
+    (["/venv/bin/python", "/venv/bin/pbrdf", "fit"], "/venv/bin/pbrdf", True),
+    (["python", "-m", "pytest"], "/x/pytest/__main__.py", False),
+    (["python", "-m", "mitsuba_pbrdf.schema"], "-m", False),
+    (["python", "script.py"], "script.py", False),
+])
+def test_the_command_line_holds_from_the_package_import(monkeypatch, orig_argv, argv0, holds):
+    monkeypatch.setattr(sys, "orig_argv", orig_argv, raising=False)
+    monkeypatch.setattr(sys, "argv", [argv0])
+    try:
+        assert interrupts.hold_for_command_line() is holds
+    finally:
+        interrupts.release()
+
+
+# ------------------------------------------------------------- SIGINT for real
+
+SCENE = os.path.join(ROOT, "scenes", "default.xml")
+SMALL = ["-D", "width=48", "-D", "height=36", "--variant", "llvm_ad_spectral_polarized"]
+
+
+def _render(out):
+    return ["render", SCENE, "--spp", "64", "--out", f"{out}/r", *SMALL], ["r.exr", "r.png"]
+
+
+def _bands(out):
+    return (["render", SCENE, "--bands", "450:650:20", "--spp", "20", "--out", f"{out}/c",
+             *SMALL], ["c.exr", "c.png"])
+
+
+def _fit(out):
+    return (["fit", os.path.join(ROOT, "tests", "data", "fit_example.csv"), "--json",
+             f"{out}/fit.json", "--plot", f"{out}/fit.png"], ["fit.json", "fit.png"])
+
+
+def _batch(out):
+    """Earlier files where the sweep's jobs write theirs (no manifest yet: the
+    jobs render and replace them, each atomically, one job at a time)."""
+    sweep = os.path.join(out, "sweep.toml")
+    with open(sweep, "w") as f:
+        f.write(f'scene = "{SCENE}"\nout = "{out}/batch"\nspp = 4\n'
+                '[params]\nwidth = 16\nheight = 12\nsigma = [0.1, 0.2]\n')
+    return ["batch", sweep, "--workers", "1"], ["batch/sigma-0.1.exr", "batch/sigma-0.2.exr"]
+
+
+def _recover(out):
+    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+    from mitsuba_pbrdf.stokes.exr import write_stokes_exr
+    from mitsuba_pbrdf.stokes.image import StokesImage
+
+    flat = np.zeros((4, 4, 3), np.float32)
+    flat[..., 2] = 1.0
+    plate = write_plate_files(out, flat, size=8, spp=1)
+    stokes = np.zeros((8, 8, 4, 3), np.float32)
+    stokes[:, :, 0], stokes[:, :, 1] = 1.0, 0.2
+    target = write_stokes_exr(os.path.join(out, "t.exr"), StokesImage(stokes, ["R", "G", "B"]))
+    return (["recover-normals", plate, "--targets", str(target), "--out", f"{out}/rn",
+             "--iterations", "30", "--spp", "2", "--no-progress"],
+            ["rn/normals.exr", "rn/normals.png", "rn/recovery.json"])
+
+
+COMMANDS = {"render": _render, "render --bands": _bands, "fit": _fit, "batch": _batch,
+            "recover-normals": _recover}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(COMMANDS))
+def test_sigint_at_random_delays_never_replaces_an_output(name, tmp_path):
+    from proof.interrupt import interrupt_after, sigint_outcome
+
+    seed = random.randrange(2 ** 32)
+    rng = random.Random(seed)
+    delays = sorted(rng.uniform(0.0, 2.0) for _ in range(3))
+    print(f"{name}: seed {seed}, delays {', '.join(f'{d:.3f}' for d in delays)} s")
+    for delay in delays:
+        out = tmp_path / f"{delay:.3f}"
+        out.mkdir()
+        args, outputs = COMMANDS[name](str(out))
+        for rel in outputs:
+            os.makedirs(os.path.dirname(out / rel), exist_ok=True)
+            (out / rel).write_bytes(b"an earlier output")
+        result = interrupt_after(args, delay)
+        outcome = sigint_outcome(result, args[0])
+        print(f"  {delay:.3f} s: {outcome}")
+        earlier = [(out / rel).read_bytes() == b"an earlier output" for rel in outputs]
+        leftovers = [str(p) for p in out.rglob("*") if ".tmp" in p.name]
+        assert not leftovers, (delay, leftovers)
+        if outcome in ("interrupted", "before python", "python startup"):
+            if name == "batch":   # jobs are separate: each file earlier or a finished job's
+                from mitsuba_pbrdf.stokes.exr import read_stokes_exr
+
+                for rel, kept in zip(outputs, earlier):
+                    assert kept or read_stokes_exr(str(out / rel)).width == 16, (delay, rel)
+            else:
+                assert all(earlier), (delay, outcome, result.stderr)
+        else:
+            assert outcome == "finished", (delay, outcome)
+            assert not any(earlier), (delay, "finished without replacing its outputs")
