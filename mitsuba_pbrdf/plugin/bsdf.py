@@ -240,7 +240,10 @@ class PolarizedBRDF(mi.BSDF):
         self.sampling = _read_choice(props, "sampling")
 
         self.lobes = self._build_lobes()
-        self.m_components = [lobe.flags | mi.BSDFFlags.FrontSide for lobe in self.lobes]
+        # a component's flags: its lobe type, front side, and anisotropic where it is
+        self.m_components = [lobe.flags | mi.BSDFFlags.FrontSide
+                             | (mi.BSDFFlags.Anisotropic if lobe.anisotropic else 0)
+                             for lobe in self.lobes]
         self.m_flags = mi.BSDFFlags.Empty
         for flags in self.m_components:
             self.m_flags = self.m_flags | flags
@@ -248,7 +251,8 @@ class PolarizedBRDF(mi.BSDF):
     def _build_lobes(self):
         """One record per lobe whose weight is not exactly zero, in component
         order: specular, directional diffuse, ideal diffuse. A microfacet lobe
-        with refined widths is anisotropic (``BSDFFlags.Anisotropic``)."""
+        with refined widths is anisotropic (its component flags then carry
+        ``BSDFFlags.Anisotropic``)."""
         glossy, diffuse = mi.BSDFFlags.GlossyReflection, mi.BSDFFlags.DiffuseReflection
         types = {"beckmann": mi.MicrofacetType.Beckmann, "ggx": mi.MicrofacetType.GGX}
         shadowing = SHADOWING[self.shadowing]
@@ -259,9 +263,8 @@ class PolarizedBRDF(mi.BSDF):
             else:
                 widths = (self.sigma_u, self.sigma_v)
                 textures = {"ks": self.ks, "sigma_u": self.sigma_u, "sigma_v": self.sigma_v}
-            flags = glossy if widths[1] is None else glossy | mi.BSDFFlags.Anisotropic
             lobes.append(MicrofacetLobe("specular", self.ks, widths[0], types[self.distribution],
-                                        shadowing, flags, len(lobes), polarizing=True,
+                                        shadowing, glossy, len(lobes), polarizing=True,
                                         textures=textures, width_v=widths[1]))
         if not params.is_constant_zero(self.kdd):
             if self.sigma_dd_u is None:
@@ -271,9 +274,8 @@ class PolarizedBRDF(mi.BSDF):
                 widths = (self.sigma_dd_u, self.sigma_dd_v)
                 textures = {"kdd": self.kdd, "sigma_dd_u": self.sigma_dd_u,
                             "sigma_dd_v": self.sigma_dd_v}
-            flags = glossy if widths[1] is None else glossy | mi.BSDFFlags.Anisotropic
             lobes.append(MicrofacetLobe("directional_diffuse", self.kdd, widths[0],
-                                        types[self.dd_distribution], shadowing, flags, len(lobes),
+                                        types[self.dd_distribution], shadowing, glossy, len(lobes),
                                         polarizing=False, textures=textures, width_v=widths[1]))
         if not params.is_constant_zero(self.kid):
             lobes.append(LambertianLobe("ideal_diffuse", self.kid, diffuse, len(lobes),
@@ -381,7 +383,8 @@ class PolarizedBRDF(mi.BSDF):
         return [lobe for lobe in self.lobes if ctx.is_enabled(lobe.flags, lobe.index)]
 
     def _component_flags(self, lobe):
-        return int(self.m_components[lobe.index])
+        """A sample's ``sampled_type``: the lobe's type on the front side."""
+        return int(lobe.flags | mi.BSDFFlags.FrontSide)
 
     def _weighted(self, lobe, ctx, si, wo, h, value, active):
         """The lobe's weight times its unweighted ``value`` (times cos_o): a

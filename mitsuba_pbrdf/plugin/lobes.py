@@ -94,8 +94,8 @@ class MicrofacetLobe:
     """A microfacet lobe: ``weight`` (texture), ``width`` (RMS slope sigma,
     float texture; sigma_u where ``width_v``, sigma_v, is given: anisotropic),
     ``distribution`` (``mi.MicrofacetType``), ``shadowing`` (a function of
-    :data:`.microfacet.SHADOWING`), ``flags`` (its component's, ``GlossyReflection``
-    and ``Anisotropic`` where it is), ``index`` (component index), ``polarizing``
+    :data:`.microfacet.SHADOWING`), ``flags`` (its lobe type, ``GlossyReflection``),
+    ``index`` (component index), ``polarizing``
     (Fresnel Mueller matrix or depolarizer) and ``textures``, its parameters by
     name as ``traverse`` exposes them."""
 
@@ -109,6 +109,10 @@ class MicrofacetLobe:
     polarizing: bool
     textures: Dict[str, object]
     width_v: Optional[object] = None
+
+    @property
+    def anisotropic(self):
+        return self.width_v is not None
 
     def microfacets(self, si, active):
         """Mitsuba's distribution of this lobe at ``si`` (visible-normal sampling),
@@ -169,6 +173,7 @@ class LambertianLobe:
     index: int
     textures: Dict[str, object]
     polarizing: bool = False
+    anisotropic: bool = False
 
     def sample_direction(self, si, sample2, active):
         return mi.warp.square_to_cosine_hemisphere(sample2)
