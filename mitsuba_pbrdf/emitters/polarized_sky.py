@@ -133,11 +133,14 @@ def _intensity_emitter(props, up, sun):
                              f"(envmap, constant, sunsky), got {emitter.class_name()}")
         return emitter, "nested", None
     if "radiance" in props:
+        if props.type("radiance") == mi.Properties.Type.Color:   # <rgb>: as written
+            read.nonnegative_values(_NAME, "radiance", [float(c) for c in props["radiance"]])
         try:
             radiance = props.get_unbounded_texture("radiance")
         except RuntimeError as error:
-            reason = str(error).strip().splitlines()[-1]
-            raise ValueError(f"{_NAME}: parameter 'radiance' is invalid: {reason}") from None
+            raise ValueError(f"{_NAME}: parameter 'radiance' is invalid: "
+                             f"{read.mitsuba_reason(error)}") from None
+        read.nonnegative_texture(_NAME, "radiance", radiance)
         return mi.load_dict({"type": "constant", "radiance": radiance}), "constant", None
 
     if not (mi.is_rgb or mi.is_spectral):
@@ -162,9 +165,8 @@ def _intensity_emitter(props, up, sun):
     try:
         emitter = mi.load_dict(config)
     except RuntimeError as error:
-        reason = " ".join(str(error).strip().splitlines()[-1].split())
         raise ValueError(f"{_NAME}: the sunsky intensity refused its parameters: "
-                         f"{reason}") from None
+                         f"{read.mitsuba_reason(error)}") from None
     half = math.radians(config.get("sun_aperture", SUN_APERTURE)) / 2.0
     return emitter, "sunsky", half if config.get("sun_scale", 1.0) > 0 else None
 

@@ -106,3 +106,47 @@ def leftover(props, plugin, allowed=()):
     for key in props.keys():
         if key not in allowed:
             raise ValueError(f"{plugin}: unknown parameter '{key}'")
+
+
+def nonnegative_texture(plugin, name, texture):
+    """Raise if ``texture`` evaluates to a negative, NaN or infinite value at
+    any of 256 wavelengths spanning 360-830 nm (spectral variants) or in any
+    channel; uniform and spectral textures have no spatial variation to
+    check (``radiance`` of an infinite emitter is evaluated without uv)."""
+    import drjit as dr
+    import numpy as np
+
+    n = 64
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    if mi.is_spectral:
+        lam = np.linspace(360.0, 830.0, 4 * n).reshape(4, n)
+        si.wavelengths = mi.UnpolarizedSpectrum(*[mi.Float(row) for row in lam])
+    value = texture.eval(si)
+    if mi.is_polarized:
+        value = value[0, 0] if hasattr(value, "shape") and len(value.shape) > 2 else value
+    values = np.array(value, dtype=np.float64)
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"{plugin}: parameter '{name}' contains NaN or infinite values")
+    if values.min() < 0:
+        raise ValueError(f"{plugin}: parameter '{name}' must be >= 0 everywhere (over the "
+                         f"whole spectral range), found {values.min():g}")
+
+
+def nonnegative_values(plugin, name, values):
+    """Raise if any of ``values`` is negative, NaN or infinite."""
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{plugin}: parameter '{name}' contains NaN or infinite values")
+    if min(values) < 0:
+        raise ValueError(f"{plugin}: parameter '{name}' must be >= 0 everywhere, found "
+                         f"{min(values):g}")
+
+
+def mitsuba_reason(error):
+    """The last line of a Mitsuba error without its source locations and its
+    'At dictionary node ...: failed to instantiate ...:' preamble."""
+    import re
+
+    text = str(error).strip().splitlines()[-1]
+    text = re.sub(r"\[[\w./-]+:\d+\]\s*", "", text)
+    text = re.sub(r"At dictionary node \"[^\"]*\": failed to instantiate [^:]*:\s*", "", text)
+    return " ".join(text.split())
