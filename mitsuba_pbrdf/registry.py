@@ -43,6 +43,7 @@ PLUGINS = (
     ("bsdf", "polarized_normalmap", "mitsuba_pbrdf.shading.normalmap", "PolarizedNormalMap"),
     ("bsdf", "polarized_bumpmap", "mitsuba_pbrdf.shading.bumpmap", "PolarizedBumpMap"),
     ("emitter", "polarized_sky", "mitsuba_pbrdf.emitters.polarized_sky", "PolarizedSky"),
+    ("emitter", "stokes_envmap", "mitsuba_pbrdf.emitters.stokes_envmap", "StokesEnvmap"),
 )
 
 _modules = {}

@@ -179,3 +179,109 @@ def normalized(image):
     s0 = s[..., 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         return s[..., 1] / s0, s[..., 2] / s0, s[..., 3] / s0, s0
+
+
+# ---------------------------------------------------------------- lat-long Stokes maps
+
+def latlong_directions(width, height):
+    """(H, W, 3) local directions of the texels of a lat-long map in Mitsuba's
+    envmap layout, and the lat-long Stokes basis x (increasing azimuth)."""
+    phi = 2 * np.pi * (np.arange(width) + 0.5) / width
+    theta = np.pi * np.arange(height) / (height - 1)
+    phi, theta = np.meshgrid(phi, theta)
+    d = np.stack([np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)], -1)
+    east = np.stack([np.cos(phi), np.zeros_like(phi), np.sin(phi)], -1)
+    return d, east
+
+
+def bilinear_latlong(values, d):
+    """Bilinear interpolation of a lat-long map ``values`` (H, W, C) at local
+    directions d (N, 3), on Mitsuba's envmap grid (float64)."""
+    height, width = values.shape[:2]
+    u = (np.arctan2(d[:, 0], -d[:, 2]) / (2 * np.pi)) % 1.0
+    v = np.arccos(np.clip(d[:, 1], -1, 1)) / np.pi
+    x = u * width - 0.5
+    x = np.where(x < 0, x + width, x)
+    y = np.clip(v * (height - 1), 0, height - 1)
+    i0 = np.minimum(np.floor(x).astype(int), width - 1)
+    j0 = np.minimum(np.floor(y).astype(int), height - 2)
+    fx, fy = (x - i0)[:, None], (y - j0)[:, None]
+    i1 = (i0 + 1) % width
+    top = values[j0, i0] * (1 - fx) + values[j0, i1] * fx
+    bottom = values[j0 + 1, i0] * (1 - fx) + values[j0 + 1, i1] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+#: to_world of a lat-long map whose local +Y is the world's +Z (the sky's up)
+Y_TO_Z = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
+
+
+def rayleigh_latlong(width, height, sun, dolp_max, rotation=Y_TO_Z):
+    """(H, W, 4) Stokes map (S0 = 1) of the Rayleigh sky in the lat-long
+    basis, for a map turned into the world by ``rotation``."""
+    d, east = latlong_directions(width, height)
+    d_world, east_world = d @ rotation.T, east @ rotation.T
+    degree, e = rayleigh(d_world, sun, dolp_max)
+    y = np.cross(-d_world, east_world)
+    q, u = linear_stokes(degree, e, east_world, y)
+    return np.stack([np.ones_like(q), q, u, np.zeros_like(q)], -1)
+
+
+# ---------------------------------------------------------------- reflection
+
+def rotate_stokes(stokes, x_from, x_to, w):
+    """Stokes vectors (..., 4) in the basis with x axis ``x_from`` re-expressed
+    in the basis with x axis ``x_to`` (both perpendicular to the propagation
+    ``w``; y = w x x)."""
+    y_to = np.cross(w, x_to)
+    c, s = np.sum(x_from * x_to, -1), np.sum(x_from * y_to, -1)   # x_from = c x_to + s y_to
+    cos2, sin2 = c * c - s * s, 2 * c * s
+    out = stokes.copy()
+    out[..., 1] = cos2 * stokes[..., 1] - sin2 * stokes[..., 2]
+    out[..., 2] = sin2 * stokes[..., 1] + cos2 * stokes[..., 2]
+    return out
+
+
+def reflected(d, up, incident, eta, k, normal=(0.0, 0.0, 1.0)):
+    """(q, u, v, F, stokes_in) of the light a camera ray ``d`` (H, W, 3) sees
+    in a smooth plane of index eta + ik: ``incident(r)`` gives the Stokes
+    vector (..., 4) of the light arriving from direction r and its basis x
+    axis (propagation -r); the reference's Fresnel matrix in the s/p frames
+    of reflection (x = normalize(n x propagation)); the result in the camera
+    basis. ``stokes_in`` is the incident vector in the s/p frame."""
+    from mitsuba_pbrdf.reference import fresnel_mueller
+
+    n = np.asarray(normal, np.float64)
+    r = d - 2 * (d @ n)[..., None] * n
+    stokes, x_basis = incident(r)
+    s_in = unit(np.cross(n, -r))
+    stokes_in = rotate_stokes(stokes, x_basis, s_in, -r)
+    F = fresnel_mueller(r @ n, eta, k)
+    out = np.einsum("...ij,...j->...i", F, stokes_in)
+    x, _ = camera_basis(d, up)
+    out = rotate_stokes(out, unit(np.cross(n, -d)), x, -d)
+    return out[..., 1] / out[..., 0], out[..., 2] / out[..., 0], out[..., 3] / out[..., 0], \
+        F, stokes_in
+
+
+def rayleigh_incident(sun, dolp_max):
+    """``incident`` for :func:`reflected`: the Rayleigh sky."""
+    def incident(r):
+        degree, e = rayleigh(r, sun, dolp_max)
+        x = unit(np.cross(np.broadcast_to([0.0, 0.0, 1.0], r.shape), -r))
+        q, u = linear_stokes(degree, e, x, np.cross(-r, x))
+        return np.stack([np.ones_like(q), q, u, np.zeros_like(q)], -1), x
+    return incident
+
+
+def latlong_incident(stokes_map, rotation=Y_TO_Z):
+    """``incident`` for :func:`reflected`: a lat-long Stokes map turned into
+    the world by ``rotation``, interpolated as ``stokes_envmap`` does."""
+    def incident(r):
+        shape = r.shape
+        d_local = r.reshape(-1, 3) @ rotation          # rotation is orthogonal
+        values = bilinear_latlong(stokes_map, d_local)
+        east = np.stack([-d_local[:, 2], np.zeros(len(d_local)), d_local[:, 0]], -1)
+        east = unit(east @ rotation.T)
+        return values.reshape(shape[:-1] + (4,)), east.reshape(shape)
+    return incident

@@ -207,25 +207,11 @@ def reflection_scene(**emitter):
 
 
 def expected_reflection(d, up):
-    """(q, u, v) in the camera basis of the sky's Stokes vector reflected by
-    the plane z = 0: the reference's Fresnel matrix in the s/p frames of
-    reflection (x = normalize(n x propagation)), rotated into the camera's
-    basis; and the Fresnel matrix."""
-    n = np.array([0.0, 0.0, 1.0])
-    r = d - 2 * (d @ n)[..., None] * n               # towards the sky
-    degree, e = pl.rayleigh(r, SUN, DOLP_MAX)
-    s_in = pl.unit(np.cross(n, -r))
-    q_in, u_in = pl.linear_stokes(degree, e, s_in, np.cross(-r, s_in))
-    stokes_in = np.stack([np.ones_like(q_in), q_in, u_in, np.zeros_like(q_in)], -1)
-    F = fresnel_mueller(r @ n, ETA, K)
-    out = np.einsum("...ij,...j->...i", F, stokes_in)
-    s_out = pl.unit(np.cross(n, -d))
-    x, _ = pl.camera_basis(d, up)
-    theta = np.arctan2(np.sum(x * np.cross(-d, s_out), -1), np.sum(x * s_out, -1))
-    c, s = np.cos(2 * theta), np.sin(2 * theta)
-    q = (c * out[..., 1] + s * out[..., 2]) / out[..., 0]
-    u = (-s * out[..., 1] + c * out[..., 2]) / out[..., 0]
-    return q, u, out[..., 3] / out[..., 0], F, q_in
+    """(q, u, v, F, incident Stokes in the s/p frame) of the plane z = 0
+    reflecting the Rayleigh sky (proof/polarized_light.py: the reference's
+    Fresnel matrix in the s/p frames of reflection, rotated into the camera
+    basis)."""
+    return pl.reflected(d, up, pl.rayleigh_incident(SUN, DOLP_MAX), ETA, K)
 
 
 def test_a_smooth_metal_reflects_the_sky_through_its_fresnel_matrix():
@@ -249,7 +235,8 @@ def test_the_unpolarized_variant_renders_the_intensity(variant_switch):
     polarized, _ = pl.render_stokes(pl.scene(sky(), cam))
     reflected, loaded = pl.render_stokes(reflection_scene())
     _, d = pl.pixel_rays(loaded)
-    _, _, _, F, q_in = expected_reflection(d, pl.camera_up(loaded))
+    _, _, _, F, stokes_in = expected_reflection(d, pl.camera_up(loaded))
+    q_in = stokes_in[..., 1]
 
     variant_switch("llvm_ad_spectral")
     plain, _ = pl.render_stokes(pl.scene(sky(), cam))
