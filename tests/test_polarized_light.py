@@ -453,3 +453,17 @@ def test_a_scene_file_with_a_bad_sky_fails_in_one_line(tmp_path):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
     assert "polarized_sky: parameter 'dolp_max' must be in [0, 1]" in lines[0]
+
+
+def test_a_refused_sky_leaves_later_renders_working():
+    """The checks run before the emitter registers with Dr.Jit: a refused
+    emitter (kept alive here by the exception's traceback) is not traced
+    into the next render's calls."""
+    errors = []
+    for params, _, _ in HOSTILE:
+        with pytest.raises(Exception) as error:
+            mi.load_dict(dict({"type": "polarized_sky"}, **params))
+        errors.append(error)
+    (q, u, _, s0), (eq, eu, _) = render_sky_view()
+    assert len(errors) == len(HOSTILE) and np.all(s0 > 0)
+    assert np.abs(q - eq).max() < TOL and np.abs(u - eu).max() < TOL

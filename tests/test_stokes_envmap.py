@@ -233,3 +233,16 @@ def test_bad_parameters_are_refused(tmp_path):
         last = str(error.value).strip().splitlines()[-1]
         assert last.startswith("ValueError: stokes_envmap: ") and text in last, last
     assert mi.load_dict({"type": "stokes_envmap", "filename": path}).width == 16
+
+
+def test_a_refused_map_leaves_later_renders_working(tmp_path):
+    """The checks run before the emitter registers with Dr.Jit: a refused
+    emitter, kept alive by the exception pytest holds, is not traced into
+    the next render's calls."""
+    errors = []
+    for make, _ in HOSTILE:
+        with pytest.raises(Exception) as error:
+            mi.load_dict({"type": "stokes_envmap", "filename": make(tmp_path)})
+        errors.append(error)
+    image, _ = pl.render_stokes(pl.scene({"type": "constant"}, pl.camera(**VIEW)))
+    assert len(errors) == len(HOSTILE) and np.all(image.stokes[:, :, 0] > 0)

@@ -171,26 +171,37 @@ def _intensity_emitter(props, up, sun):
     return emitter, "sunsky", half if config.get("sun_scale", 1.0) > 0 else None
 
 
+def _configure(props):
+    """The checked parameters of a ``polarized_sky``, as attributes."""
+    model = read.choice(props, _NAME, "model", MODELS, "rayleigh")
+    dolp_max = read.number(props, _NAME, "dolp_max", 0.8, 0.0, 1.0)
+    separation = read.number(props, _NAME, "neutral_point_separation", 35.0, 0.0, 90.0)
+    if model != "berry" and "neutral_point_separation" in props:
+        raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
+                         "model 'berry' only")
+    to_world = read.transform(props)
+    up = read.unit_vector(_NAME, "to_world", [to_world[i][2] for i in range(3)])
+    horizontal = read.unit_vector(_NAME, "to_world", [to_world[i][0] for i in range(3)])
+    sun = read.direction(props, _NAME, "sun_direction")
+    emitter, kind, half_aperture = _intensity_emitter(props, up, sun)
+    return {"model": model, "dolp_max": mi.Float(dolp_max), "separation": separation,
+            "up": up, "horizontal": horizontal, "sun": sun, "intensity": emitter,
+            "kind": kind, "sun_half_aperture": half_aperture}
+
+
 class PolarizedSky(mi.Emitter):
     """A sky whose light carries the polarization of :mod:`.sky_models`
     (module docstring)."""
 
     def __init__(self, props):
+        # Everything is read and checked before the base class registers the
+        # instance with Dr.Jit: a half-built emitter left registered after an
+        # error would break every later render of the session.
+        config = _configure(props)
         super().__init__(props)
-        self.model = read.choice(props, _NAME, "model", MODELS, "rayleigh")
-        self.dolp_max = mi.Float(read.number(props, _NAME, "dolp_max", 0.8, 0.0, 1.0))
-        separation = read.number(props, _NAME, "neutral_point_separation", 35.0, 0.0, 90.0)
-        if self.model != "berry" and "neutral_point_separation" in props:
-            raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
-                             "model 'berry' only")
-        self.separation = separation
-        to_world = read.transform(props)
-        self.up = read.unit_vector(_NAME, "to_world", [to_world[i][2] for i in range(3)])
-        self.horizontal = read.unit_vector(_NAME, "to_world", [to_world[i][0] for i in range(3)])
-        sun = read.direction(props, _NAME, "sun_direction")
-        self.intensity, self.kind, self.sun_half_aperture = _intensity_emitter(
-            props, self.up, sun)
-        self._set_sun(sun)
+        for key, value in config.items():
+            setattr(self, key, value)
+        self._set_sun(config["sun"])
         self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
 
     def _set_sun(self, sun):

@@ -115,27 +115,35 @@ def load_stokes_map(path):
     return np.maximum(s0, 0.0).astype(np.float32), luminance_stokes(image).astype(np.float32)
 
 
+def _configure(props):
+    """The checked parameters of a ``stokes_envmap``, as attributes."""
+    filename = read.string(props, _NAME, "filename")
+    path = str(mi.file_resolver().resolve(filename))
+    if not os.path.isfile(path):
+        raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
+    scale = read.number(props, _NAME, "scale", 1.0, low=0.0)
+    s0, stokes = load_stokes_map(path)
+    config = {"type": "envmap", "bitmap": mi.Bitmap(s0), "scale": scale}
+    if "to_world" in props:
+        config["to_world"] = props["to_world"]
+    m = np.array(read.transform(props), np.float64)[:3, :3]
+    return {"filename": filename, "intensity": mi.load_dict(config),
+            "to_local": [[float(c) for c in row] for row in np.linalg.inv(m)],
+            "to_world_rows": [[float(c) for c in row] for row in m],
+            "height": stokes.shape[0], "width": stokes.shape[1],
+            "stokes": mi.Float(stokes.ravel())}
+
+
 class StokesEnvmap(mi.Emitter):
     """An environment map of Stokes vectors (module docstring)."""
 
     def __init__(self, props):
+        # Read and checked before the base class registers the instance with
+        # Dr.Jit (a half-built emitter left registered breaks later renders).
+        config = _configure(props)
         super().__init__(props)
-        filename = read.string(props, _NAME, "filename")
-        path = str(mi.file_resolver().resolve(filename))
-        if not os.path.isfile(path):
-            raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
-        s0, stokes = load_stokes_map(path)
-        self.filename = filename
-        scale = read.number(props, _NAME, "scale", 1.0, low=0.0)
-        config = {"type": "envmap", "bitmap": mi.Bitmap(s0), "scale": scale}
-        if "to_world" in props:
-            config["to_world"] = props["to_world"]
-        self.intensity = mi.load_dict(config)
-        m = np.array(read.transform(props), np.float64)[:3, :3]
-        self.to_local = [[float(c) for c in row] for row in np.linalg.inv(m)]
-        self.to_world_rows = [[float(c) for c in row] for row in m]
-        self.height, self.width = stokes.shape[:2]
-        self.stokes = mi.Float(stokes.ravel())
+        for key, value in config.items():
+            setattr(self, key, value)
         self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
 
     # -------------------------------------------------------------- polarization
