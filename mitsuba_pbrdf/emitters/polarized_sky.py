@@ -30,7 +30,7 @@
      - Degree of linear polarization at 90° from the sun (Rayleigh), in
        [0, 1]; clear skies reach 0.7-0.8.
      - 0.8
-     - |exposed|, |differentiable|
+     - |exposed|, |differentiable| (JIT variants)
    * - ``neutral_point_separation``
      - float
      - ``berry`` only: the angle in degrees, in [0, 90], between the Babinet
@@ -171,6 +171,12 @@ def _intensity_emitter(props, up, sun):
     return emitter, "sunsky", half if config.get("sun_scale", 1.0) > 0 else None
 
 
+def _floats(value):
+    """The values of a Float, a Vector3f or a Python float, as a list of floats."""
+    value = dr.detach(value) if not isinstance(value, float) else value
+    return [float(c) for c in dr.ravel(value)] if not isinstance(value, float) else [value]
+
+
 def _configure(props):
     """The checked parameters of a ``polarized_sky``, as attributes."""
     model = read.choice(props, _NAME, "model", MODELS, "rayleigh")
@@ -272,25 +278,31 @@ class PolarizedSky(mi.Emitter):
     # -------------------------------------------------------------- parameters
 
     def traverse(self, callback):
-        callback.put("dolp_max", self.dolp_max, mi.ParamFlags.Differentiable)
+        if not isinstance(self.dolp_max, float):   # scalar variants: a plain float
+            callback.put("dolp_max", self.dolp_max, mi.ParamFlags.Differentiable)
         callback.put("sun_direction", self.sun_direction, mi.ParamFlags.NonDifferentiable)
         callback.put("intensity", self.intensity, mi.ParamFlags.Differentiable)
 
     def parameters_changed(self, keys):
         if not keys or "dolp_max" in keys:
-            value = dr.detach(self.dolp_max)
-            if dr.width(value) != 1 or not (0.0 <= float(value[0]) <= 1.0):
+            value = _floats(self.dolp_max)
+            if len(value) != 1 or not (0.0 <= value[0] <= 1.0):
                 raise ValueError(f"{_NAME}: parameter 'dolp_max' must be in [0, 1], got "
-                                 f"{value}")
+                                 f"{value if len(value) != 1 else value[0]}")
+        sun = self.sun
+        if self.kind == "sunsky" and any(k == "intensity" or k.startswith("intensity.")
+                                         for k in keys):
+            # the nested sunsky's own sun_direction was changed: follow it
+            sun = read.unit_vector(_NAME, "sun_direction", _floats(
+                mi.traverse(self.intensity)["sun_direction"]))
         if not keys or "sun_direction" in keys:
-            sun = read.unit_vector(_NAME, "sun_direction",
-                                   [float(c[0]) for c in dr.detach(self.sun_direction)])
-            if sun != self.sun:
-                if self.kind == "sunsky":
-                    params = mi.traverse(self.intensity)
-                    params["sun_direction"] = mi.Vector3f(sun)
-                    params.update()
-                self._set_sun(sun)
+            sun = read.unit_vector(_NAME, "sun_direction", _floats(self.sun_direction))
+            if sun != self.sun and self.kind == "sunsky":
+                params = mi.traverse(self.intensity)
+                params["sun_direction"] = mi.Vector3f(sun)
+                params.update()
+        if sun != self.sun:
+            self._set_sun(sun)
 
     def to_string(self):
         extra = (f",\n  neutral_point_separation = {self.separation}"

@@ -117,14 +117,20 @@ def nonnegative_texture(plugin, name, texture):
     import numpy as np
 
     n = 64
-    si = dr.zeros(mi.SurfaceInteraction3f, n)
-    if mi.is_spectral:
-        lam = np.linspace(360.0, 830.0, 4 * n).reshape(4, n)
-        si.wavelengths = mi.UnpolarizedSpectrum(*[mi.Float(row) for row in lam])
-    value = texture.eval(si)
-    if mi.is_polarized:
-        value = value[0, 0] if hasattr(value, "shape") and len(value.shape) > 2 else value
-    values = np.array(value, dtype=np.float64)
+    lam = np.linspace(360.0, 830.0, 4 * n).reshape(4, n)
+    if mi.variant().startswith("scalar"):    # one lane per call (load time only)
+        values = []
+        for k in range(n):
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            if mi.is_spectral:
+                si.wavelengths = mi.UnpolarizedSpectrum(*lam[:, k])
+            values.append(np.array(texture.eval(si), dtype=np.float64).ravel())
+        values = np.concatenate(values)
+    else:
+        si = dr.zeros(mi.SurfaceInteraction3f, n)
+        if mi.is_spectral:
+            si.wavelengths = mi.UnpolarizedSpectrum(*[mi.Float(row) for row in lam])
+        values = np.array(texture.eval(si), dtype=np.float64)
     if not np.all(np.isfinite(values)):
         raise ValueError(f"{plugin}: parameter '{name}' contains NaN or infinite values")
     if values.min() < 0:
