@@ -431,24 +431,42 @@ def test_a_bad_parameter_update_is_refused(key, value, text):
     assert text in str(error.value).strip().splitlines()[-1]
 
 
-def test_a_scene_file_with_a_bad_sky_fails_in_one_line(tmp_path):
-    """pbrdf render: one line naming the parameter, exit status 2, no traceback."""
-    import subprocess
-    import sys
-
-    scene = tmp_path / "bad_sky.xml"
-    scene.write_text("""<scene version="3.0.0">
+SCENE_XML = """<scene version="3.0.0">
     <integrator type="stokes"><integrator type="path"/></integrator>
-    <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>
+    <sensor type="perspective"><float name="fov" value="60"/>
+        <transform name="to_world"><lookat origin="0,0,0" target="-0.6,0.35,0.7" up="0,0,1"/>
+        </transform><film type="hdrfilm"><integer name="width" value="8"/>
         <integer name="height" value="6"/></film></sensor>
     <emitter type="polarized_sky">
         <vector name="sun_direction" x="0.3" y="0.2" z="0.8"/>
-        <float name="dolp_max" value="1.4"/>
+        <float name="dolp_max" value="DOLP"/>
     </emitter>
-</scene>""")
-    result = subprocess.run([sys.executable, "-m", "mitsuba_pbrdf", "render", str(scene),
-                             "--out", str(tmp_path / "out.exr")],
-                            capture_output=True, text=True, timeout=300)
+</scene>"""
+
+
+def pbrdf_render(tmp_path, dolp):
+    import subprocess
+    import sys
+
+    scene = tmp_path / "sky.xml"
+    scene.write_text(SCENE_XML.replace("DOLP", dolp))
+    return subprocess.run([sys.executable, "-m", "mitsuba_pbrdf", "render", str(scene),
+                           "--spp", "4", "--out", str(tmp_path / "sky")],
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_pbrdf_render_renders_a_scene_file_with_the_sky(tmp_path):
+    from mitsuba_pbrdf.stokes import dolp, luminance_stokes, read_stokes_exr
+
+    result = pbrdf_render(tmp_path, "0.8")
+    assert result.returncode == 0, result.stderr
+    degree = dolp(luminance_stokes(read_stokes_exr(tmp_path / "sky.exr")), axis=-1)
+    assert degree.min() > 0.05 and 0.5 < degree.max() <= 0.8 + TOL
+
+
+def test_a_scene_file_with_a_bad_sky_fails_in_one_line(tmp_path):
+    """pbrdf render: one line naming the parameter, exit status 2, no traceback."""
+    result = pbrdf_render(tmp_path, "1.4")
     assert result.returncode == 2, result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
