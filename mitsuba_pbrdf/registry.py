@@ -43,6 +43,10 @@ PLUGINS = (
     ("integrator", "stokes_prb", "mitsuba_pbrdf.integrators.stokes_prb", "StokesPRBIntegrator"),
     ("bsdf", "polarized_normalmap", "mitsuba_pbrdf.shading.normalmap", "PolarizedNormalMap"),
     ("bsdf", "polarized_bumpmap", "mitsuba_pbrdf.shading.bumpmap", "PolarizedBumpMap"),
+    ("emitter", "polarized_sky", "mitsuba_pbrdf.emitters.polarized_sky", "PolarizedSky"),
+    ("emitter", "stokes_envmap", "mitsuba_pbrdf.emitters.stokes_envmap", "StokesEnvmap"),
+    ("emitter", "polarized_emitter", "mitsuba_pbrdf.emitters.polarized_emitter",
+     "PolarizedEmitter"),
 )
 
 _modules = {}

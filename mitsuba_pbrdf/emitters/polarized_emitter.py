@@ -1,0 +1,187 @@
+"""``polarized_emitter``: any emitter seen through a linear polarizer.
+
+.. list-table::
+   :header-rows: 1
+
+   * - Parameter
+     - Type
+     - Description
+     - Default
+     - Flags
+   * - (nested emitter)
+     - emitter
+     - The lamp: ``area`` (nest this plugin in the shape instead of the
+       ``area`` emitter), ``spot``, ``point``, ``directional``, ``projector``,
+       ``constant``, ``envmap``...
+     - (required)
+     - ``emitter.*``
+   * - ``angle``
+     - float
+     - The polarizer's transmission axis in degrees, from the local x axis
+       towards the local y axis of ``to_world``.
+     - 0
+     - --
+   * - ``degree``
+     - float
+     - Degree of linear polarization of the light, in [0, 1] (1: an ideal
+       polarizer; less: a leaky one).
+     - 1
+     - --
+   * - ``transmittance``
+     - float
+     - Fraction of the lamp's radiance the filter passes, in [0, 1]. An ideal
+       polarizer in front of an unpolarized lamp passes 0.5; the default
+       keeps the lamp's radiance and polarizes it.
+     - 1
+     - --
+   * - ``to_world``
+     - transform
+     - The polarizer's frame: its sheet is the local xy plane. Give a spot
+       light's or a rectangle's own ``to_world`` to turn the axis with it.
+     - identity
+     - --
+
+Light of the lamp propagating along ``w`` leaves with the Stokes vector
+``T L (1, p cos 2chi, p sin 2chi, 0)``: T the transmittance, L the lamp's
+radiance, p the degree, and the field along the axis ``a`` projected across
+the ray, ``a - (a.w) w`` (the tilted-polarizer approximation: exact for rays
+along the local z axis, the axis's projection for oblique ones), chi its angle
+in Mitsuba's Stokes basis of ``w``. Rays along the axis itself (``a`` parallel
+to ``w``: the polarizer seen edge-on) are left unpolarized. Malus's law
+follows: an analyzer at angle theta to the axis passes
+``T L (1 + p cos 2theta) / 2``.
+
+Everything else is the lamp's: its flags, sampling (``sample_direction``,
+``sample_ray``, ``sample_position``, ``pdf_direction``) and spectrum; the
+wrapper only multiplies the first column of the returned matrix. In
+unpolarized variants it is the lamp times the transmittance.
+
+What Mitsuba's plugin system does not allow: the wrapper cannot sit *between*
+a lamp and a shape (a shape takes one emitter, which must be this plugin,
+nesting the ``area`` emitter); it cannot polarize the light of emissive media
+or of a ``sunsky``'s sun separately from its sky (use ``polarized_sky``); and
+Mitsuba's C++ ``mitsuba`` executable cannot load it (Python plugins only run
+from Python: ``pbrdf render`` or ``mi.load_file`` after
+``import mitsuba_pbrdf``).
+
+XML::
+
+    <shape type="rectangle">
+        <emitter type="polarized_emitter">
+            <float name="angle" value="30"/>
+            <emitter type="area">
+                <rgb name="radiance" value="5"/>
+            </emitter>
+        </emitter>
+    </shape>
+
+This module defines the class for the Mitsuba variant active when it is
+imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+"""
+
+from __future__ import annotations
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+
+from . import props as read
+from .stokes_light import basis, emitted, intensity, linear_ratios
+
+#: The Mitsuba variant this module's class was built for (registry.variant_module).
+VARIANT = mi.variant()
+
+_NAME = "polarized_emitter"
+
+
+def _configure(props):
+    """The checked parameters of a ``polarized_emitter``, as attributes."""
+    nested = read.nested_objects(props, mi.Emitter)
+    if len(nested) != 1:
+        raise ValueError(f"{_NAME}: exactly one nested emitter (the lamp) must be given, "
+                         f"found {len(nested)}")
+    lamp = next(iter(nested.values()))
+    angle = math.radians(read.number(props, _NAME, "angle", 0.0))
+    degree = read.number(props, _NAME, "degree", 1.0, 0.0, 1.0)
+    transmittance = read.number(props, _NAME, "transmittance", 1.0, 0.0, 1.0)
+    m = read.transform(props)
+    local = (math.cos(angle), math.sin(angle), 0.0)
+    axis = read.unit_vector(_NAME, "to_world",
+                            [sum(m[i][j] * local[j] for j in range(3)) for i in range(3)])
+    surface = bool(lamp.flags() & mi.EmitterFlags.Surface)
+    return {"lamp": lamp, "axis": axis, "degree": degree, "transmittance": transmittance,
+            "surface": surface, "angle_deg": math.degrees(angle)}
+
+
+class PolarizedEmitter(mi.Emitter):
+    """A lamp behind a linear polarizer (module docstring)."""
+
+    def __init__(self, props):
+        # checked before the base class registers the instance with Dr.Jit
+        config = _configure(props)
+        super().__init__(props)
+        for key, value in config.items():
+            setattr(self, key, value)
+        self.m_flags = self.lamp.flags()
+        self.m_needs_sample_2 = self.lamp.needs_sample_2()
+        self.m_needs_sample_3 = self.lamp.needs_sample_3()
+
+    def _filtered(self, value, w):
+        """The lamp's ``value`` for light propagating along ``w`` (world),
+        through the polarizer."""
+        if not mi.is_polarized:
+            return value * self.transmittance
+        x, y = basis(w)
+        a = mi.Vector3f(self.axis)
+        q, u = linear_ratios(dr.dot(a, x), dr.dot(a, y), self.degree)
+        return emitted(intensity(value) * self.transmittance, q, u)
+
+    def eval(self, si, active=True):
+        w = si.to_world(si.wi) if self.surface else si.wi
+        return self._filtered(self.lamp.eval(si, active), w)
+
+    def eval_direction(self, it, ds, active=True):
+        return self._filtered(self.lamp.eval_direction(it, ds, active), -ds.d)
+
+    def sample_direction(self, it, sample, active=True):
+        ds, weight = self.lamp.sample_direction(it, sample, active)
+        ds.emitter = mi.EmitterPtr(self)
+        return ds, self._filtered(weight, -ds.d)
+
+    def pdf_direction(self, it, ds, active=True):
+        return self.lamp.pdf_direction(it, ds, active)
+
+    def sample_ray(self, time, sample1, sample2, sample3, active=True):
+        ray, weight = self.lamp.sample_ray(time, sample1, sample2, sample3, active)
+        return ray, self._filtered(weight, ray.d)
+
+    def sample_position(self, time, sample, active=True):
+        return self.lamp.sample_position(time, sample, active)
+
+    def pdf_position(self, ps, active=True):
+        return self.lamp.pdf_position(ps, active)
+
+    def sample_wavelengths(self, si, sample, active=True):
+        wavelengths, weight = self.lamp.sample_wavelengths(si, sample, active)
+        return wavelengths, weight * self.transmittance
+
+    def set_shape(self, shape):
+        super().set_shape(shape)
+        self.lamp.set_shape(shape)
+
+    def set_scene(self, scene):
+        self.lamp.set_scene(scene)
+
+    def bbox(self):
+        return self.lamp.bbox()
+
+    def is_environment(self):
+        return self.lamp.is_environment()
+
+    def traverse(self, callback):
+        callback.put("emitter", self.lamp, mi.ParamFlags.Differentiable)
+
+    def to_string(self):
+        return (f"PolarizedEmitter[\n  angle = {self.angle_deg:g},\n  degree = {self.degree:g},\n"
+                f"  transmittance = {self.transmittance:g},\n  lamp = {self.lamp.class_name()}\n]")

@@ -1,0 +1,158 @@
+"""Reading and checking the emitters' parameters, with one-line errors that
+name the plugin and the parameter (``ValueError`` for a bad value,
+``TypeError`` for a bad type), raised in the constructor so that a bad scene
+fails at load time. Plain functions: ``mi.*`` is looked up when called, so
+this module serves every variant without a reload.
+
+Mitsuba refuses a scene whose plugin leaves a property unread; every helper
+here reads what it checks.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mitsuba as mi
+
+_NUMBER = (mi.Properties.Type.Float, mi.Properties.Type.Integer)
+
+
+def number(props, plugin, name, default=None, low=None, high=None, what=""):
+    """A finite float parameter in [low, high] (either bound optional);
+    ``default`` where absent (None: required)."""
+    if name not in props:
+        if default is None:
+            raise ValueError(f"{plugin}: parameter '{name}' is required{what}")
+        return float(default)
+    if props.type(name) not in _NUMBER:
+        raise TypeError(f"{plugin}: parameter '{name}' must be a number, "
+                        f"got {props.type(name).name.lower()} {props.as_string(name)!r}")
+    value = float(props[name])
+    if not math.isfinite(value):
+        raise ValueError(f"{plugin}: parameter '{name}' must be finite, got {value}")
+    if (low is not None and value < low) or (high is not None and value > high):
+        bounds = (f"in [{low:g}, {high:g}]" if low is not None and high is not None
+                  else f">= {low:g}" if low is not None else f"<= {high:g}")
+        raise ValueError(f"{plugin}: parameter '{name}' must be {bounds}{what}, got {value:g}")
+    return value
+
+
+def direction(props, plugin, name):
+    """A required non-zero, finite 3-vector, normalized (a tuple of floats)."""
+    if name not in props:
+        raise ValueError(f"{plugin}: parameter '{name}' is required (a direction, e.g. "
+                         f"<vector name=\"{name}\" x=\"0\" y=\"0.5\" z=\"1\"/>)")
+    if props.type(name) not in (mi.Properties.Type.Vector, mi.Properties.Type.Color):
+        raise TypeError(f"{plugin}: parameter '{name}' must be a vector, "
+                        f"got {props.type(name).name.lower()} {props.as_string(name)!r}")
+    value = [float(c) for c in props[name]]
+    return unit_vector(plugin, name, value)
+
+
+def unit_vector(plugin, name, value):
+    """``value`` (3 numbers) normalized; a one-line error if it has no direction."""
+    value = [float(c) for c in value]
+    if len(value) != 3 or not all(math.isfinite(c) for c in value):
+        raise ValueError(f"{plugin}: parameter '{name}' must be 3 finite numbers, got {value}")
+    length = math.sqrt(sum(c * c for c in value))
+    if length < 1e-12:
+        raise ValueError(f"{plugin}: parameter '{name}' has zero length: it must point "
+                         "somewhere")
+    return tuple(c / length for c in value)
+
+
+def choice(props, plugin, name, options, default):
+    """A string parameter restricted to ``options`` (case-insensitive)."""
+    if name not in props:
+        return default
+    if props.type(name) != mi.Properties.Type.String:
+        raise TypeError(f"{plugin}: parameter '{name}' must be a string, one of "
+                        f"{', '.join(options)}")
+    value = props[name].lower()
+    if value not in options:
+        raise ValueError(f"{plugin}: parameter '{name}' is {props[name]!r}; valid values: "
+                         f"{', '.join(options)}")
+    return value
+
+
+def string(props, plugin, name, default=None):
+    """A string parameter; ``default`` where absent (None: required)."""
+    if name not in props:
+        if default is None:
+            raise ValueError(f"{plugin}: parameter '{name}' is required")
+        return default
+    if props.type(name) != mi.Properties.Type.String:
+        raise TypeError(f"{plugin}: parameter '{name}' must be a string")
+    return props[name]
+
+
+def nested_objects(props, kinds):
+    """``{key: object}`` of the nested objects of ``props`` that are instances
+    of ``kinds`` (read, so Mitsuba counts them as used)."""
+    return {key: props[key] for key in props.keys()
+            if props.type(key) == mi.Properties.Type.Object and isinstance(props[key], kinds)}
+
+
+def transform(props, name="to_world"):
+    """The ``to_world`` transform as a 4 x 4 list of rows (identity if absent)."""
+    if name not in props:
+        return [[1.0 if i == j else 0.0 for j in range(4)] for i in range(4)]
+    matrix = props[name].matrix
+    return [[float(matrix[i][j]) for j in range(4)] for i in range(4)]
+
+
+def leftover(props, plugin, allowed=()):
+    """Raise naming the first property the plugin did not expect."""
+    for key in props.keys():
+        if key not in allowed:
+            raise ValueError(f"{plugin}: unknown parameter '{key}'")
+
+
+def nonnegative_texture(plugin, name, texture):
+    """Raise if ``texture`` evaluates to a negative, NaN or infinite value at
+    any of 256 wavelengths spanning 360-830 nm (spectral variants) or in any
+    channel; uniform and spectral textures have no spatial variation to
+    check (``radiance`` of an infinite emitter is evaluated without uv)."""
+    import drjit as dr
+    import numpy as np
+
+    n = 64
+    lam = np.linspace(360.0, 830.0, 4 * n).reshape(4, n)
+    if mi.variant().startswith("scalar"):    # one lane per call (load time only)
+        values = []
+        for k in range(n):
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            if mi.is_spectral:
+                si.wavelengths = mi.UnpolarizedSpectrum(*lam[:, k])
+            values.append(np.array(texture.eval(si), dtype=np.float64).ravel())
+        values = np.concatenate(values)
+    else:
+        si = dr.zeros(mi.SurfaceInteraction3f, n)
+        if mi.is_spectral:
+            si.wavelengths = mi.UnpolarizedSpectrum(*[mi.Float(row) for row in lam])
+        values = np.array(texture.eval(si), dtype=np.float64)
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"{plugin}: parameter '{name}' contains NaN or infinite values")
+    if values.min() < 0:
+        raise ValueError(f"{plugin}: parameter '{name}' must be >= 0 everywhere (over the "
+                         f"whole spectral range), found {values.min():g}")
+
+
+def nonnegative_values(plugin, name, values):
+    """Raise if any of ``values`` is negative, NaN or infinite."""
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{plugin}: parameter '{name}' contains NaN or infinite values")
+    if min(values) < 0:
+        raise ValueError(f"{plugin}: parameter '{name}' must be >= 0 everywhere, found "
+                         f"{min(values):g}")
+
+
+def mitsuba_reason(error):
+    """The last line of a Mitsuba error without its source locations and its
+    'At dictionary node ...: failed to instantiate ...:' preamble."""
+    import re
+
+    text = str(error).strip().splitlines()[-1]
+    text = re.sub(r"\[[\w./-]+:\d+\]\s*", "", text)
+    text = re.sub(r"At dictionary node \"[^\"]*\": failed to instantiate [^:]*:\s*", "", text)
+    return " ".join(text.split())
