@@ -29,8 +29,8 @@ def run(args) -> int:
     try:
         import distributed  # noqa: F401
     except ImportError:
-        raise CliError("pbrdf batch needs Dask: pip install 'mitsuba-pbrdf[batch]' "
-                       "(or 'dask[distributed]')") from None
+        raise CliError("pbrdf batch needs Dask, a dependency of the package that is "
+                       "missing here: pip install 'dask[distributed]'") from None
     slurm = slurm_settings(args, sweep)
 
     summary = run_sweep(sweep, workers=args.workers, scheduler=args.scheduler,
