@@ -4,6 +4,7 @@
 
     pbrdf render SCENE.xml [--spp N] [--variant V] [--seed S] [--passes N] [--out DIR_OR_STEM]
                            [-D key=value ...] [--panels P,...] [--no-progress]
+    pbrdf params SCENE.xml
     pbrdf view STOKES.exr [--out PNG] [--panels all|P,...] [--band B] [--dolp-cmap gray]
                           [--dolp-max X] [--min-dolp X] [--exposure EV]
     pbrdf polcam STOKES.exr --out DIR [--sensor mono|colour] [--band B] [--exposure X]
@@ -49,11 +50,11 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import batch, export, fit, gallery, plot, polcam, recover_normals, render, view
+from . import batch, export, fit, gallery, params, plot, polcam, recover_normals, render, view
 from .common import PROG, run_command, version_text
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
-COMMANDS = (render, view, polcam, plot, gallery, fit, export, batch, recover_normals)
+COMMANDS = (render, params, view, polcam, plot, gallery, fit, export, batch, recover_normals)
 
 
 def build_parser() -> argparse.ArgumentParser:
