@@ -427,6 +427,17 @@ def test_gallery_leaves_the_repository_pictures_alone(tmp_path, capsys, monkeypa
     assert "does not run from a clone" in error_of(capsys)
 
 
+def test_a_mistyped_option_shows_the_subcommands_usage(scene, capsys, tmp_path):
+    with pytest.raises(SystemExit) as e:
+        main(["render", str(scene), "--varient", "x", "--out", str(tmp_path / "x")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: pbrdf render ")
+    assert err.strip().splitlines()[-1] == ("pbrdf render: error: unrecognized arguments: "
+                                            "--varient x (did you mean --variant?)")
+    assert not list(tmp_path.glob("x.*"))
+
+
 def test_help_lists_every_command(capsys):
     with pytest.raises(SystemExit) as e:
         main(["--help"])
