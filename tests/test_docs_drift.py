@@ -172,7 +172,8 @@ def test_stokes_prb_parameter_table_matches_the_integrator():
 def rendered_and_read(doc, commands):
     """``(line, kind, path)`` in the order of *doc*: ``("writes", out/x.exr)``
     for each ``pbrdf render`` and ``("reads", x.exr)`` for each ``pbrdf view``
-    or ``pbrdf polcam`` of a concrete (not upper-case placeholder) EXR."""
+    or ``pbrdf polcam`` of a concrete (not upper-case placeholder) EXR; a
+    ``polcam`` with ``--out`` also writes its EXRs in that folder."""
     for line, span in sorted(command_spans(doc), key=lambda s: s[0]):
         for m in COMMAND.finditer(span):
             words = m.group("rest").split()
@@ -185,6 +186,11 @@ def rendered_and_read(doc, commands):
                 yield line, "writes", stem.removesuffix(".exr") + ".exr"
             elif target.endswith(".exr") and not re.search(r"[A-Z]{3}|[<>{}]", target):
                 yield line, "reads", target
+                if words[0] == "polcam" and "--out" in words[:-1]:  # what polcam writes
+                    folder = words[words.index("--out") + 1]
+                    stem = os.path.splitext(os.path.basename(target))[0]
+                    for suffix in ("I0", "I45", "I90", "I135", "mosaic", "mosaic_rgb"):
+                        yield line, "writes", f"{folder}/{stem}_{suffix}.exr"
 
 
 @pytest.mark.parametrize("doc", DOCS)

@@ -8,7 +8,10 @@ A Stokes cube (``pbrdf render --bands``) can be drawn as a contact sheet
 (``--cube``: S0, DoLP, AoLP per band) with the Stokes spectrum of a pixel or
 region (``--spectrum X,Y[,W,H]``, also written as ``<out>.csv``;
 :mod:`mitsuba_pbrdf.pictures.cube_sheet`), its DoLP on one scale for all bands
-(``--dolp-scale per-band``: each its own); ``--band 460nm`` draws one band."""
+(``--dolp-scale per-band``: each its own); ``--band 460nm`` draws one band.
+The files of ``pbrdf polcam`` (a raw mosaic, or a polarizer image with the
+other three beside it) are drawn as the Stokes image the camera measures
+(intensity, DoLP, AoLP; :mod:`mitsuba_pbrdf.camera.raw_frames`)."""
 
 from __future__ import annotations
 
@@ -35,13 +38,26 @@ def run(args) -> int:
     out = args.out or os.path.splitext(args.exr)[0] + ".png"
     check_outputs(("--out", out))
     existed = os.path.exists(out)
+    polcam = False
     try:
         image = read_stokes_exr(args.exr)
-    except (StokesChannelError, ValueError) as e:
+    except StokesChannelError as e:  # a file of pbrdf polcam? its Stokes image
+        from ..camera.raw_frames import read_polcam_exr
+
+        try:
+            image = read_polcam_exr(args.exr)
+        except (FileNotFoundError, ValueError) as polcam_error:
+            raise CliError(one_line(polcam_error)) from e
+        if image is None:
+            raise CliError(one_line(e)) from e
+        polcam = True
+    except ValueError as e:
         raise CliError(one_line(e)) from e
     if args.cube or args.spectrum is not None:
         return _cube_sheet(args, image, out, existed)
     picture = picture_kwargs(args, image)
+    if polcam and args.panels == "all":  # a camera sees no S3: what it measures
+        picture["panels"] = ("intensity", "dolp", "aolp")
     warn_unused_picture_options(args, picture["panels"], "view")
     if args.dolp_scale != "shared":
         print(f"{PROG} view: warning: --dolp-scale has no effect without --cube or --spectrum "
