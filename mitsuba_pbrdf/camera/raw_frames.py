@@ -31,7 +31,7 @@ from ..stokes.image import StokesImage
 from .polcam import ANGLES, colour_layout, mono_layout
 
 __all__ = ["demosaic", "stokes_of_polarizer_images", "read_polcam_exr", "mosaic_preview",
-           "mosaic_previews", "write_preview_png"]
+           "mosaic_previews"]
 
 _POLARIZER_FILE = re.compile(r"^(?P<stem>.*)_I(?P<angle>0|45|90|135)\.exr$")
 
@@ -164,16 +164,3 @@ def mosaic_previews(outputs: dict, stem: str, bits: Optional[int] = None) -> dic
                        else mosaic_preview(frame))
             previews[f"{stem}_{suffix}_preview.png"] = picture
     return previews
-
-
-def write_preview_png(path, picture: np.ndarray) -> str:
-    """Write an 8-bit greyscale picture (H, W) uint8 as a PNG, atomically."""
-    from PIL import Image
-
-    from ..outputs import atomic_path
-
-    path = os.fspath(path)
-    with atomic_path(path) as tmp:
-        Image.fromarray(np.ascontiguousarray(picture, dtype=np.uint8), mode="L").save(
-            tmp, format="PNG")
-    return path

@@ -44,7 +44,8 @@ def run(args) -> int:
     """``pbrdf polcam``."""
     from ..stokes.exr import read_stokes_exr
     from ..camera.polcam import polcam_file_names, polcam_outputs, write_polcam_files
-    from ..camera.raw_frames import mosaic_previews, write_preview_png
+    from ..camera.raw_frames import mosaic_previews
+    from ..pictures.png import write_pixels_png
     from ..stokes.image import StokesChannelError
 
     require_file(args.exr, "EXR file")
@@ -70,7 +71,7 @@ def run(args) -> int:
     metadata["source"] = os.path.basename(args.exr)
     write_polcam_files(outputs, args.out, stem, metadata)
     for path, picture in previews.items():
-        write_preview_png(path, picture)
+        write_pixels_png(path, picture)
     paths.update({path: path for path in previews})
     print(f"wrote {len(paths)} files in {args.out}: "
           + ", ".join(os.path.basename(p) for p in paths.values()))
