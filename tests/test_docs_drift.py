@@ -302,6 +302,7 @@ SHRINK = ["-D", "width=32", "-D", "height=24", "--spp", "4"]
 NOT_RUN = ("gallery", "batch")
 
 
+@pytest.mark.slow
 def test_readme_commands_run_in_order(tmp_path, monkeypatch, capsys):
     """README's commands, in README's order, from a folder holding only the
     repository's scenes: each exits 0 (renders shrunk, see :data:`SHRINK`)

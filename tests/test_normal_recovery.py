@@ -36,6 +36,7 @@ import numpy as np
 import pytest
 
 
+@pytest.mark.slow
 def test_stokes_prb_texel_gradients_equal_path_ad_per_sample():
     from proof.normal_map_gradients import WRAPPERS, compare, relative_differences
 
@@ -130,6 +131,7 @@ def _view_gradient_setup(views=2):
     return texels, view_loss
 
 
+@pytest.mark.slow
 def test_multi_view_gradient_is_the_sum_of_the_views_gradients():
     """summed_gradients leaves on the texels the sum of every view's gradient,
     each computed on its own with a fresh variable (the same seeds, so equal up
@@ -164,6 +166,7 @@ def test_multi_view_gradient_is_the_sum_of_the_views_gradients():
                                atol=1e-5 * np.abs(separate[1]).max())
 
 
+@pytest.mark.slow
 def test_smoothness_gradient_adds_to_the_render_gradient():
     """The smoothness term's gradient survives the render's backward pass: the
     gradient of (view loss + w * smoothness) equals the view's gradient plus w
@@ -186,6 +189,7 @@ def test_smoothness_gradient_adds_to_the_render_gradient():
     np.testing.assert_allclose(grads[2], expected, atol=1e-5 * np.abs(expected).max())
 
 
+@pytest.mark.slow
 def test_study_at_small_size_beats_the_flat_start():
     """validation/shape_from_polarization.py's case, small: copper, one view,
     Stokes targets (see the module docstring for the figures and margin)."""
@@ -201,6 +205,7 @@ def test_study_at_small_size_beats_the_flat_start():
     assert result.loss[-1] < result.loss[0]
 
 
+@pytest.mark.slow
 def test_height_field_with_roughness_map_runs_and_stays_in_bounds(small_problem):
     """The height parametrization and the joint roughness fit: finite unit
     normals, heights returned, the sigma map moved by the fit and within
@@ -261,11 +266,9 @@ def recipe_lines():
     return [line for line in block.splitlines() if line.strip()]
 
 
-@pytest.mark.usefixtures("restore_variant")
-def test_plate_files_have_defaults_and_truth_takes_their_normal_map(tmp_path, capsys):
+def test_plate_files_have_defaults_and_truth_takes_their_normal_map(tmp_path):
     """write_plate_files' scene takes -D (its <default>s) and its normal map
     is what --truth takes: read back, it is the map written (float32)."""
-    from mitsuba_pbrdf.cli import main
     from mitsuba_pbrdf.inverse.normal_scenes import read_normal_map, true_normals, write_plate_files
     from mitsuba_pbrdf.rendering.scene_params import scene_parameters
 
@@ -275,6 +278,18 @@ def test_plate_files_have_defaults_and_truth_takes_their_normal_map(tmp_path, ca
     assert defaults == {"spp": "2", "width": "8", "height": "8", "max_depth": "3",
                         "material": "Cu", "sigma": "0.15"}
     np.testing.assert_allclose(read_normal_map(tmp_path / "plate_normals.exr"), truth, atol=1e-6)
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("restore_variant")
+def test_recover_normals_takes_the_plates_normal_map_as_truth(tmp_path, capsys):
+    """The command line, on write_plate_files' scene: a target rendered with
+    -D values, two iterations against plate_normals.exr as --truth; the
+    texture at one pixel per texel and the readable recovery.png."""
+    from mitsuba_pbrdf.cli import main
+    from mitsuba_pbrdf.inverse.normal_scenes import true_normals, write_plate_files
+
+    plate = write_plate_files(tmp_path, true_normals(8), size=8, spp=2)
     assert main(["render", plate, "-D", "spp=4", "-D", "material=Al", "--out",
                  str(tmp_path / "target"), "--variant", "llvm_ad_spectral_polarized"]) == 0
     out = tmp_path / "fit"
@@ -292,6 +307,30 @@ def test_plate_files_have_defaults_and_truth_takes_their_normal_map(tmp_path, ca
         assert png.size == (8, 8)  # the texture: one pixel per texel
     with Image.open(out / "recovery.png") as png:
         assert png.size[0] > 1000 and png.size[1] > 300  # four readable panels
+
+
+def test_recovery_picture_shows_truth_fit_error_and_loss(tmp_path):
+    """recovery.png's figure: four titled panels (true and recovered normals,
+    the error map with unseen texels grey and out of the median, the loss)."""
+    from PIL import Image
+
+    from mitsuba_pbrdf.figures.normal_recovery import recovery_figure, save_recovery_png
+    from mitsuba_pbrdf.inverse.normal_scenes import true_normals
+
+    truth = true_normals(8)
+    flat = np.zeros_like(truth)
+    flat[..., 2] = 1.0
+    error = np.full((8, 8), 3.0)
+    error[0, 0] = 90.0
+    visible = np.ones((8, 8), bool)
+    visible[0, 0] = False  # unseen: left out of the median
+    fig = recovery_figure(flat, [1.0, 0.5, 0.25], truth=truth, error=error, visible=visible)
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    assert titles == ["true normals, (n + 1) / 2", "recovered normals, (n + 1) / 2",
+                      "angular error, median 3.00° (grey: unseen)", "loss 1 → 0.25"]
+    path = save_recovery_png(tmp_path / "r.png", flat, [1.0, 0.5], title="t")
+    with Image.open(path) as png:
+        assert png.size == (780, 390)  # without truth: normals and loss, 3.9 x 3.9 in each
 
 
 def test_truth_refuses_what_is_not_a_normal_map(tmp_path):

@@ -192,6 +192,7 @@ def test_cli_writes_every_output(tmp_path, capsys):
 
 
 @pytest.mark.usefixtures("restore_variant")
+@pytest.mark.slow
 def test_frame_convention_matches_renders_through_mitsubas_polarizer(tmp_path):
     """polcam's I_θ of the unfiltered Stokes render equals the render through
     Mitsuba's ``polarizer`` BSDF turned to θ (scenes/gallery/polarizer.xml:
