@@ -61,6 +61,8 @@ height = 16
     ('out = "o"\n[params]\nsigma = [nan]\n', ["params.sigma", "not a finite number"]),
     ('out = "o"\n[params]\nroughness = [0.1]\n', ["params.roughness", "no parameter",
                                                   "sigma"]),
+    ('out = "o"\n[params]\nsigmma = [0.1]\n', ["params.sigmma", "no parameter 'sigmma' "
+                                              "(did you mean 'sigma'?)"]),
     ('out = "o"\n[params]\nwidth = [0, 8]\n', ["params.width", "positive integer"]),
     ('out = "o"\n[params]\nsigma = ["rough"]\n', ["params.sigma", "must be a number"]),
     ('out = "o"\noutputs = ["stokes", "camera"]\n', ["outputs: unknown output 'camera'",

@@ -143,6 +143,7 @@ def test_inverse_rendering(tmp_path):
         assert_png(f"{prefix}_{label}.png")
 
 
+@pytest.mark.slow
 def test_svbrdf_recovery():
     """The quick run (16x16, 3 Adam steps on the sigma and kdd texels) prints
     the RMS error of each map before and after: finite, and the maps start

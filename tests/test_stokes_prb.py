@@ -302,7 +302,6 @@ def test_unpolarized_variant_says_which_to_use(restore_variant):
         mi.load_dict({"type": "stokes_prb"})
 
 
-@pytest.mark.slow
 def test_svbrdf_example_runs_and_moves_the_maps():
     """mitsuba_pbrdf.inverse.svbrdf.recover (examples/svbrdf_recovery.py) at toy size
     (the study is validation/svbrdf_recovery.py): two Adam steps on the 2 x 64 texels keep

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from typing import Dict, List, Mapping, Optional
 
 __all__ = ["SceneParameterError", "ParameterUse", "SceneParameter", "parameter_uses",
-           "declared_parameters", "scene_parameters", "unknown_parameter_message",
+           "declared_parameters", "scene_parameters", "did_you_mean", "unknown_parameter_message",
            "check_parameter_values", "check_loaded_scene"]
 
 _REFERENCE = re.compile(r"\$(\w+)")
@@ -208,13 +208,17 @@ def scene_parameters(scene_path) -> List[SceneParameter]:
     return [SceneParameter(n, defaults.get(n), tuple(uses.get(n, ()))) for n in names]
 
 
+def did_you_mean(key: str, declared) -> str:
+    """`` (did you mean 'material'?)`` for the declared name closest to *key*, or ``""``."""
+    close = difflib.get_close_matches(key, sorted(declared), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
 def unknown_parameter_message(key: str, declared, scene_name: str) -> str:
     """``unknown scene parameter 'materal' (did you mean 'material'?); this
     scene's parameters: ...``; for ``spp`` in a scene without one, where the
     samples per pixel are set instead."""
-    close = difflib.get_close_matches(key, sorted(declared), n=1)
-    message = f"unknown scene parameter {key!r}" + (f" (did you mean {close[0]!r}?)"
-                                                    if close else "")
+    message = f"unknown scene parameter {key!r}" + did_you_mean(key, declared)
     message += (f"; this scene's parameters: {', '.join(sorted(declared))}" if declared
                 else f"; {scene_name} takes no parameters")
     if key == "spp":
