@@ -121,3 +121,39 @@ def as_numpy(value):
     if a.ndim == (3 if scalar else 4):  # Mueller matrix: (4, 4, n_wavelengths[, n])
         return a.transpose((2, 0, 1) if scalar else (3, 2, 0, 1))
     return a if scalar or a.ndim == 0 else np.moveaxis(a, -1, 0)
+
+
+# ---------------------------------------------------------------- the fast tier
+
+#: The fast tier: README's `pytest -m "not slow"`, what to run between commits.
+FAST_TIER = "not slow"
+
+
+def package_modules():
+    """Every module of the package (dotted names), ``__main__`` excepted."""
+    root = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                        "mitsuba_pbrdf")
+    names = []
+    for folder, _, files in os.walk(root):
+        for name in files:
+            if name.endswith(".py") and name != "__main__.py":
+                rel = os.path.relpath(os.path.join(folder, name), os.path.dirname(root))
+                names.append(rel[:-3].replace(os.sep, ".").removesuffix(".__init__"))
+    return sorted(names)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """A whole fast-tier run (``pytest -m "not slow"``, no file or ``-k``
+    chosen) must have touched (imported) every module of the package: a module
+    whose only tests are marked ``slow`` fails the run, naming it."""
+    config = session.config
+    whole = (config.args_source == pytest.Config.ArgsSource.TESTPATHS
+             and not config.option.keyword and not config.option.collectonly)
+    if exitstatus != 0 or not whole or config.option.markexpr.strip() != FAST_TIER:
+        return
+    import sys
+
+    untouched = [m for m in package_modules() if m not in sys.modules]
+    if untouched:
+        print(f"\nthe fast tier ({FAST_TIER}) imported no test of: {', '.join(untouched)}")
+        session.exitstatus = 1

@@ -268,6 +268,7 @@ def test_equal_widths_are_the_isotropic_lobe():
 
 @pytest.mark.parametrize("widths", [(1e-4, 1e-3), (0.5, 0.05), (50.0, 5.0), (1e-4, 1.0)])
 @pytest.mark.parametrize("distribution", ["beckmann", "ggx"])
+@pytest.mark.slow
 def test_extreme_anisotropy_and_roughness_give_finite_values(widths, distribution):
     """eval, pdf and sample at grazing, normal and random directions: finite,
     M00 >= 0, pdf >= 0, and DoP <= 1 (+1e-5 float32)."""

@@ -61,6 +61,8 @@ height = 16
     ('out = "o"\n[params]\nsigma = [nan]\n', ["params.sigma", "not a finite number"]),
     ('out = "o"\n[params]\nroughness = [0.1]\n', ["params.roughness", "no parameter",
                                                   "sigma"]),
+    ('out = "o"\n[params]\nsigmma = [0.1]\n', ["params.sigmma", "no parameter 'sigmma' "
+                                              "(did you mean 'sigma'?)"]),
     ('out = "o"\n[params]\nwidth = [0, 8]\n', ["params.width", "positive integer"]),
     ('out = "o"\n[params]\nsigma = ["rough"]\n', ["params.sigma", "must be a number"]),
     ('out = "o"\noutputs = ["stokes", "camera"]\n', ["outputs: unknown output 'camera'",
@@ -304,6 +306,7 @@ def test_polcam_outputs_are_pbrdf_polcam_of_the_job_s_stokes_image(tmp_path, clu
     assert (out / f"{sweep.jobs[0].name}_I45.exr").is_file()
 
 
+@pytest.mark.slow
 def test_ctrl_c_leaves_a_consistent_manifest(tmp_path):
     """SIGINT to the whole process group (what Ctrl-C does) once the first
     output exists: exit status 130, one line on stderr, and every row the
@@ -322,6 +325,7 @@ def test_ctrl_c_leaves_a_consistent_manifest(tmp_path):
             assert read_stokes_exr(os.path.join(sweep.out, row["file"])).stokes.shape[0] == 16
 
 
+@pytest.mark.slow
 def test_benchmark_quick_reports_throughput_overhead_and_memory(tmp_path):
     """Smoke run of benchmarks/batch_throughput.py --quick: every configuration
     renders and reports finite figures (the full run is by hand, docs/batch.md)."""
@@ -357,6 +361,7 @@ def _worker_processes():
 
 
 @pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads /proc to find the workers")
+@pytest.mark.slow
 def test_a_job_that_outlives_allowed_failures_is_recorded_failed(tmp_path):
     """With allowed-failures = 0, the job running on a worker that is killed
     is recorded as failed with the one-line reason, the others finish, and a

@@ -45,6 +45,7 @@ def start_and_maybe_die(index: int, folder: str) -> None:
     time.sleep(1.0 if index == 1 else 0.05)
 
 
+@pytest.mark.slow
 def test_a_lost_job_runs_again_before_the_jobs_not_started(tmp_path):
     with connect(workers=2, drjit_threads=2) as (client, _):
         run = uuid.uuid4().hex[:8]

@@ -184,6 +184,7 @@ def test_benchmark_section_replaces_its_own_and_keeps_the_rest(tmp_path, capsys)
     assert target.read_text() == "# throughput\n\nnew table\n\n## On Slurm\n\nsecond\n"
 
 
+@pytest.mark.slow
 def test_one_run_at_a_time_holds_the_single_node_slurm(tmp_path):
     """Two runs on one machine: the second waits for the first's lock and
     says so in one line if it waits too long; it gets the lock once the
@@ -237,6 +238,7 @@ def timed_out_jobs(node):
     return [line.split()[0].split("=")[1] for line in lines if "JobState=TIMEOUT" in line]
 
 
+@pytest.mark.slow
 def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     """Two worker jobs with a walltime of 1 minute render a sweep far longer
     than that. Once the first output exists, one worker's job is cancelled
@@ -350,6 +352,7 @@ def one_line_error(capfd):
     return err
 
 
+@pytest.mark.slow
 def test_bad_partition_is_one_line_and_submits_nothing(tmp_path, slurm, capfd):
     path = write_sweep(tmp_path, grid(2, 1))
     assert main(["batch", str(path), "--slurm", "--partition", "gpu-huge"]) == 2
@@ -358,6 +361,7 @@ def test_bad_partition_is_one_line_and_submits_nothing(tmp_path, slurm, capfd):
     assert slurm.jobs() == [] and not (tmp_path / "out" / "slurm-logs").exists()
 
 
+@pytest.mark.slow
 def test_a_job_slurm_refuses_is_one_line(tmp_path, slurm, capfd):
     """More cores than the node has: ``sbatch --test-only`` refuses the
     worker job before any is submitted."""
@@ -367,6 +371,7 @@ def test_a_job_slurm_refuses_is_one_line(tmp_path, slurm, capfd):
     assert slurm.jobs() == []
 
 
+@pytest.mark.slow
 def test_a_job_that_never_starts_names_the_partition_and_the_reason(tmp_path, slurm, capfd):
     """Worker jobs held back (``--begin=now+1hour``) do not start within
     ``--start-timeout``: one line naming the partition and squeue's reason,
@@ -383,6 +388,7 @@ def test_a_job_that_never_starts_names_the_partition_and_the_reason(tmp_path, sl
     assert all(r["status"] == "pending" for r in rows_of(load_sweep(path)))
 
 
+@pytest.mark.slow
 def test_worker_jobs_lost_before_any_render_stop_at_the_cap(tmp_path, slurm, capfd):
     """Each worker job is cancelled as soon as its worker joins, before it
     renders (its first render imports Mitsuba: seconds; the cancellation
@@ -424,6 +430,7 @@ def test_worker_jobs_lost_before_any_render_stop_at_the_cap(tmp_path, slurm, cap
     assert slurm.jobs() == []
 
 
+@pytest.mark.slow
 def test_ctrl_c_cancels_its_worker_jobs_and_nothing_else(tmp_path, slurm, capsys):
     """SIGINT to the process group of ``pbrdf batch --slurm`` once an output
     exists: exit status 130, one line, a manifest whose done rows name valid
@@ -461,6 +468,7 @@ def test_ctrl_c_cancels_its_worker_jobs_and_nothing_else(tmp_path, slurm, capsys
         slurm.run("scancel", other, check=False)
 
 
+@pytest.mark.slow
 def test_a_start_stops_the_daemons_a_previous_run_left(slurm):
     """What a test run killed before its teardown leaves (daemons still
     running, their pid files in STATE) is stopped by the next start: the old

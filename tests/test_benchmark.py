@@ -5,6 +5,8 @@ import os
 import re
 import sys
 
+import pytest
+
 ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 
@@ -13,6 +15,7 @@ import benchmark  # noqa: E402
 from mitsuba_pbrdf import use_variant  # noqa: E402
 
 
+@pytest.mark.slow
 def test_quick_benchmark_reports_every_section(tmp_path):
     try:
         assert benchmark.main(["--quick", "--out", str(tmp_path)]) == 0

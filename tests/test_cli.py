@@ -406,6 +406,38 @@ def test_gallery_command(tmp_path, capsys):
     assert "--scale" in error_of(capsys)
 
 
+def test_gallery_leaves_the_repository_pictures_alone(tmp_path, capsys, monkeypatch):
+    """By default the pictures go to out/gallery/ under the current folder;
+    the repository's gallery/ is written only with --update-repo-pictures
+    (here: its check and the folder it picks, without writing there)."""
+    from mitsuba_pbrdf.cli import gallery as gallery_command
+
+    picture = os.path.join(ROOT, "gallery", "pbrdf_plot.png")
+    before = os.stat(picture).st_mtime_ns
+    monkeypatch.chdir(tmp_path)
+    assert main(["gallery", "--only", "plot"]) == 0
+    check_png(tmp_path / "out" / "gallery" / "pbrdf_plot.png")
+    assert os.stat(picture).st_mtime_ns == before
+    assert gallery_command.repository_gallery() == os.path.join(ROOT, "gallery")
+    assert main(["gallery", "--only", "plot", "--update-repo-pictures", "--out", "g"]) == 2
+    assert "--update-repo-pictures writes README's pictures" in error_of(capsys)
+    assert not (tmp_path / "g").exists()
+    monkeypatch.setattr(gallery_command, "__file__", str(tmp_path / "site" / "cli" / "x.py"))
+    assert main(["gallery", "--only", "plot", "--update-repo-pictures"]) == 2
+    assert "does not run from a clone" in error_of(capsys)
+
+
+def test_a_mistyped_option_shows_the_subcommands_usage(scene, capsys, tmp_path):
+    with pytest.raises(SystemExit) as e:
+        main(["render", str(scene), "--varient", "x", "--out", str(tmp_path / "x")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: pbrdf render ")
+    assert err.strip().splitlines()[-1] == ("pbrdf render: error: unrecognized arguments: "
+                                            "--varient x (did you mean --variant?)")
+    assert not list(tmp_path.glob("x.*"))
+
+
 def test_help_lists_every_command(capsys):
     with pytest.raises(SystemExit) as e:
         main(["--help"])

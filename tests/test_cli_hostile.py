@@ -364,6 +364,28 @@ def files(tmp_path):
                 truncated=str(tmp_path / "truncated.exr"), text=str(tmp_path / "text.exr"))
 
 
+#: The newcomer's options (issue 29): pbrdf params, unknown -D keys, gallery's
+#: --update-repo-pictures.
+TABLE += [
+    ("params: no such scene", ["params", "{tmp}/nope.xml"], 2, "scene file not found", None),
+    ("params: a folder", ["params", "{tmp}"], 2, "is a folder, not a scene file", None),
+    ("params: not XML", ["params", README], 2, "README.md is not a valid XML scene", None),
+    ("render: -D key the scene lacks", ["render", DEFAULT, "-D", "materal=Au", "--out",
+                                        "{tmp}/m"], 2,
+     "unknown scene parameter 'materal' (did you mean 'material'?)", "{tmp}/m.exr"),
+    ("view: bad --dolp-scale", ["view", "{exr}", "--cube", "--dolp-scale", "banded", "--out",
+                                "{tmp}/v.png"], 2,
+     "--dolp-scale must be shared or per-band, got 'banded'", "{tmp}/v.png"),
+    ("recover-normals: --truth not a normal map", ["recover-normals", "{plate}", "--targets",
+                                                   "{exr}", "--out", "{tmp}/rn", "--truth",
+                                                   "{plain_exr}"], 2,
+     "a normal map needs channels X, Y, Z", "{tmp}/rn/recovery.png"),
+    ("gallery: --update-repo-pictures with --out", ["gallery", "--only", "plot",
+                                                    "--update-repo-pictures", "--out", "{tmp}/g"],
+     2, "--update-repo-pictures writes README's pictures", "{tmp}/g"),
+]
+
+
 def one_line_error(capfd, command):
     """stderr (file descriptors, so C libraries' output too) as one line."""
     out, err = capfd.readouterr()

@@ -188,6 +188,7 @@ def rms_ratio(a, b):
     return float(np.sqrt(np.mean(diff ** 2) / np.mean(var)))
 
 
+@pytest.mark.slow
 def test_cube_splats_with_the_film_s_filter(tmp_path):
     """gallery/sphere.xml has Mitsuba's default Gaussian pixel filter and sharp
     edges (sphere, checkerboard). Its cube band 620-640 nm and a --wavelength

@@ -166,3 +166,48 @@ def test_view_cube_warns_about_picture_options_the_contact_sheet_ignores(tmp_pat
     assert main(["view", exr, "--spectrum", "3,2", "--dolp-max", "0.5", "--out",
                  str(out)]) == 0
     assert "warning" not in capfd.readouterr().err
+
+
+def dolp_bar_labels(fig):
+    return [ax.get_ylabel() for ax in fig.axes if ax.get_ylabel().startswith("DoLP")]
+
+
+def test_cube_sheet_shares_one_dolp_scale_and_its_titles_do_not_collide():
+    """known_cube's DoLP is 0.1, 0.2, 0.3, 0.4 in its four bands: by default
+    every band is drawn on one scale (0-0.5), so the least polarized band looks
+    the least polarized; per band, the first spans a scale 2.5 x narrower. The
+    three titles of a row do not overlap when drawn."""
+    from mitsuba_pbrdf.pictures.cube_sheet import cube_sheet_figure, shared_dolp_limit
+
+    image = known_cube()
+    assert shared_dolp_limit(image) == 0.5
+    fig = cube_sheet_figure(image, title="known")
+    assert dolp_bar_labels(fig) == ["DoLP (0–0.5)"] * 4
+    assert "DoLP 0–0.5 in every band (auto)" in fig._suptitle.get_text()
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    rows = {}
+    for ax in fig.axes:
+        if ax.get_title():
+            rows.setdefault(round(ax.get_position().y0, 3), []).append(
+                ax.title.get_window_extent(renderer))
+    assert len(rows) == 4 and all(len(r) == 3 for r in rows.values())
+    for boxes in rows.values():
+        boxes = sorted(boxes, key=lambda b: b.x0)
+        assert all(a.x1 < b.x0 for a, b in zip(boxes, boxes[1:]))
+    per_band = dolp_bar_labels(cube_sheet_figure(image, dolp_scale="per-band"))
+    # (the first band's 0.1 is 0.1000001 in float32: rounded up to the next nice step)
+    assert per_band == ["DoLP (0–0.2, auto)", "DoLP (0–0.25, auto)", "DoLP (0–0.5, auto)",
+                        "DoLP (0–0.5, auto)"]
+    fixed = dolp_bar_labels(cube_sheet_figure(image, dolp_max=0.3))
+    assert fixed == ["DoLP (0–0.3)"] * 4
+
+
+def test_view_dolp_scale_option(tmp_path, capfd):
+    exr = write_stokes_exr(tmp_path / "cube.exr", known_cube())
+    assert main(["view", exr, "--cube", "--dolp-scale", "per-band", "--out",
+                 str(tmp_path / "c.png")]) == 0
+    assert (tmp_path / "c.png").stat().st_size > 0
+    assert main(["view", exr, "--band", "460nm", "--dolp-scale", "per-band", "--out",
+                 str(tmp_path / "b.png")]) == 0
+    assert "--dolp-scale has no effect without --cube" in capfd.readouterr().err

@@ -11,6 +11,7 @@ import re
 import pytest
 
 from mitsuba_pbrdf.cli import build_parser
+from mitsuba_pbrdf.rendering.scene_params import declared_parameters
 
 from doc_figures import check, doc_files, figures, prose_lines, read, unsourced_measurements
 
@@ -171,7 +172,8 @@ def test_stokes_prb_parameter_table_matches_the_integrator():
 def rendered_and_read(doc, commands):
     """``(line, kind, path)`` in the order of *doc*: ``("writes", out/x.exr)``
     for each ``pbrdf render`` and ``("reads", x.exr)`` for each ``pbrdf view``
-    or ``pbrdf polcam`` of a concrete (not upper-case placeholder) EXR."""
+    or ``pbrdf polcam`` of a concrete (not upper-case placeholder) EXR; a
+    ``polcam`` with ``--out`` also writes its EXRs in that folder."""
     for line, span in sorted(command_spans(doc), key=lambda s: s[0]):
         for m in COMMAND.finditer(span):
             words = m.group("rest").split()
@@ -184,6 +186,11 @@ def rendered_and_read(doc, commands):
                 yield line, "writes", stem.removesuffix(".exr") + ".exr"
             elif target.endswith(".exr") and not re.search(r"[A-Z]{3}|[<>{}]", target):
                 yield line, "reads", target
+                if words[0] == "polcam" and "--out" in words[:-1]:  # what polcam writes
+                    folder = words[words.index("--out") + 1]
+                    stem = os.path.splitext(os.path.basename(target))[0]
+                    for suffix in ("I0", "I45", "I90", "I135", "mosaic", "mosaic_rgb"):
+                        yield line, "writes", f"{folder}/{stem}_{suffix}.exr"
 
 
 @pytest.mark.parametrize("doc", DOCS)
@@ -229,3 +236,110 @@ def test_every_option_anywhere_in_a_doc_exists(doc):
     known = set().union(*subcommand_options().values()) | script_options() | {"--collect-only"}
     named = set(re.findall(r"(?<![\w-])--[a-zA-Z][\w-]*", read(doc)))
     assert sorted(named - known) == []
+
+
+# ---------------------------------------------------------------- README's commands
+
+def readme_commands():
+    """``(line, argv)`` of every ``pbrdf`` command README gives in full, in
+    order: each one in a code block, and each inline one that names
+    something (a scene, a file, a value), not the fragments that only name
+    options (``pbrdf render --bands``); usage templates (``SCENE.xml``,
+    ``...``) are left out."""
+    commands = {c for c in subcommand_options() if c}
+    text = read("README.md")
+    fenced_lines, fenced = set(), False
+    for i, line in enumerate(text.splitlines()):
+        if line.lstrip().startswith("```"):
+            fenced = not fenced
+        elif fenced:
+            fenced_lines.add(i + 1)
+    found = []
+    for line, span in command_spans("README.md"):
+        for m in COMMAND.finditer(span):
+            words = m.group("rest").split(" #")[0].split()
+            if not words or words[0] not in commands:
+                continue
+            args = words[1:]
+            if "..." in args or any(re.search(r"[A-Z]{3}|[<>{}]", w) for w in args):
+                continue  # a usage template
+            if line not in fenced_lines and all(w.startswith("-") for w in args):
+                continue  # prose naming a command or its options
+            found.append((line, words))
+    return sorted(found, key=lambda f: f[0])
+
+
+def test_every_command_readme_gives_parses_and_names_files_that_exist():
+    """Each full ``pbrdf`` command of README parses (argparse, in-process)
+    and the scene and sweep files it names are in the repository."""
+    from doc_figures import ROOT
+
+    commands = readme_commands()
+    assert len(commands) >= 15, commands  # the check reads README's commands
+    parser = build_parser()
+    bad = []
+    for line, argv in commands:
+        try:
+            parser.parse_args(argv)
+        except SystemExit:
+            bad.append(f"README.md:{line}: pbrdf {' '.join(argv)} does not parse")
+        for word in argv[1:]:
+            if word.endswith((".xml", ".toml")) and not os.path.isfile(os.path.join(ROOT, word)):
+                bad.append(f"README.md:{line}: {word} is not in the repository")
+        if argv[0] == "render":  # each -D key is one of the scene's parameters
+            declared = declared_parameters(os.path.join(ROOT, argv[1]))
+            keys = [argv[i + 1].partition("=")[0] for i, w in enumerate(argv[:-1]) if w == "-D"]
+            bad += [f"README.md:{line}: {argv[1]} has no parameter {k!r}" for k in keys
+                    if k not in declared]
+    assert not bad, "\n".join(bad)
+
+
+#: What README's commands become in :func:`test_readme_commands_run_in_order`:
+#: renders shrunk to 32 x 24 pixels at 4 spp (every scene README renders has
+#: width and height defaults); the gallery and the sweeps are left out (minutes
+#: of rendering; ``pbrdf gallery`` and ``batch`` have tests of their own).
+SHRINK = ["-D", "width=32", "-D", "height=24", "--spp", "4"]
+NOT_RUN = ("gallery", "batch")
+
+
+@pytest.mark.slow
+def test_readme_commands_run_in_order(tmp_path, monkeypatch, capsys):
+    """README's commands, in README's order, from a folder holding only the
+    repository's scenes: each exits 0 (renders shrunk, see :data:`SHRINK`)
+    and the files that later commands read are there."""
+    from doc_figures import ROOT
+
+    from mitsuba_pbrdf import variant as variant_module
+    from mitsuba_pbrdf.cli import main
+
+    monkeypatch.setattr(variant_module, "cuda_available", lambda: False)
+    monkeypatch.chdir(tmp_path)
+    os.symlink(os.path.join(ROOT, "scenes"), tmp_path / "scenes")
+    ran = []
+    for line, argv in readme_commands():
+        if argv[0] in NOT_RUN:
+            continue
+        argv = argv + SHRINK if argv[0] == "render" else argv
+        status = main(argv)
+        assert status == 0, f"README.md:{line}: pbrdf {' '.join(argv)}: {capsys.readouterr().err}"
+        ran.append(argv[0])
+    assert {"render", "view", "plot", "polcam"} <= set(ran)
+    for name in ("out/default.png", "out/polarizer45.exr", "cu.png", "out/cam"):
+        assert os.path.exists(name), name
+
+
+def test_readme_install_brings_what_readme_commands_use():
+    """README's install (``pip install -e .``, no extra) brings Dask, which
+    README's ``pbrdf batch`` example needs."""
+    from doc_figures import ROOT
+
+    try:
+        import tomllib
+    except ImportError:  # Python < 3.11
+        import tomli as tomllib
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
+        dependencies = tomllib.load(f)["project"]["dependencies"]
+    assert "dask[distributed]" in dependencies
+    assert any(argv[0] == "batch" for _, argv in readme_commands())
+    readme = read("README.md")
+    assert "./install.sh && " in readme and "[batch]" not in readme

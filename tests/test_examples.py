@@ -113,6 +113,7 @@ def test_fit_measurements(tmp_path):
     assert_png(plot)
 
 
+@pytest.mark.slow
 def test_inverse_rendering(tmp_path):
     """The quick Adam fit (32x32, 40 iterations at 32 spp) starts 25 % (n, k,
     ks) and 50 % (sigma) off the truth. Five runs with other seeds recovered
@@ -142,6 +143,7 @@ def test_inverse_rendering(tmp_path):
         assert_png(f"{prefix}_{label}.png")
 
 
+@pytest.mark.slow
 def test_svbrdf_recovery():
     """The quick run (16x16, 3 Adam steps on the sigma and kdd texels) prints
     the RMS error of each map before and after: finite, and the maps start

@@ -82,6 +82,7 @@ def test_several_wavelengths_and_mueller_elements():
     assert np.all(np.isfinite(r.errors["n"]))
 
 
+@pytest.mark.slow
 def test_drjit_backend_agrees_with_reference():
     """The same fit with the plugin (float32, forward-mode Jacobian)."""
     data = synthetic(theta_i=(45.0,))

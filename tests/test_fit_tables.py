@@ -76,6 +76,7 @@ def test_fit_recovers_the_exported_model(table_path):
         assert abs(r.values[p] / TRUTH[p] - 1) < 1e-3, (p, r.values[p])
 
 
+@pytest.mark.slow
 def test_dolp_only_leaves_the_scale_undetermined(table_path, tmp_path):
     """DoLP is a ratio: ks, kdd, kid can all be scaled together. The JSON
     reports their errors as null with a 'correlated' group, a warning with
@@ -92,6 +93,7 @@ def test_dolp_only_leaves_the_scale_undetermined(table_path, tmp_path):
     assert result["errors"]["sigma"] is not None and result["errors"]["sigma"] > 0
 
 
+@pytest.mark.slow
 def test_m00_only_barely_constrains_n_and_k(table_path):
     """Unpolarized reflectance alone: n and k trade against each other (and
     ks). From 1000 exact table entries with the assumed 5 % uncertainty they
@@ -133,6 +135,7 @@ def test_csv_dolp_and_m00_only(tmp_path):
     assert r.errors["k"][0] > 0.2 * r.values["k"][0] and r.errors["n"][0] > 0.2 * r.values["n"][0]
 
 
+@pytest.mark.slow
 def test_pbrdf_fit_alias_reads_tables(table_path, tmp_path):
     plot = tmp_path / "fit.png"
     r = run_cli(table_path, "--cells", "120", "--starts", "1", "--model", "two",

@@ -37,6 +37,7 @@ def tally():
     return stress.run(samples=100_000, seed=2024)
 
 
+@pytest.mark.slow
 def test_fuzz_covers_the_regions(tally):
     """Every region was compared with the reference on > 1000 lanes, and on
     >= 1000 of them the accuracy bound ACCURACY_UNITS u (1 + kappa) is below
@@ -66,12 +67,14 @@ def test_fuzz_covers_the_regions(tally):
     "sampled below horizon has zero weight", "realizable value", "realizable weight",
     "zero reference -> zero plugin", "sample pdf == pdf(sampled wo)",
     "sample weight == eval / pdf"])
+@pytest.mark.slow
 def test_fuzz_check_never_fails(tally, check):
     assert check in tally.failures
     assert tally.failures[check] == 0, (tally.examples.get(check),
                                         sorted(tally.failing_configs.get(check, ())))
 
 
+@pytest.mark.slow
 def test_fuzz_accuracy_within_float32_of_the_conditioning(tally):
     """Worst error per region in units of u (1 + kappa) (stress.ACCURACY_UNITS),
     nearly opposite grazing pairs included (the plugin's cos(beta) = |wi + wo|/2

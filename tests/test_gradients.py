@@ -439,6 +439,7 @@ RENDER_KEYS = ["plate.bsdf." + p + ".value" for p in PARAMS]
 
 
 @pytest.mark.parametrize("method", ["forward", "reverse"])
+@pytest.mark.slow
 def test_rendered_loss_gradient_matches_finite_differences_direct(method):
     """Plate under a directional light, `direct` integrator: the light is
     sampled deterministically and BSDF-sampled rays hit nothing, so for a
@@ -467,6 +468,7 @@ def test_rendered_loss_gradient_matches_finite_differences_direct(method):
           + ", ".join(f"{k} {e:.1e}" for k, e in errors.items()))
 
 
+@pytest.mark.slow
 def test_rendered_stokes_loss_gradient_matches_finite_differences_path():
     """`path` (depth 3) with a sky, so BSDF sampling contributes. Quadratic
     Stokes loss (S0, S1, S2) against a target rendered with other parameters.

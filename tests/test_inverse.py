@@ -30,6 +30,7 @@ def perturbed_loss(sc):
     return params, stokes_loss(sc, target, (0, 1, 2))
 
 
+@pytest.mark.slow
 def test_gradient_methods_agree_with_mi_render():
     """forward (symbolic loops), reverse with one pass, and mi.render +
     dr.backward: the same estimator with the same seeds, equal to float32
@@ -56,6 +57,7 @@ def test_gradient_methods_agree_with_mi_render():
         np.testing.assert_allclose(got, expected, atol=1e-4 * scale, err_msg=method)
 
 
+@pytest.mark.slow
 def test_passes_forward_and_reverse_agree():
     """Samples split into 3 passes: both methods see the same paths."""
     use_variant("llvm_ad_spectral_polarized")
@@ -71,6 +73,7 @@ def test_passes_forward_and_reverse_agree():
     np.testing.assert_allclose(f, r, atol=1e-4 * np.abs(r).max())
 
 
+@pytest.mark.slow
 def test_memory_passes_and_forward_mode():
     """Dr.Jit's peak memory: reverse mode grows with the samples (path
     depth 4), passes divide it, forward mode stores nothing per sample."""
@@ -135,6 +138,7 @@ def _fit(components):
     return result, error, initial_loss, final_loss
 
 
+@pytest.mark.slow
 def test_adam_recovers_metal_sphere_from_stokes_images():
     """Target: the sphere (n = 2, k = 4, sigma = 0.12, ks = 1) rendered at
     128 spp, direct illumination, 32 x 32. Start: n = 1.5, k = 5, sigma = 0.18,
@@ -148,6 +152,7 @@ def test_adam_recovers_metal_sphere_from_stokes_images():
     assert all(abs(v) < 0.10 for v in error.values()), error
 
 
+@pytest.mark.slow
 def test_polarization_makes_n_k_ks_identifiable():
     """The same fit from S0 alone follows the valley of equal unpolarized
     reflectance (ks compensating n and k) and ends far from the truth, and

@@ -101,6 +101,20 @@ def test_import_needs_no_variant_and_first_use_says_what_to_type():
     assert "mitsuba_pbrdf.use_variant('llvm_ad_spectral_polarized')" in result.stderr
 
 
+def test_mitsubas_own_call_before_a_variant_raises_what_python_md_says():
+    """python.md promises VariantNotSetError for the package's calls and
+    Mitsuba's bare RuntimeError for mi.load_dict before a variant is set."""
+    result = run_python("import mitsuba_pbrdf, mitsuba as mi\n"
+                        "try:\n    mi.load_dict({'type': 'pbrdf'})\n"
+                        "except RuntimeError as e:\n    print(type(e).__name__, e)")
+    assert result.returncode == 0, result.stderr
+    assert "RuntimeError No variant was set!" in result.stdout
+    with open(os.path.join(ROOT, "docs", "python.md"), encoding="utf-8") as f:
+        page = " ".join(f.read().split())
+    assert "`mi.load_dict({\"type\": \"pbrdf\"})` among them, raise Mitsuba's " \
+           "`RuntimeError: No variant was set!`" in page
+
+
 @pytest.mark.parametrize("code", [
     # the variant set first, then the package imported
     "import mitsuba as mi; mi.set_variant('llvm_ad_rgb'); import mitsuba_pbrdf",

@@ -233,6 +233,7 @@ def test_sampled_component_frequencies_follow_the_documented_probabilities(name,
 
 @pytest.mark.parametrize("mode", [mi.TransportMode.Radiance, mi.TransportMode.Importance])
 @pytest.mark.parametrize("name", sorted(CONFIGS))
+@pytest.mark.slow
 def test_sample_weight_is_reference_value_over_mixture_pdf(name, mode):
     """sample()'s weight equals R(wo) cos_o / pdf(wo), element by element, with R
     the float64 reference (global s/p frames) and pdf the documented mixture

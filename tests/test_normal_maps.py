@@ -71,6 +71,7 @@ def aolp_error(a, b):
 
 @pytest.mark.parametrize("nested", sorted(NESTED))
 @pytest.mark.parametrize("wrapper", ["normalmap", "bumpmap"])
+@pytest.mark.slow
 def test_constant_map_equals_tilted_plane(nested, wrapper):
     """DoLP and AoLP of the polarized wrapper equal the tilted plane's, for
     every tilt and azimuth; S0 equals Mitsuba's wrapper's; Mitsuba's wrapper
@@ -327,6 +328,7 @@ def test_unpolarized_variants_give_what_mitsuba_gives(variant, wrapper):
 
 
 @pytest.mark.parametrize("wrapper", ["polarized_normalmap", "polarized_bumpmap"])
+@pytest.mark.slow
 def test_stokes_prb_texel_gradients_match_finite_differences(wrapper):
     """``stokes_prb`` renders a scene with the wrapper, and its reverse-mode
     gradient of a random Stokes functional with respect to every texel equals

@@ -168,6 +168,7 @@ def test_plate_normal_map_is_what_the_generator_writes(tmp_path):
     np.testing.assert_allclose(stored, (hammered_normals() + 1.0) / 2.0, rtol=1e-3, atol=1e-3)
 
 
+@pytest.mark.slow
 def test_gallery_plate_differs_in_aolp_only():
     """plate.xml with Mitsuba's normalmap and with ours, at the same seed: the
     same S0 (the same paths; float32 rounding), an AoLP that differs."""
@@ -215,6 +216,7 @@ def test_cli_render_refuses_a_zero_length_texel_in_one_line(tmp_path, capfd):
     assert not os.path.exists(tmp_path / "out.exr")
 
 
+@pytest.mark.slow
 def test_bump_map_on_a_turned_shape_keeps_its_frame():
     """A flat height map on a rectangle turned 90° about y (its world dp_du
     along the local normal): bumpmap's tangent (world dp_du projected off the

@@ -30,10 +30,13 @@ Oracles and tolerances:
   gradient computed alone (float32 summation order, 1e-5 of the largest).
 """
 
+import os
+
 import numpy as np
 import pytest
 
 
+@pytest.mark.slow
 def test_stokes_prb_texel_gradients_equal_path_ad_per_sample():
     from proof.normal_map_gradients import WRAPPERS, compare, relative_differences
 
@@ -128,6 +131,7 @@ def _view_gradient_setup(views=2):
     return texels, view_loss
 
 
+@pytest.mark.slow
 def test_multi_view_gradient_is_the_sum_of_the_views_gradients():
     """summed_gradients leaves on the texels the sum of every view's gradient,
     each computed on its own with a fresh variable (the same seeds, so equal up
@@ -162,6 +166,7 @@ def test_multi_view_gradient_is_the_sum_of_the_views_gradients():
                                atol=1e-5 * np.abs(separate[1]).max())
 
 
+@pytest.mark.slow
 def test_smoothness_gradient_adds_to_the_render_gradient():
     """The smoothness term's gradient survives the render's backward pass: the
     gradient of (view loss + w * smoothness) equals the view's gradient plus w
@@ -184,6 +189,7 @@ def test_smoothness_gradient_adds_to_the_render_gradient():
     np.testing.assert_allclose(grads[2], expected, atol=1e-5 * np.abs(expected).max())
 
 
+@pytest.mark.slow
 def test_study_at_small_size_beats_the_flat_start():
     """validation/shape_from_polarization.py's case, small: copper, one view,
     Stokes targets (see the module docstring for the figures and margin)."""
@@ -199,6 +205,7 @@ def test_study_at_small_size_beats_the_flat_start():
     assert result.loss[-1] < result.loss[0]
 
 
+@pytest.mark.slow
 def test_height_field_with_roughness_map_runs_and_stays_in_bounds(small_problem):
     """The height parametrization and the joint roughness fit: finite unit
     normals, heights returned, the sigma map moved by the fit and within
@@ -271,3 +278,119 @@ def test_bad_inputs_name_the_parameter(small_problem):
                             callback=lambda *a: calls.append(a), **kwargs)
         assert info.value.parameter == name, (name, str(info.value))
         assert not calls, (name, "refused only after fitting")
+
+
+def recipe_lines():
+    """The recipe of docs/inverse-rendering.md, line by line."""
+    path = os.path.join(os.path.dirname(__file__), os.pardir, "docs", "inverse-rendering.md")
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    block = text.split("**Recipe, end to end**", 1)[1].split("```", 2)[1]
+    return [line for line in block.splitlines() if line.strip()]
+
+
+def test_plate_files_have_defaults_and_truth_takes_their_normal_map(tmp_path):
+    """write_plate_files' scene takes -D (its <default>s) and its normal map
+    is what --truth takes: read back, it is the map written (float32)."""
+    from mitsuba_pbrdf.inverse.normal_scenes import read_normal_map, true_normals, write_plate_files
+    from mitsuba_pbrdf.rendering.scene_params import scene_parameters
+
+    truth = true_normals(8)
+    plate = write_plate_files(tmp_path, truth, size=8, spp=2)
+    defaults = {p.name: p.default for p in scene_parameters(plate)}
+    assert defaults == {"spp": "2", "width": "8", "height": "8", "max_depth": "3",
+                        "material": "Cu", "sigma": "0.15"}
+    np.testing.assert_allclose(read_normal_map(tmp_path / "plate_normals.exr"), truth, atol=1e-6)
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("restore_variant")
+def test_recover_normals_takes_the_plates_normal_map_as_truth(tmp_path, capsys):
+    """The command line, on write_plate_files' scene: a target rendered with
+    -D values, two iterations against plate_normals.exr as --truth; the
+    texture at one pixel per texel and the readable recovery.png."""
+    from mitsuba_pbrdf.cli import main
+    from mitsuba_pbrdf.inverse.normal_scenes import true_normals, write_plate_files
+
+    plate = write_plate_files(tmp_path, true_normals(8), size=8, spp=2)
+    assert main(["render", plate, "-D", "spp=4", "-D", "material=Al", "--out",
+                 str(tmp_path / "target"), "--variant", "llvm_ad_spectral_polarized"]) == 0
+    out = tmp_path / "fit"
+    assert main(["recover-normals", plate, "--targets", str(tmp_path / "target.exr"), "--out",
+                 str(out), "--truth", str(tmp_path / "plate_normals.exr"), "--iterations", "2",
+                 "--spp", "1", "--variant", "llvm_ad_spectral_polarized", "--no-progress"]) == 0
+    assert "angular error median" in capsys.readouterr().out
+    import json
+
+    from PIL import Image
+
+    summary = json.loads((out / "recovery.json").read_text())
+    assert summary["start_error_deg"]["median"] > 0 and len(summary["loss"]) == 2
+    with Image.open(out / "normals.png") as png:
+        assert png.size == (8, 8)  # the texture: one pixel per texel
+    with Image.open(out / "recovery.png") as png:
+        assert png.size[0] > 1000 and png.size[1] > 300  # four readable panels
+
+
+def test_recovery_picture_shows_truth_fit_error_and_loss(tmp_path):
+    """recovery.png's figure: four titled panels (true and recovered normals,
+    the error map with unseen texels grey and out of the median, the loss)."""
+    from PIL import Image
+
+    from mitsuba_pbrdf.figures.normal_recovery import recovery_figure, save_recovery_png
+    from mitsuba_pbrdf.inverse.normal_scenes import true_normals
+
+    truth = true_normals(8)
+    flat = np.zeros_like(truth)
+    flat[..., 2] = 1.0
+    error = np.full((8, 8), 3.0)
+    error[0, 0] = 90.0
+    visible = np.ones((8, 8), bool)
+    visible[0, 0] = False  # unseen: left out of the median
+    fig = recovery_figure(flat, [1.0, 0.5, 0.25], truth=truth, error=error, visible=visible)
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    assert titles == ["true normals, (n + 1) / 2", "recovered normals, (n + 1) / 2",
+                      "angular error, median 3.00° (grey: unseen)", "loss 1 → 0.25"]
+    path = save_recovery_png(tmp_path / "r.png", flat, [1.0, 0.5], title="t")
+    with Image.open(path) as png:
+        assert png.size == (780, 390)  # without truth: normals and loss, 3.9 x 3.9 in each
+
+
+def test_truth_refuses_what_is_not_a_normal_map(tmp_path):
+    from mitsuba_pbrdf.inverse.normal_scenes import read_normal_map
+    from mitsuba_pbrdf.stokes.exr import write_exr
+
+    write_exr(tmp_path / "y.exr", {"Y": np.ones((4, 4), np.float32)})
+    with pytest.raises(ValueError, match="needs channels X, Y, Z .* or R, G, B"):
+        read_normal_map(tmp_path / "y.exr")
+    write_exr(tmp_path / "zero.exr", {c: np.full((4, 4), 0.5, np.float32) for c in "RGB"})
+    with pytest.raises(ValueError, match="not a normal map"):
+        read_normal_map(tmp_path / "zero.exr")
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("restore_variant")
+def test_recipe_of_inverse_rendering_md_runs_as_written(tmp_path, monkeypatch, capsys):
+    """The recipe's lines, as written, in an empty folder: the fit ends below
+    the flat start's median angular error."""
+    import json
+    import shlex
+    import subprocess
+    import sys
+
+    from mitsuba_pbrdf import variant as variant_module
+    from mitsuba_pbrdf.cli import main
+
+    monkeypatch.setattr(variant_module, "cuda_available", lambda: False)
+    monkeypatch.chdir(tmp_path)
+    lines = recipe_lines()
+    assert [line.split()[0] for line in lines] == ["python", "pbrdf", "pbrdf", "pbrdf"]
+    for line in lines:
+        words = shlex.split(line)
+        if words[0] == "python":
+            subprocess.run([sys.executable, *words[1:]], check=True)
+        else:
+            assert main(words[1:]) == 0, line
+    summary = json.loads((tmp_path / "out" / "plate" / "fit" / "recovery.json").read_text())
+    assert summary["angular_error_deg"]["median"] < summary["start_error_deg"]["median"]
+    assert (tmp_path / "out" / "plate" / "fit" / "recovery.png").stat().st_size > 0

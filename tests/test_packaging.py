@@ -92,6 +92,7 @@ def test_wheel_carries_the_scenes(installed):
     assert envmap == "True"
 
 
+@pytest.mark.slow
 def test_installed_commands_run_from_any_directory(installed):
     bin_dir, work = installed
     version = run([str(bin_dir / "pbrdf"), "--version"], cwd=work).stdout

@@ -118,6 +118,7 @@ def test_reciprocity():
         assert m00 <= bound and full <= bound, (name, engine, m00, full)
 
 
+@pytest.mark.slow
 def test_mueller_matrices_are_realizable():
     """Cloude's coherency matrix has no negative eigenvalue and the output DOP
     is <= 1 for 69 input Stokes vectors, over 10,000 random pairs (down to
@@ -246,6 +247,7 @@ def test_albedo_of_the_ideal_diffuse_lobe_alone(angle):
 # ---------------------------------------------------------------------------
 
 @pytest.mark.parametrize("scene,metal", [("plate", "Al"), ("sphere", "Cu")])
+@pytest.mark.slow
 def test_rendered_stokes_image_polarization(scene, metal):
     """A rendered Stokes image (llvm_ad_spectral_polarized, 8 passes x 128 spp)
     against the reference evaluator and against geometry.

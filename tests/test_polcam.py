@@ -175,7 +175,8 @@ def test_cli_writes_every_output(tmp_path, capsys):
                  "--full-well", "10500", "--read-noise", "2.5", "--seed", "1"]) == 0
     names = sorted(os.listdir(out))
     assert names == sorted(["scene_I0.exr", "scene_I45.exr", "scene_I90.exr", "scene_I135.exr",
-                            "scene_mosaic_rgb.exr", "scene_mosaic_rgb.png"])
+                            "scene_mosaic_rgb.exr", "scene_mosaic_rgb.png",
+                            "scene_mosaic_rgb_preview.png"])
     ideal = polarizer_images(image)
     for a in ANGLES:
         channels = read_exr_channels(out / f"scene_I{a}.exr")
@@ -191,6 +192,7 @@ def test_cli_writes_every_output(tmp_path, capsys):
 
 
 @pytest.mark.usefixtures("restore_variant")
+@pytest.mark.slow
 def test_frame_convention_matches_renders_through_mitsubas_polarizer(tmp_path):
     """polcam's I_θ of the unfiltered Stokes render equals the render through
     Mitsuba's ``polarizer`` BSDF turned to θ (scenes/gallery/polarizer.xml:
@@ -229,3 +231,79 @@ def test_polcam_figure_draws_eight_panels(tmp_path):
     fig = polcam_figure(image, title="t")
     assert len(fig.axes) == 8
     fig.savefig(tmp_path / "f.png")
+
+
+# ---------------------------------------------------------------- looking at polcam's files
+
+
+def uniform_stokes(h=8, w=12, bands=("R", "G", "B")):
+    """The same physical Stokes vector in every pixel (per band), S3 = 0."""
+    vector = np.array([[1.0, 0.3, -0.2, 0.0], [2.0, -0.5, 0.4, 0.0], [1.5, 0.1, 0.6, 0.0]])
+    stokes = np.broadcast_to(vector[:len(bands)].T, (h, w, 4, len(bands)))
+    return StokesImage(np.ascontiguousarray(stokes, dtype=np.float32), list(bands))
+
+
+def test_super_pixel_demosaicing_recovers_a_uniform_stokes_image():
+    """Where the Stokes vector is the same in every pixel, the super-pixels
+    of the raw frames give it back (S3 = 0 apart, which no polarizer sees)."""
+    from mitsuba_pbrdf.camera.raw_frames import demosaic, stokes_of_polarizer_images
+
+    image = uniform_stokes()
+    mono = demosaic(mono_mosaic(image, band="G"), "mono")
+    assert mono.stokes.shape == (4, 6, 4, 1) and mono.bands == ["Y"]
+    np.testing.assert_allclose(mono.stokes[..., 0], np.broadcast_to(image.stokes[0, 0, :, 1],
+                                                                     (4, 6, 4)), atol=1e-6)
+    colour = demosaic(colour_mosaic(image), "colour")
+    assert colour.stokes.shape == (2, 3, 4, 3) and colour.bands == ["R", "G", "B"]
+    np.testing.assert_allclose(colour.stokes, image.stokes[:2, :3], atol=1e-6)
+    images = {a: {b: plane[..., i] for i, b in enumerate(image.bands)}
+              for a, plane in polarizer_images(image).items()}
+    np.testing.assert_allclose(stokes_of_polarizer_images(images, image.bands).stokes,
+                               image.stokes, atol=1e-6)
+    with pytest.raises(ValueError, match="2 x 2 blocks"):
+        demosaic(np.zeros((3, 4)), "mono")
+
+
+def test_preview_of_a_12_bit_frame_uses_the_whole_8_bit_range(tmp_path):
+    """The 16-bit PNG of a 12-bit frame holds counts up to 4095 (1/16 of its
+    range: black in a viewer); the preview beside it maps full scale to 255."""
+    image = random_stokes(12, 16, seed=2)
+    src = write_stokes_exr(tmp_path / "scene.exr", image)
+    out = tmp_path / "cam"
+    assert main(["polcam", src, "--out", str(out), "--bits", "12"]) == 0
+    with Image.open(out / "scene_mosaic.png") as png:
+        counts = np.asarray(png).astype(np.int64)
+    with Image.open(out / "scene_mosaic_preview.png") as png:
+        assert png.mode == "L"
+        preview = np.asarray(png)
+    assert counts.max() == 4095 and preview.max() == 255  # the brightest pixel at full scale
+    from mitsuba_pbrdf.camera.raw_frames import mosaic_preview
+
+    np.testing.assert_array_equal(preview, mosaic_preview(counts, bits=12))
+    assert mosaic_preview(np.array([[0, 4095]]), bits=12).tolist() == [[0, 255]]
+    assert main(["polcam", src, "--out", str(out)]) == 0  # float frame: its own top
+    with Image.open(out / "scene_mosaic_preview.png") as png:
+        assert np.asarray(png).max() == 255
+
+
+def test_view_draws_polcams_files_as_the_stokes_image_the_camera_measures(tmp_path, capfd):
+    image = random_stokes(12, 16, seed=5, smooth=True)
+    src = write_stokes_exr(tmp_path / "scene.exr", image)
+    out = tmp_path / "cam"
+    assert main(["polcam", src, "--out", str(out), "--sensor", "colour"]) == 0
+    for name in ("scene_mosaic_rgb.exr", "scene_I45.exr"):
+        png = tmp_path / (name + ".png")
+        assert main(["view", str(out / name), "--out", str(png)]) == 0
+        assert png.stat().st_size > 0
+    from mitsuba_pbrdf.camera.raw_frames import read_polcam_exr
+
+    stokes = read_polcam_exr(out / "scene_I45.exr")
+    np.testing.assert_allclose(stokes.stokes[..., :3, :], image.stokes[..., :3, :], atol=1e-5)
+    assert "polarization camera" in stokes.metadata["title"]
+    assert read_polcam_exr(src) is None  # a Stokes EXR is not a polcam file
+    os.remove(out / "scene_I90.exr")
+    capfd.readouterr()
+    assert main(["view", str(out / "scene_I45.exr"), "--out", str(tmp_path / "x.png")]) == 2
+    err = capfd.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "scene_I90.exr" in err and "needs all four" in err
+    assert not (tmp_path / "x.png").exists()

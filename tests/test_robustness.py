@@ -46,6 +46,7 @@ ROUGHNESS = [(1e-4, 1e-3), (0.3, 0.5), (2.0, 5.0)]
 
 
 @pytest.mark.parametrize("eta,k", IORS)
+@pytest.mark.slow
 def test_extreme_inputs_give_finite_physical_values(eta, k):
     use_variant("llvm_ad_spectral_polarized")
     rng = np.random.default_rng(int(eta * 100 + k))

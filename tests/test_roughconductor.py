@@ -134,6 +134,7 @@ def stokes_scene(bsdf):
     })
 
 
+@pytest.mark.slow
 def test_rendered_stokes_image_matches_roughconductor():
     """Same scene, same seed, one lobe with the same visible-normal sampling:
     the same paths. The weights differ only by roughconductor's approximate

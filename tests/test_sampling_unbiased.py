@@ -72,6 +72,7 @@ def quadrature(bsdf, wi, n_mu, n_phi):
 
 @pytest.mark.parametrize("shadowing", ["vgroove", "smith"])
 @pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.slow
 def test_sampling_is_unbiased_for_each_microfacet_lobe(case, shadowing):
     use_variant("llvm_ad_spectral_polarized")
     params, theta_deg, *phi_deg = CASES[case]

@@ -120,6 +120,7 @@ def mitsuba_bsdfs():
 
 
 @pytest.mark.parametrize("case", ["depth1", "depth6-roulette", "mitsuba-bsdfs-hidden-emitters"])
+@pytest.mark.slow
 def test_primal_equals_stokes_path(case):
     use_variant("llvm_ad_spectral_polarized")
     kwargs = {
@@ -156,6 +157,7 @@ def bitmap_sigma():
 
 
 @pytest.mark.parametrize("depth, rr_depth", [(2, 5), (5, 2)])
+@pytest.mark.slow
 def test_gradients_equal_path_ad_per_sample(depth, rr_depth):
     """pbrdf with cosine sampling on a diffuse floor: the BSDF parameters and
     the floor's reflectance; at depth 2 the roughness is a 4 x 4 bitmap (the
@@ -175,6 +177,7 @@ def test_gradients_equal_path_ad_per_sample(depth, rr_depth):
     assert_close(got, want)
 
 
+@pytest.mark.slow
 def test_singular_case_polarizer_depolarizing_floor_and_mitsuba_bsdfs():
     """A linear polarizer in front of the camera (rank-one Mueller matrix)
     and a depolarizing diffuse floor: the throughput cannot be inverted.
@@ -197,6 +200,7 @@ def test_singular_case_polarizer_depolarizing_floor_and_mitsuba_bsdfs():
                  got[some])
 
 
+@pytest.mark.slow
 def test_gradients_of_emitter_parameters_equal_path_ad():
     """The replay samples the emitters again, with derivatives, from the
     traced random numbers: the gradients of the two area lights', the sky's
@@ -213,6 +217,7 @@ def test_gradients_of_emitter_parameters_equal_path_ad():
     assert_close(got, want)
 
 
+@pytest.mark.slow
 def test_forward_equals_reverse_with_mixture_sampling():
     """pbrdf's own lobe-mixture sampling (where path AD is no oracle): the
     two modes of stokes_prb compute the same estimator."""
@@ -226,6 +231,7 @@ def test_forward_equals_reverse_with_mixture_sampling():
 
 # ---------------------------------------------------------------- wiring
 
+@pytest.mark.slow
 def test_loss_and_gradient_uses_replay_by_default():
     use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.integrators import from_path
@@ -253,6 +259,7 @@ def test_loss_and_gradient_uses_replay_by_default():
     assert_close(np.array([grads[k][0] for k in PBRDF_KEYS[:3]]), want)
 
 
+@pytest.mark.slow
 def test_loss_image_of_the_replay_is_the_scenes_render():
     """With path replay, loss_and_gradient renders its primal image with
     stokes_prb: it must be the scene's own stokes + path image (same random

@@ -76,6 +76,26 @@ def test_full_sheet_has_every_panel_with_colour_bars(tmp_path):
     assert pixels.shape[1] > pixels.shape[0] > 200  # two rows of four
 
 
+def test_python_pictures_take_the_command_lines_defaults(tmp_path):
+    """save_overview_png without options draws what pbrdf view draws: one
+    defaults table (DoLP scaled to the data, not 0-1), read by both."""
+    from mitsuba_pbrdf.cli import build_parser
+    from mitsuba_pbrdf.pictures.defaults import PICTURE_DEFAULTS
+
+    parser = build_parser()
+    view = parser.parse_args(["view", "x.exr"])
+    render = parser.parse_args(["render", "x.xml"])
+    for keyword in ("dolp_max", "dolp_cmap", "min_dolp", "stokes_scale", "exposure"):
+        assert getattr(view, keyword) == getattr(render, keyword) == PICTURE_DEFAULTS[keyword]
+    image = synthetic_image()
+    image.stokes[..., 1:3, :] *= 0.2  # DoLP at most 0.2: "auto" and 1.0 differ
+    fig = overview_figure(image, "all")
+    labels = [ax.get_ylabel() for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    dolp_label = next(label for label in labels if label.startswith("DoLP"))
+    assert dolp_label.endswith(", auto)") and "0–1)" not in dolp_label
+    assert PICTURE_DEFAULTS["dolp_max"] == "auto"
+
+
 def axes():
     from matplotlib.figure import Figure
 

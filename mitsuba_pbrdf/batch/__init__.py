@@ -12,7 +12,7 @@ joins a Dask cluster, :mod:`.slurm` starts the workers as Slurm jobs (settings:
 :mod:`.slurm_options`), :mod:`.lost` tells which jobs lost their worker and why,
 :mod:`.runner` runs a sweep without losing work. Single
 renders live in :mod:`mitsuba_pbrdf.rendering`. Importing this package does not
-import Dask; running a sweep needs it (``pip install 'mitsuba-pbrdf[batch]'``)."""
+import Dask; running a sweep needs it (a dependency of the package)."""
 
 from .runner import SweepSummary, run_sweep
 from .sweep import Job, Sweep, SweepError, load_sweep

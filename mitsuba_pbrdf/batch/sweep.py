@@ -293,7 +293,7 @@ def load_sweep(path) -> Sweep:
     """Read and check the sweep file *path* (see the module docstring); raises
     :class:`SweepError`, or ``FileNotFoundError`` for a missing file."""
     from ..rendering.scene_params import (SceneParameterError, check_parameter_values,
-                                          declared_parameters)
+                                          declared_parameters, did_you_mean)
     from ..outputs import check_writable
 
     path = os.path.abspath(os.fspath(path))
@@ -360,7 +360,8 @@ def load_sweep(path) -> Sweep:
         for key in values:
             if key not in declared:
                 _fail(path, f"params.{key}: {os.path.basename(scene)} has no parameter "
-                            f"{key!r}; it has {', '.join(sorted(declared)) or 'none'}")
+                            f"{key!r}{did_you_mean(key, declared)}; it has "
+                            f"{', '.join(sorted(declared)) or 'none'}")
     for key, texts in values.items():
         for text in texts:
             try:

@@ -4,6 +4,7 @@
 
     pbrdf render SCENE.xml [--spp N] [--variant V] [--seed S] [--passes N] [--out DIR_OR_STEM]
                            [-D key=value ...] [--panels P,...] [--no-progress]
+    pbrdf params SCENE.xml
     pbrdf view STOKES.exr [--out PNG] [--panels all|P,...] [--band B] [--dolp-cmap gray]
                           [--dolp-max X] [--min-dolp X] [--exposure EV]
     pbrdf polcam STOKES.exr --out DIR [--sensor mono|colour] [--band B] [--exposure X]
@@ -49,12 +50,12 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import batch, export, fit, gallery, plot, polcam, recover_normals, render, view
+from . import batch, export, fit, gallery, params, plot, polcam, recover_normals, render, view
 from ..numbers import check_int_option
 from .common import PROG, CliError, run_command, version_text
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
-COMMANDS = (render, view, polcam, plot, gallery, fit, export, batch, recover_normals)
+COMMANDS = (render, params, view, polcam, plot, gallery, fit, export, batch, recover_normals)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -93,10 +94,32 @@ def _bounded_integers(func, parser, command):
 def main(argv: Optional[List[str]] = None) -> int:
     """Run the command line; returns the exit status: 0, 2 on error
     (:func:`~.common.run_command`), 130 when interrupted (Ctrl-C). Usage
-    errors found by argparse exit through ``SystemExit(2)`` as usual."""
+    errors found by argparse exit through ``SystemExit(2)`` as usual, with the
+    subcommand's usage (also for an option no parser knows: ``render --varient``)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # argparse would print the top-level usage; the subcommand's helps more
+        subcommand_parser(parser, args.command).error(unrecognized_message(
+            subcommand_parser(parser, args.command), unknown))
     return run_command(_bounded_integers(args.func, parser, args.command), args, args.command)
+
+
+def subcommand_parser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentParser:
+    """The parser of subcommand *name* (for its usage line in errors)."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices[name]
+
+
+def unrecognized_message(parser: argparse.ArgumentParser, unknown: List[str]) -> str:
+    """``unrecognized arguments: --varient x (did you mean --variant?)``."""
+    import difflib
+
+    options = [s for a in parser._actions for s in a.option_strings if s.startswith("--")]
+    guesses = [difflib.get_close_matches(w.split("=")[0], options, n=1)
+               for w in unknown if w.startswith("--")]
+    hints = [g[0] for g in guesses if g]
+    return (f"unrecognized arguments: {' '.join(unknown)}"
+            + (f" (did you mean {', '.join(hints)}?)" if hints else ""))
 
 
 if __name__ == "__main__":

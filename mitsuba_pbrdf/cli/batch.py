@@ -30,8 +30,8 @@ def run(args) -> int:
     try:
         import distributed  # noqa: F401
     except ImportError:
-        raise CliError("pbrdf batch needs Dask: pip install 'mitsuba-pbrdf[batch]' "
-                       "(or 'dask[distributed]')") from None
+        raise CliError("pbrdf batch needs Dask, a dependency of the package that is "
+                       "missing here: pip install 'dask[distributed]'") from None
     slurm = slurm_settings(args, sweep)
     release()  # checked: Ctrl-C from here on stops the sweep (mitsuba_pbrdf.interrupts)
 

@@ -209,24 +209,29 @@ def check_outputs(*outputs, create_folders: bool = True):
 
 
 def picture_options(parser, panels_default: str):
-    """The options of the Stokes pictures that ``render`` and ``view`` draw."""
+    """The options of the Stokes pictures that ``render`` and ``view`` draw
+    (defaults: :data:`~mitsuba_pbrdf.pictures.defaults.PICTURE_DEFAULTS`, as in Python)."""
+    from ..pictures.defaults import PICTURE_DEFAULTS as D
+
     parser.add_argument("--panels", default=panels_default,
                         help="comma-separated panels: intensity, dolp, aolp, docp, hsv, s1, s2, "
                              f"s3, or 'all' (the 2 x 4 sheet) (default: {panels_default})")
     parser.add_argument("--band", default=None,
                         help="draw one band (e.g. R, or a wavelength band's name) instead of the "
                              "luminance combination of the bands")
-    parser.add_argument("--dolp-max", default="auto", metavar="X|auto",
+    parser.add_argument("--dolp-max", default=D["dolp_max"], metavar="X|auto",
                         help="top of the DoLP scale (and of the saturation of the hsv panel); "
-                             "auto: the image's 99.5th percentile rounded up (default: auto)")
-    parser.add_argument("--dolp-cmap", default="viridis", choices=["viridis", "gray"],
-                        help="colour map of the DoLP panel (default: viridis)")
-    parser.add_argument("--min-dolp", type=float, default=0.01,
-                        help="AoLP is grey where DoLP is below this (default: 0.01)")
-    parser.add_argument("--stokes-scale", default="shared", choices=["shared", "separate"],
+                             "auto: the image's 99.5th percentile rounded up "
+                             f"(default: {D['dolp_max']})")
+    parser.add_argument("--dolp-cmap", default=D["dolp_cmap"], choices=["viridis", "gray"],
+                        help=f"colour map of the DoLP panel (default: {D['dolp_cmap']})")
+    parser.add_argument("--min-dolp", type=float, default=D["min_dolp"],
+                        help=f"AoLP is grey where DoLP is below this (default: {D['min_dolp']})")
+    parser.add_argument("--stokes-scale", default=D["stokes_scale"],
+                        choices=["shared", "separate"],
                         help="one symmetric scale for S1/S0, S2/S0, S3/S0, or one each "
-                             "(default: shared)")
-    parser.add_argument("--exposure", type=float, default=None, metavar="EV",
+                             f"(default: {D['stokes_scale']})")
+    parser.add_argument("--exposure", type=float, default=D["exposure"], metavar="EV",
                         help="intensity exposure in stops (default: automatic)")
 
 

@@ -4,7 +4,10 @@ Writes ``DIR/<stem>_I0.exr``, ``_I45.exr``, ``_I90.exr``, ``_I135.exr`` (the
 images behind ideal linear polarizers, same bands as the input) and the raw
 sensor frame ``DIR/<stem>_mosaic.exr`` (monochrome sensor) or
 ``_mosaic_rgb.exr`` (colour sensor), one channel ``Y``; with ``--bits`` also
-the ADC counts as a 16-bit PNG. Everything is checked and computed before the
+the ADC counts as a 16-bit PNG; and always an 8-bit picture of the raw frame to
+look at, ``_mosaic_preview.png`` (full scale white;
+:mod:`mitsuba_pbrdf.camera.raw_frames`). ``pbrdf view`` draws the Stokes image
+of the mosaic (demosaiced) or of the four polarizer images. Everything is checked and computed before the
 first file is written, and each file is written atomically
 (:mod:`mitsuba_pbrdf.camera.polcam`, ``docs/polarization-camera.md``)."""
 
@@ -43,6 +46,8 @@ def run(args) -> int:
     """``pbrdf polcam``."""
     from ..stokes.exr import read_stokes_exr
     from ..camera.polcam import polcam_file_names, polcam_outputs, write_polcam_files
+    from ..camera.raw_frames import mosaic_previews
+    from ..pictures.png import write_pixels_png
     from ..stokes.image import StokesChannelError
 
     require_file(args.exr, "EXR file")
@@ -62,11 +67,16 @@ def run(args) -> int:
         raise CliError(f"{args.exr}: {one_line(e).removeprefix(args.exr + ': ')}") from e
     names = polcam_file_names(outputs, stem)
     paths = {suffix: os.path.join(args.out, name) for suffix, name in names.items()}
-    check_outputs(*[("--out", p) for p in paths.values()])
+    previews = {os.path.join(args.out, name): picture for name, picture
+                in mosaic_previews(outputs, stem, model.bits if model.enabled else None).items()}
+    check_outputs(*[("--out", p) for p in [*paths.values(), *previews]])
     metadata = {k: v for k, v in image.metadata.items() if not k.startswith("time_")}
     metadata["source"] = os.path.basename(args.exr)
     with together():  # all the files or none (mitsuba_pbrdf.interrupts)
         write_polcam_files(outputs, args.out, stem, metadata)
+        for path, picture in previews.items():
+            write_pixels_png(path, picture)
+    paths.update({path: path for path in previews})
     print(f"wrote {len(paths)} files in {args.out}: "
           + ", ".join(os.path.basename(p) for p in paths.values()))
     return 0

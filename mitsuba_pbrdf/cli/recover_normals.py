@@ -6,8 +6,12 @@ per sensor: Stokes EXRs (``pbrdf render``) for ``--observables intensity`` or
 ``stokes``, raw mono mosaic EXRs (``pbrdf polcam``'s ``_mosaic.exr``, channel
 ``Y``) for ``polcam``. Writes ``DIR/normals.exr`` (channels X, Y, Z: unit
 normals in the shape's tangent frame), ``DIR/normals.png`` (the usual
-(n + 1) / 2 colour encoding) and ``DIR/recovery.json`` (loss per iteration,
-options, angular errors with ``--truth``), each atomically, after checking
+(n + 1) / 2 colour encoding, one pixel per texel: a texture),
+``DIR/recovery.png`` (the picture to look at: true and recovered normals, the
+angular error map, the loss curve; :mod:`mitsuba_pbrdf.figures.normal_recovery`)
+and ``DIR/recovery.json`` (loss per iteration, options, angular errors with
+``--truth``, which takes ``normals.exr`` or a normal-map texture such as
+``write_plate_files``' ``plate_normals.exr``), each atomically, after checking
 every input and that the folder can take them."""
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from ..outputs import together
 from .common import (CliError, check_outputs, chosen_variant, progress_options, require_file,
                      show_progress, variant_help)
 
-OUTPUTS = ("normals.exr", "normals.png", "recovery.json")
+OUTPUTS = ("normals.exr", "normals.png", "recovery.png", "recovery.json")
 
 
 def _targets(paths, scene, observables):
@@ -39,14 +43,14 @@ def _targets(paths, scene, observables):
 
 
 def _truth(path):
-    import numpy as np
+    """The true normals: channels X, Y, Z (as normals.exr has) or a normal-map
+    texture's R, G, B = (n + 1) / 2 (as write_plate_files' plate_normals.exr)."""
+    from ..inverse.normal_scenes import read_normal_map
 
-    from ..stokes.exr import read_exr_channels
-
-    channels = read_exr_channels(path)
-    if not all(c in channels for c in "XYZ"):
-        raise CliError(f"--truth: {path} needs channels X, Y, Z (as normals.exr has)")
-    return np.stack([channels[c] for c in "XYZ"], axis=-1)
+    try:
+        return read_normal_map(path)
+    except ValueError as e:
+        raise CliError(f"--truth: {e}") from None
 
 
 def run(args) -> int:
@@ -98,7 +102,7 @@ def run(args) -> int:
                                  callback=lambda it, loss: bar.update(1))
 
     normals = result.normals.astype(np.float32)
-    with together():  # the three outputs, or none (mitsuba_pbrdf.outputs)
+    with together():  # the four outputs, or none (mitsuba_pbrdf.outputs)
         summary = _write(paths, args, result, normals, truth)
     print(f"wrote {', '.join(paths.values())}")
     errors = summary.get("angular_error_deg") or {}
@@ -109,20 +113,18 @@ def run(args) -> int:
 
 
 def _write(paths, args, result, normals, truth):
-    import matplotlib
-    import matplotlib.pyplot as plt
-
+    from ..figures.normal_recovery import save_recovery_png
     from ..outputs import write_json
-    from ..pictures.png import save_png
+    from ..pictures.png import write_pixels_png
     from ..stokes.exr import write_exr
 
-    matplotlib.use("Agg")
     write_exr(paths["normals.exr"], {c: normals[..., i] for i, c in enumerate("XYZ")},
               {"source": os.path.basename(args.scene), "frame": "tangent (x = dp_du, z = n)"})
-    fig = plt.figure(figsize=(3, 3))
-    fig.figimage((normals + 1.0) / 2.0, resize=True)
-    save_png(fig, paths["normals.png"], dpi=100)
-    plt.close(fig)
+    write_pixels_png(paths["normals.png"], (normals + 1.0) / 2.0)  # the texture, one pixel a texel
+    save_recovery_png(paths["recovery.png"], normals, result.loss, truth=truth,
+                      error=result.angular_error, visible=result.visible,
+                      title=f"recover-normals {os.path.basename(args.scene)}: "
+                            f"{args.observables}, {args.iterations} iterations x {args.spp} spp")
     summary = {"observables": args.observables, "parametrization": args.parametrization,
                "iterations": args.iterations, "spp": args.spp, "smoothness": args.smoothness,
                "lr": args.lr, "lr_end": args.lr_end, "seconds": result.seconds, "loss": result.loss,
@@ -149,7 +151,7 @@ def add_parser(subparsers):
                         "or raw mosaic EXRs from pbrdf polcam (polcam)")
     p.add_argument("--out", metavar="DIR", required=True,
                    help="output folder (created if missing): normals.exr, normals.png, "
-                        "recovery.json (replaced)")
+                        "recovery.png, recovery.json (replaced)")
     p.add_argument("--observables", default="stokes", metavar="intensity|stokes|polcam",
                    help="what the fit compares: S0, S0..S2, or the raw IMX250MZR mosaic "
                         "(default: stokes)")
@@ -169,7 +171,8 @@ def add_parser(subparsers):
     p.add_argument("--fit-roughness", action="store_true",
                    help="also fit the wrapped pbrdf's sigma map (must be a bitmap)")
     p.add_argument("--truth", metavar="NORMALS.exr", default=None,
-                   help="true normals (channels X, Y, Z) for the angular error")
+                   help="true normals for the angular error: channels X, Y, Z (as normals.exr) "
+                        "or a normal-map texture's R, G, B = (n + 1) / 2 (as plate_normals.exr)")
     p.add_argument("--seed", type=int, default=0, help="seed of the iterations' renders")
     p.add_argument("--variant", default=None, help=variant_help())
     progress_options(p)

@@ -9,16 +9,15 @@ import inspect
 import sys
 from typing import List
 
+from ..pictures.defaults import PICTURE_DEFAULTS
 from .common import PROG
 
 #: picture option -> (argparse dest, its default, the panel functions' keyword);
 #: ``--stokes-scale`` is the S1, S2, S3 panels' (a keyword of the figure, not of
 #: a panel function)
 PICTURE_OPTIONS = {
-    "--dolp-max": ("dolp_max", "auto", "dolp_max"),
-    "--dolp-cmap": ("dolp_cmap", "viridis", "dolp_cmap"),
-    "--min-dolp": ("min_dolp", 0.01, "min_dolp"),
-    "--exposure": ("exposure", None, "exposure"),
+    f"--{keyword.replace('_', '-')}": (keyword, PICTURE_DEFAULTS[keyword], keyword)
+    for keyword in ("dolp_max", "dolp_cmap", "min_dolp", "exposure")
 }
 STOKES_PANELS = ("s1", "s2", "s3")
 
@@ -27,7 +26,7 @@ def _given(args) -> List[tuple]:
     """``(option, keyword)`` of the picture options given a non-default value."""
     given = [(option, keyword) for option, (dest, default, keyword) in PICTURE_OPTIONS.items()
              if getattr(args, dest) != default]
-    if args.stokes_scale != "shared":
+    if args.stokes_scale != PICTURE_DEFAULTS["stokes_scale"]:
         given.append(("--stokes-scale", "stokes_scale"))
     return given
 

@@ -7,13 +7,18 @@ marked in the picture; a file with no usable pixel is an error (exit 2).
 A Stokes cube (``pbrdf render --bands``) can be drawn as a contact sheet
 (``--cube``: S0, DoLP, AoLP per band) with the Stokes spectrum of a pixel or
 region (``--spectrum X,Y[,W,H]``, also written as ``<out>.csv``;
-:mod:`mitsuba_pbrdf.pictures.cube_sheet`); ``--band 460nm`` draws one band."""
+:mod:`mitsuba_pbrdf.pictures.cube_sheet`), its DoLP on one scale for all bands
+(``--dolp-scale per-band``: each its own); ``--band 460nm`` draws one band.
+The files of ``pbrdf polcam`` (a raw mosaic, or a polarizer image with the
+other three beside it) are drawn as the Stokes image the camera measures
+(intensity, DoLP, AoLP; :mod:`mitsuba_pbrdf.camera.raw_frames`)."""
 
 from __future__ import annotations
 
 import os
+import sys
 
-from .common import (CliError, check_outputs, one_line, picture_kwargs, picture_options,
+from .common import (PROG, CliError, check_outputs, one_line, picture_kwargs, picture_options,
                      report_quality, require_file)
 from .unused_options import warn_unused_picture_options
 from ..interrupts import release
@@ -26,20 +31,40 @@ def run(args) -> int:
     from ..pictures.panels import save_overview_png
     from ..stokes.image import StokesChannelError
 
+    from ..pictures.cube_sheet import DOLP_SCALES
+
     require_file(args.exr, "EXR file")
     picture_kwargs(args)  # the options' own checks, before reading anything
+    if args.dolp_scale not in DOLP_SCALES:
+        raise CliError(f"--dolp-scale must be {' or '.join(DOLP_SCALES)}, got {args.dolp_scale!r}")
     out = args.out or os.path.splitext(args.exr)[0] + ".png"
     check_outputs(("--out", out))
     existed = os.path.exists(out)
+    polcam = False
     try:
         image = read_stokes_exr(args.exr)
-    except (StokesChannelError, ValueError) as e:
+    except StokesChannelError as e:  # a file of pbrdf polcam? its Stokes image
+        from ..camera.raw_frames import read_polcam_exr
+
+        try:
+            image = read_polcam_exr(args.exr)
+        except (FileNotFoundError, ValueError) as polcam_error:
+            raise CliError(one_line(polcam_error)) from e
+        if image is None:
+            raise CliError(one_line(e)) from e
+        polcam = True
+    except ValueError as e:
         raise CliError(one_line(e)) from e
     release()  # read: drawing is plain Python, Ctrl-C stops it at once (mitsuba_pbrdf.interrupts)
     if args.cube or args.spectrum is not None:
         return _cube_sheet(args, image, out, existed)
     picture = picture_kwargs(args, image)
+    if polcam and args.panels == "all":  # a camera sees no S3: what it measures
+        picture["panels"] = ("intensity", "dolp", "aolp")
     warn_unused_picture_options(args, picture["panels"], "view")
+    if args.dolp_scale != "shared":
+        print(f"{PROG} view: warning: --dolp-scale has no effect without --cube or --spectrum "
+              "(it sets the DoLP scale of a cube's contact sheet)", file=sys.stderr)
     quality = report_quality(image, picture["band"], args.exr, "view")
     if not image.metadata.get("title"):
         image.metadata["title"] = os.path.basename(args.exr)
@@ -77,7 +102,8 @@ def _cube_sheet(args, image, out: str, existed: bool) -> int:
     dolp_max = args.dolp_max if args.dolp_max == "auto" else float(args.dolp_max)
     with together():  # the sheet and the CSV, or neither (mitsuba_pbrdf.interrupts)
         path = save_cube_sheet(out, image, region=region, dolp_max=dolp_max,
-                               min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap)
+                               min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap,
+                               dolp_scale=args.dolp_scale)
         written = write_spectrum_csv(csv, image, region) if region is not None else None
     print(f"{'replaced' if existed else 'wrote'} {path} ({len(image.bands)} bands)")
     if region is not None:
@@ -105,4 +131,8 @@ def add_parser(subparsers):
                    help="with the contact sheet, the Stokes spectrum (S0 and S1-S3/S0 per band) "
                         "of a pixel or the mean of a region (pixels from the top-left); also "
                         "written as <out>.csv")
+    v.add_argument("--dolp-scale", default="shared", metavar="shared|per-band",
+                   help="with the contact sheet and --dolp-max auto: one DoLP scale for every "
+                        "band, so bands compare by colour, or each band scaled to its own data "
+                        "(default: shared)")
     v.set_defaults(func=run)

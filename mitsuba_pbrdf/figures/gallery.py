@@ -2,7 +2,8 @@
 
 ::
 
-    python -m mitsuba_pbrdf gallery                # all of it, into gallery/
+    python -m mitsuba_pbrdf gallery                # all of it, into out/gallery/
+    python -m mitsuba_pbrdf gallery --update-repo-pictures   # README's pictures, gallery/
     python -m mitsuba_pbrdf gallery --only polarizer --spp 64
 
 Pictures (PNG, palette-quantized to stay small enough to commit):
@@ -27,7 +28,7 @@ Pictures (PNG, palette-quantized to stay small enough to commit):
   lathe-turned disc and an axially brushed cylinder, isotropic beside
   anisotropic (Beckmann and GGX); intensity, DoLP and AoLP.
 
-The Stokes EXRs go to ``out/gallery/`` (not committed). Each render is also
+The pictures and the Stokes EXRs go to ``out/gallery/`` (not committed). Each render is also
 one command of its own, e.g. ``pbrdf render scenes/gallery/sphere.xml -D
 material=Au``.
 """
@@ -399,20 +400,6 @@ def render_polarizer(settings: _Settings):
     return save_png(fig, settings.out / "polarizer.png", dpi=100, colors=_PNG_COLOURS), check
 
 
-def render_normalmap_plate(settings: _Settings) -> str:
-    """``normalmap.png``: plate.xml with each wrapper of
-    :data:`~mitsuba_pbrdf.figures.normalmap_plate.WRAPPERS`."""
-    from .normalmap_plate import WRAPPERS, aolp_difference
-
-    images = {w: _render(settings, "plate.xml", f"plate_{w}", wrapper=w) for w, _ in WRAPPERS}
-    worst, median = aolp_difference(images["normalmap"], images["polarized_normalmap"])
-    fig = montage_figure(
-        [(label, images[w]) for w, label in WRAPPERS], dolp_max=0.3,
-        title=f"Hammered plate (plate.xml; {_subtitle(images['normalmap'])}): same intensity\n"
-              f"and DoLP, AoLP off by up to {worst:.0f}° (median {median:.0f}°) where DoLP ≥ 0.02")
-    return save_png(fig, settings.out / "normalmap.png", dpi=100, colors=_PNG_COLOURS)
-
-
 def render_polcam(settings: _Settings) -> str:
     """``polcam.png``: sphere.xml in copper as a polarization camera records it."""
     from .polcam_figure import polcam_figure
@@ -458,7 +445,7 @@ def render_pbrdf_plot(settings: _Settings) -> str:
                            dpi=90, colors=_PNG_COLOURS)
 
 
-def run_gallery(out="gallery", scenes_dir=None, exr_dir="out/gallery", spp=None,
+def run_gallery(out="out/gallery", scenes_dir=None, exr_dir="out/gallery", spp=None,
                 scale: float = 1.0, variant=None, only: Optional[Sequence[str]] = None,
                 progress: bool = False, seed: int = 0, log=print) -> dict:
     """Render the gallery; returns {item: path} (and ``polarizer_check``).

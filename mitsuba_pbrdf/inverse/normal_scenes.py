@@ -113,15 +113,21 @@ def render_targets(scene, spp: int, seed: int = 10_000):
 
 
 PLATE_XML = """<scene version="3.0.0">
-    <integrator type="stokes_prb"><integer name="max_depth" value="3"/></integrator>
+    <default name="spp" value="{spp}"/>
+    <default name="width" value="{size}"/>
+    <default name="height" value="{size}"/>
+    <default name="max_depth" value="3"/>
+    <default name="material" value="{metal}"/>
+    <default name="sigma" value="{sigma}"/>
+    <integrator type="stokes_prb"><integer name="max_depth" value="$max_depth"/></integrator>
     <sensor type="perspective">
         <float name="fov" value="32"/>
         <transform name="to_world">
             <lookat origin="{ox:.6f}, {oy:.6f}, {oz:.6f}" target="0, 0, 0" up="0, 0, 1"/>
         </transform>
-        <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
         <film type="hdrfilm">
-            <integer name="width" value="{size}"/><integer name="height" value="{size}"/>
+            <integer name="width" value="$width"/><integer name="height" value="$height"/>
             <string name="pixel_format" value="rgb"/><rfilter type="box"/>
         </film>
     </sensor>
@@ -131,8 +137,8 @@ PLATE_XML = """<scene version="3.0.0">
                 <boolean name="raw" value="true"/>
                 <string name="filename" value="{normals}"/>
             </texture>
-            <bsdf type="pbrdf"><string name="material" value="{metal}"/>
-                <float name="sigma" value="{sigma}"/></bsdf>
+            <bsdf type="pbrdf"><string name="material" value="$material"/>
+                <float name="sigma" value="$sigma"/></bsdf>
         </bsdf>
     </shape>
     <emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>
@@ -152,7 +158,11 @@ def write_plate_files(folder, normals, metal: str = "Cu", size: int = 32, spp: i
     """Write ``folder/plate_normals.exr`` (the normal map, colour (n + 1) / 2)
     and ``folder/plate.xml`` (the plate under a constant sky and an area
     light, one camera as view 0 of :func:`plate_scene`), atomically; returns
-    the XML's path. A small scene for ``pbrdf recover-normals``."""
+    the XML's path. A small scene for ``pbrdf recover-normals``; *metal*,
+    *size*, *spp* and *sigma* are its ``<default>`` s ``material``, ``width``
+    and ``height``, ``spp``, ``sigma`` (and ``max_depth``, 3), so ``pbrdf
+    render plate.xml -D spp=256`` renders a target. ``plate_normals.exr`` is
+    what ``recover-normals --truth`` takes (:func:`read_normal_map`)."""
     from ..outputs import write_text
     from ..stokes.exr import write_exr
 
@@ -166,3 +176,25 @@ def write_plate_files(folder, normals, metal: str = "Cu", size: int = 32, spp: i
                             size=int(size), normals="plate_normals.exr", metal=metal,
                             sigma=float(sigma))
     return write_text(os.path.join(folder, "plate.xml"), text)
+
+
+def read_normal_map(path) -> np.ndarray:
+    """Unit normals (H, W, 3) from an EXR: channels X, Y, Z (``pbrdf
+    recover-normals``' ``normals.exr``) or R, G, B holding the colour encoding
+    (n + 1) / 2 (a normal-map texture, such as :func:`write_plate_files`'
+    ``plate_normals.exr``). ValueError naming the file otherwise."""
+    from ..stokes.exr import read_exr_channels
+
+    channels = read_exr_channels(path)
+    if all(c in channels for c in "XYZ"):
+        normals = np.stack([channels[c] for c in "XYZ"], axis=-1).astype(np.float64)
+    elif all(c in channels for c in "RGB"):
+        normals = 2.0 * np.stack([channels[c] for c in "RGB"], axis=-1).astype(np.float64) - 1.0
+    else:
+        raise ValueError(f"{os.fspath(path)}: a normal map needs channels X, Y, Z (unit normals) "
+                         f"or R, G, B (colour (n + 1) / 2); it has {', '.join(channels)}")
+    length = np.linalg.norm(normals, axis=-1, keepdims=True)
+    if not np.all(np.isfinite(normals)) or np.any(length < 0.5) or np.any(length > 1.5):
+        raise ValueError(f"{os.fspath(path)}: not a normal map (vectors of length "
+                         f"{length.min():.3g} to {length.max():.3g}, not about 1)")
+    return (normals / length).astype(np.float32)

@@ -5,5 +5,7 @@
 * :mod:`.composites`: pixel arrays of the HSV polarization composite and S1-S3/S0;
 * :mod:`.tonemap`: linear RGB and its tone mapping;
 * :mod:`.colours`: the AoLP hue wheel, automatic scales, marker colours;
+* :mod:`.defaults`: the picture options' defaults, shared by Python and the command line;
+* :mod:`.cube_sheet`: a Stokes cube's contact sheet and spectrum;
 * :mod:`.png`: atomic PNG writing.
 """

@@ -8,7 +8,8 @@ spectrum: S0 (left axis, the cube's radiance units) and S1/S0, S2/S0, S3/S0
     region = parse_region("10,8")            # a pixel: x, y (from the top-left)
     region = parse_region("10,8,4,4")        # a region: x, y, width, height
     spectrum = stokes_spectrum(image, region)  # (n_bands, 4), the region's mean
-    save_cube_sheet("sheet.png", image, region=region)
+    save_cube_sheet("sheet.png", image, region=region)   # one DoLP scale for all bands
+    save_cube_sheet("sheet.png", image, dolp_scale="per-band")
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ from ..errors import ParameterError
 from ..stokes.image import StokesImage
 from .png import save_png
 
-__all__ = ["Region", "SHEET_OPTIONS", "parse_region", "region_spectrum", "stokes_spectrum", "band_centres",
+__all__ = ["Region", "SHEET_OPTIONS", "DOLP_SCALES", "shared_dolp_limit", "parse_region",
+           "region_spectrum", "stokes_spectrum", "band_centres",
            "cube_sheet_figure", "save_cube_sheet", "write_spectrum_csv"]
 
 
@@ -147,23 +149,54 @@ def _spectrum_axes(ax, image: StokesImage, region: Region):
 SHEET_OPTIONS = ("dolp_max", "min_dolp", "dolp_cmap")
 
 
+#: ``dolp_scale`` of :func:`cube_sheet_figure`: one DoLP scale for every band
+#: (the default, so bands compare by colour) or each band its own.
+DOLP_SCALES = ("shared", "per-band")
+
+
+def shared_dolp_limit(image: StokesImage, qualities=None) -> float:
+    """The top of one DoLP scale for all bands of *image*: the automatic limit
+    (:func:`~mitsuba_pbrdf.pictures.colours.auto_limit`) of the usable, lit
+    pixels' DoLP of every band together."""
+    from ..stokes.image import dolp
+    from ..stokes.quality import assess
+    from .colours import auto_limit
+    from .tonemap import pixel_stokes
+
+    values = []
+    for i, band in enumerate(image.bands):
+        quality = assess(image, band) if qualities is None else qualities[i]
+        s = pixel_stokes(image, band)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            d = dolp(s, axis=-1)
+        values.append(d[~quality.unusable & (s[..., 0] > 0)].ravel())
+    return auto_limit(np.concatenate(values) if values else np.zeros(0))
+
+
 def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
-                      title: Optional[str] = None, panel_width: float = 2.6, **options):
+                      title: Optional[str] = None, panel_width: float = 2.6,
+                      dolp_scale: str = "shared", **options):
     """A matplotlib Figure: one row per band with S0, DoLP and AoLP (each
     with its colour bar; S0 in grey with the band's own exposure), and with
     *region* its Stokes spectrum on top, the region outlined in each S0 panel.
     *options* (:data:`SHEET_OPTIONS`): ``dolp_max`` (default ``"auto"``),
-    ``min_dolp``, ``dolp_cmap``; TypeError for any other."""
+    ``min_dolp``, ``dolp_cmap``; TypeError for any other. With ``dolp_max``
+    ``"auto"``, *dolp_scale* ``"shared"`` (default) gives every band one DoLP
+    scale (:func:`shared_dolp_limit`), so a weakly polarized band looks weak;
+    ``"per-band"`` scales each band to its own data."""
     unknown = sorted(set(options) - set(SHEET_OPTIONS))
     if unknown:
         raise TypeError(f"cube_sheet_figure: unexpected option(s) {', '.join(unknown)}; "
                         f"it takes {', '.join(SHEET_OPTIONS)}")
+    if dolp_scale not in DOLP_SCALES:
+        raise ParameterError("dolp_scale", f"must be {' or '.join(DOLP_SCALES)}, got "
+                             f"{dolp_scale!r}")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.patches import Rectangle
 
     from ..stokes.quality import assess
-    from .panels import plot_aolp, plot_dolp, plot_intensity
+    from .panels import _finish, draw_aolp, draw_dolp, plot_intensity
 
     n = len(image.bands)
     aspect = image.height / image.width
@@ -175,13 +208,21 @@ def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
     grid = fig.add_gridspec(n + top, 3, height_ratios=heights)
     if region is not None:
         _spectrum_axes(fig.add_subplot(grid[0, :]), image, region)
+    qualities = [assess(image, band) for band in image.bands]
+    dolp_max = options.get("dolp_max", "auto")
+    automatic = isinstance(dolp_max, str) and dolp_max.strip().lower() == "auto"
+    if automatic and dolp_scale == "shared":
+        dolp_max = shared_dolp_limit(image, qualities)
+        title = (title + "; " if title else "") + f"DoLP 0–{dolp_max:g} in every band (auto)"
     for row, band in enumerate(image.bands):
-        quality = assess(image, band)
+        quality = qualities[row]
         axes = [fig.add_subplot(grid[row + top, c]) for c in range(3)]
+        # short titles: three panels of a row share panel_width x 3 inches
         plot_intensity(axes[0], image, band=band, quality=quality, title=f"S0 [{band}]")
-        plot_dolp(axes[1], image, options.get("dolp_cmap", "viridis"),
-                  options.get("dolp_max", "auto"), band=band, quality=quality)
-        plot_aolp(axes[2], image, options.get("min_dolp", 0.01), band=band, quality=quality)
+        _finish(axes[1], draw_dolp(axes[1], image, options.get("dolp_cmap", "viridis"),
+                                   dolp_max, band=band, quality=quality), f"DoLP [{band}]")
+        _finish(axes[2], draw_aolp(axes[2], image, options.get("min_dolp", 0.01), band=band,
+                                   quality=quality), f"AoLP [{band}]")
         if region is not None:
             axes[0].add_patch(Rectangle((region.x - 0.5, region.y - 0.5), region.width,
                                         region.height, fill=False, edgecolor="red", lw=1))
@@ -191,8 +232,10 @@ def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
 
 
 def save_cube_sheet(path, image: StokesImage, region: Optional[Region] = None,
-                    title: Optional[str] = None, dpi: int = 100, **options) -> str:
+                    title: Optional[str] = None, dpi: int = 100, dolp_scale: str = "shared",
+                    **options) -> str:
     """Write :func:`cube_sheet_figure` as a PNG (atomically); returns the path."""
     if title is None:
         title = image.metadata.get("title")
-    return save_png(cube_sheet_figure(image, region, title, **options), path, dpi=dpi)
+    return save_png(cube_sheet_figure(image, region, title, dolp_scale=dolp_scale, **options),
+                    path, dpi=dpi)

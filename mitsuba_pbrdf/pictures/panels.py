@@ -42,6 +42,7 @@ from typing import Optional, Sequence, Union
 
 import numpy as np
 
+from .defaults import PICTURE_DEFAULTS
 from .colours import (MARKERS, MASKED_GREY, aolp_colormap, aolp_rgb, colour_image,
                       paint, resolve_limit)
 from ..stokes.quality import StokesQuality, assess
@@ -74,6 +75,7 @@ __all__ = [
     "stokes_limit",
     "PANELS",
     "PANEL_PRESETS",
+    "PICTURE_DEFAULTS",
     "parse_panels",
     "overview_figure",
     "save_overview_png",
@@ -411,7 +413,8 @@ def overview_figure(
     """A matplotlib Figure (not attached to pyplot, drawn with Agg) with one
     panel per name, *ncols* to a row (default: all in one row up to 4, else 4).
 
-    *options* go to the panel functions that take them: ``band``,
+    *options* go to the panel functions that take them (defaults:
+    :data:`PICTURE_DEFAULTS`, those of ``pbrdf render`` and ``view``): ``band``,
     ``exposure``, ``dolp_cmap``, ``dolp_max``, ``docp_max``, ``min_dolp``,
     ``quality`` (:func:`~mitsuba_pbrdf.stokes.quality.assess`, computed once
     if not given). S1, S2, S3 / S0 share one scale (:func:`stokes_limit`)
@@ -421,6 +424,7 @@ def overview_figure(
     from matplotlib.figure import Figure
 
     panels = parse_panels(panels)
+    options = {**PICTURE_DEFAULTS, **options}
     band = options.get("band")
     if band is not None:
         image.band(band)  # KeyError naming the bands, before drawing anything

@@ -1,14 +1,17 @@
-"""Saving matplotlib figures as PNG files: atomically
-(:mod:`mitsuba_pbrdf.outputs`), optionally palette-quantized."""
+"""Saving PNG files atomically (:mod:`mitsuba_pbrdf.outputs`): matplotlib
+figures, optionally palette-quantized (:func:`save_png`), and plain pixel
+arrays, one pixel per value (:func:`write_pixels_png`)."""
 
 from __future__ import annotations
 
 import os
 from typing import Optional
 
+import numpy as np
+
 from ..outputs import atomic_path
 
-__all__ = ["save_png"]
+__all__ = ["save_png", "write_pixels_png"]
 
 
 def save_png(fig, path, dpi: int = 150, colors: Optional[int] = None) -> str:
@@ -59,3 +62,19 @@ def _palette(rgb, colors: int):
     image = Image.new("P", (1, 1))
     image.putpalette(palette + [0] * (3 * colors - len(palette)))
     return image
+
+
+def write_pixels_png(path, pixels: np.ndarray) -> str:
+    """Write pixels as an 8-bit PNG, one pixel per value (no figure, no
+    resampling), atomically: (H, W) greyscale or (H, W, 3) RGB, uint8 as they
+    are, floats in [0, 1] scaled to 0-255. Returns the path."""
+    from PIL import Image
+
+    pixels = np.asarray(pixels)
+    if pixels.dtype != np.uint8:
+        pixels = np.rint(np.clip(np.nan_to_num(pixels.astype(np.float64)), 0, 1) * 255)
+    pixels = np.ascontiguousarray(pixels, dtype=np.uint8)
+    path = os.fspath(path)
+    with atomic_path(path) as tmp:
+        Image.fromarray(pixels, mode="L" if pixels.ndim == 2 else "RGB").save(tmp, format="PNG")
+    return path

@@ -1,5 +1,6 @@
 """Checking the values given to a scene's ``$key`` parameters (``-D key=value``,
-``render_scene(params=...)``) by what the scene does with them.
+``render_scene(params=...)``) by what the scene does with them, and listing
+those parameters (``pbrdf params SCENE``: :func:`scene_parameters`).
 
 Mitsuba's parser checks a value's syntax and range where the plugin declares
 one, but lets through values that fail later, during rendering, with an
@@ -17,11 +18,14 @@ for that use, before anything renders:
 :func:`check_loaded_scene` then checks the loaded scene itself (the film's
 size, the sampler's sample count), whatever set them. Errors are
 :class:`SceneParameterError` (a ``ValueError``) on one line, naming ``-D key``
-and what it sets.
+and what it sets. A key the scene does not take is refused before Mitsuba
+sees it, with the closest name and the scene's list
+(:func:`unknown_parameter_message`).
 """
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 import re
@@ -29,7 +33,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from typing import Dict, List, Mapping, Optional
 
-__all__ = ["SceneParameterError", "ParameterUse", "parameter_uses", "declared_parameters",
+__all__ = ["SceneParameterError", "ParameterUse", "SceneParameter", "parameter_uses",
+           "declared_parameters", "scene_parameters", "did_you_mean", "unknown_parameter_message",
            "check_parameter_values", "check_loaded_scene"]
 
 _REFERENCE = re.compile(r"\$(\w+)")
@@ -128,6 +133,99 @@ def declared_parameters(scene_path) -> Optional[set]:
     return names if visit(scene_path) else None
 
 
+@dataclass(frozen=True)
+class SceneParameter:
+    """One ``-D key=value`` parameter of a scene: its ``<default>`` value
+    (None where the scene has none, so ``-D`` must give it) and its uses."""
+
+    name: str
+    default: Optional[str]
+    uses: tuple
+
+    def doc(self) -> str:
+        """What it sets: for a property of a ``pbrdf`` BSDF, the model
+        parameter's doc line (:mod:`mitsuba_pbrdf.schema`), else the property
+        and its plugin; ``"unused"`` for a ``<default>`` nothing refers to."""
+        from .. import schema
+
+        lines = []
+        for use in self.uses:
+            if use.plugin_type == "pbrdf" and use.name in schema.names():
+                line = f"pbrdf {use.name}: {schema.parameter(use.name).doc}"
+            elif use.plugin_type == f"${self.name}":
+                line = f"the plugin type of a <{use.tag}>"
+            else:
+                owner = use.plugin + (f" ({use.plugin_type})" if use.plugin_type else "")
+                line = f'<{use.tag} name="{use.name}"> of the {owner}'
+            if line not in lines:
+                lines.append(line)
+        return "; ".join(lines) or "unused"
+
+
+def _scene_defaults(scene_path) -> Dict[str, str]:
+    """``{name: value}`` of the ``<default>`` s of the scene file and the files
+    it ``<include>`` s, in the order they come (the scene's own first: they
+    are what an included file sees)."""
+    found: Dict[str, str] = {}
+    seen: set = set()
+
+    def visit(path):
+        path = os.path.abspath(os.fspath(path))
+        if path in seen:
+            return
+        seen.add(path)
+        try:
+            root = ET.parse(path).getroot()
+        except (ET.ParseError, OSError):
+            return
+        for element in root.iter("default"):
+            if element.get("name"):
+                found.setdefault(element.get("name"), element.get("value", ""))
+        for element in root.iter("include"):
+            name = element.get("filename", "$")
+            if "$" not in name:
+                visit(os.path.join(os.path.dirname(path), name))
+
+    visit(scene_path)
+    return found
+
+
+def scene_parameters(scene_path) -> List[SceneParameter]:
+    """The scene's ``-D`` parameters: each ``<default>`` in file order, then
+    the ``$key`` s that have none (:class:`SceneParameter`). Raises
+    ``FileNotFoundError`` or :class:`SceneParameterError` for a file that
+    cannot be read as XML."""
+    path = os.fspath(scene_path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"scene file not found: {path}")
+    try:
+        ET.parse(path)
+    except ET.ParseError as e:
+        raise SceneParameterError(f"{path} is not a valid XML scene: {e}") from None
+    defaults = _scene_defaults(path)
+    uses = parameter_uses(path)
+    names = list(defaults) + sorted(k for k in uses if k not in defaults)
+    return [SceneParameter(n, defaults.get(n), tuple(uses.get(n, ()))) for n in names]
+
+
+def did_you_mean(key: str, declared) -> str:
+    """`` (did you mean 'material'?)`` for the declared name closest to *key*, or ``""``."""
+    close = difflib.get_close_matches(key, sorted(declared), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def unknown_parameter_message(key: str, declared, scene_name: str) -> str:
+    """``unknown scene parameter 'materal' (did you mean 'material'?); this
+    scene's parameters: ...``; for ``spp`` in a scene without one, where the
+    samples per pixel are set instead."""
+    message = f"unknown scene parameter {key!r}" + did_you_mean(key, declared)
+    message += (f"; this scene's parameters: {', '.join(sorted(declared))}" if declared
+                else f"; {scene_name} takes no parameters")
+    if key == "spp":
+        message += "; the samples per pixel are set with --spp N (spp= in Python)"
+    return message
+
+
 def _numbers(text: str) -> Optional[list]:
     parts = [p for p in re.split(r"[,\s]+", text.strip()) if p]
     try:
@@ -166,10 +264,17 @@ def _check(key: str, value: str, use: ParameterUse, scene_name: str):
 
 def check_parameter_values(scene_path, params: Optional[Mapping[str, object]]):
     """Check each ``key: value`` of *params* against every use of ``$key`` in the
-    scene file (see the module docstring); raises :class:`SceneParameterError`.
-    Keys the scene does not use are left to Mitsuba, which rejects them."""
+    scene file (see the module docstring); raises :class:`SceneParameterError`,
+    also for a key the scene does not take (:func:`unknown_parameter_message`;
+    Mitsuba would refuse it with its parser's bare message)."""
     if not params:
         return
+    declared = declared_parameters(scene_path)
+    if declared is not None:
+        for key in params:
+            if str(key) not in declared:
+                raise SceneParameterError(unknown_parameter_message(
+                    str(key), declared, os.path.basename(os.fspath(scene_path))))
     uses = parameter_uses(scene_path)
     scene_name = os.path.basename(os.fspath(scene_path))
     for key, value in params.items():

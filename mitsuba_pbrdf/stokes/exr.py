@@ -28,7 +28,7 @@ import numpy as np
 from ..outputs import atomic_path
 from .image import StokesImage, _from_channels, as_stokes_image
 
-__all__ = ["write_stokes_exr", "read_stokes_exr", "write_exr", "read_exr_channels"]
+__all__ = ["write_stokes_exr", "read_stokes_exr", "write_exr", "read_exr", "read_exr_channels"]
 
 _UNNAMED = re.compile(r"^ch\d+$")
 #: Keys of StokesImage.metadata that are written to / read from the EXR header.
@@ -176,6 +176,16 @@ def read_stokes_exr(path) -> StokesImage:
         if k.startswith(_HEADER_PREFIX)
     }
     return image
+
+
+def read_exr(path):
+    """``(metadata, channels)`` of an OpenEXR file: its ``pbrdf:<key>``
+    attributes as ``{key: str}`` and ``{name: (H, W) float32}``. Raises as
+    :func:`read_exr_channels` does."""
+    header, channels = _read_checked(os.fspath(path))
+    metadata = {k[len(_HEADER_PREFIX):]: str(v) for k, v in header.items()
+                if k.startswith(_HEADER_PREFIX)}
+    return metadata, {name: np.asarray(p, dtype=np.float32) for name, p in channels.items()}
 
 
 def read_exr_channels(path) -> dict:
