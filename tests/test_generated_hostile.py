@@ -59,6 +59,7 @@ BASE = {
     "export": ["--out", "{tmp}/h.pbsdf"],
     "batch": ["{sweep}"],
     "recover-normals": ["{plate}", "--targets", "{target}", "--out", "{tmp}/rn"],
+    "params": ["{scene}"],
 }
 
 #: Where each command's long work starts: (module, function) replaced by the stub.
@@ -71,7 +72,8 @@ WORK = [("mitsuba_pbrdf.rendering.render", "render_request"),
         ("mitsuba_pbrdf.fitting", "fit_models"),
         ("mitsuba_pbrdf.measured.export", "export_pbsdf"),
         ("mitsuba_pbrdf.batch.runner", "run_sweep"),
-        ("mitsuba_pbrdf.inverse.normals", "recover_normals")]
+        ("mitsuba_pbrdf.inverse.normals", "recover_normals"),
+        ("mitsuba_pbrdf.rendering.scene_params", "scene_parameters")]
 
 
 class Reached(BaseException):
@@ -176,6 +178,11 @@ def stubbed(monkeypatch):
     def reached(*args, **kwargs):
         raise Reached
 
+    # modules that import a stubbed function by name at their own import: import
+    # them first, so that they keep the real one after this test
+    for module in ("mitsuba_pbrdf.figures.gallery", "mitsuba_pbrdf.inverse",
+                   "mitsuba_pbrdf.batch", "mitsuba_pbrdf.fitting"):
+        importlib.import_module(module)
     for module, name in WORK:
         monkeypatch.setattr(importlib.import_module(module), name, reached)
 
