@@ -172,6 +172,106 @@ def _index_from(material, nk, wavelengths):
     return None
 
 
+def _check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty):
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {', '.join(MODELS)}, not {model!r}")
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, not {backend!r}")
+    if starts is not None and (isinstance(starts, bool) or not isinstance(starts, (int, np.integer))
+                               or starts < 1):
+        raise ValueError(f"starts must be a whole number >= 1, got {starts!r}")
+    for name, v in (("rel_uncertainty", rel_uncertainty), ("abs_uncertainty", abs_uncertainty)):
+        if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+    if rel_uncertainty == 0 and abs_uncertainty == 0 and set(data.observed) - set(data.uncertainty):
+        raise ValueError("rel_uncertainty and abs_uncertainty are both 0: the measurements "
+                         "without given uncertainties would have none")
+
+
+def _with_index(data, init, fix, material, nk):
+    """``(init, fix, note)``: the named material's (or table's) n, k at the
+    data's wavelengths as starting values, or, for unpolarized data whose
+    n, k ``init``/``fix`` do not name, as fixed values (the note says why)."""
+    index = _index_from(material, nk, data.wavelengths)
+    if index is None:
+        return init, fix, ""
+    n0, k0, source = index
+    per_wavelength = {f"n@{w:g}": v for w, v in zip(data.wavelengths, n0)}
+    per_wavelength.update({f"k@{w:g}": v for w, v in zip(data.wavelengths, k0)})
+    named = {key.partition("@")[0] for key in list(init) + list(fix)}
+    polarized = any(q != "m00" for q in data.observed)
+    if not polarized and not named & {"n", "k"}:
+        return init, dict(per_wavelength, **fix), (
+            f"n, k fixed from {source} at the data's wavelengths: unpolarized data (m00 alone) "
+            f"cannot determine the index")
+    return dict(per_wavelength, **init), fix, ""
+
+
+class _Residuals:
+    """The objective's residuals of every measured value at a parameter
+    vector, and their Jacobian (the model's, times d residual / d model)."""
+
+    def __init__(self, evaluator, terms, free):
+        self.evaluator, self.terms, self.free = evaluator, terms, free
+
+    def __call__(self, x):
+        m = self.evaluator.observables(x)
+        return np.concatenate([t.residuals(m[t.name][t.rows]) for t in self.terms])
+
+    def jacobian(self, x):
+        m = self.evaluator.observables(x)
+        cols = self.evaluator.jacobian_columns(x)
+        return np.stack([np.concatenate([t.derivative(m[t.name][t.rows]) * cols[p][t.name][t.rows]
+                                         for t in self.terms]) for p in self.free], 1)
+
+
+def _best_of_starts(residuals, order, points, tol, report):
+    """The lowest-cost ``least_squares`` solution from each of *points* (in
+    the natural vector); *report(start, evaluations, cost, best, finished)*."""
+    from scipy.optimize import least_squares
+
+    best = None
+    for number, x_start in enumerate(points, 1):
+        calls = [0]
+
+        def counted(z):
+            r = residuals(order.to_natural(z))
+            calls[0] += 1
+            if calls[0] % PROGRESS_EVERY == 0:
+                report(number, calls[0], 0.5 * float(r @ r), best.cost if best else math.inf,
+                       False)
+            return r
+
+        sol = least_squares(counted, order.to_internal(x_start),
+                            jac=lambda z: order.jacobian(residuals.jacobian(order.to_natural(z)), z),
+                            bounds=(order.lo, order.hi), method="trf", x_scale="jac",
+                            ftol=tol, xtol=tol, gtol=tol, max_nfev=400)
+        if best is None or sol.cost < best.cost:
+            best = sol
+        report(number, calls[0], float(sol.cost), float(best.cost), True)
+    return best
+
+
+def _residual_summary(data, final):
+    """``(residuals, rms, relative rms, rms of ln(model/data) of m00)`` per quantity."""
+    resid, rms, rel = {}, {}, {}
+    for q, y in data.observed.items():
+        r = final[q] - y
+        resid[q] = r
+        ok = np.isfinite(y)
+        rms[q] = float(np.sqrt(np.mean(r[ok] ** 2)))
+        # relative error where the value is >= 1 % of the column's largest
+        # (a goniometer's useful dynamic range; tiny values make ratios meaningless)
+        pos = ok & (np.abs(y) >= 0.01 * np.nanmax(np.abs(y)))
+        rel[q] = float(np.sqrt(np.mean((r[pos] / y[pos]) ** 2))) if pos.any() else math.nan
+    rms_ln = math.nan
+    if "m00" in data.observed:
+        y, m = data.observed["m00"], final["m00"]
+        ok = np.isfinite(y) & (y > 0) & (m > 0)
+        rms_ln = float(np.sqrt(np.mean(np.log(m[ok] / y[ok]) ** 2))) if ok.any() else math.nan
+    return resid, rms, rel, rms_ln
+
+
 def fit_model(data: Measurements, model="three", backend="reference", shadowing="vgroove",
               dd_distribution="beckmann", material=None, init=None, fix=None, starts=None,
               rel_uncertainty=0.05, abs_uncertainty=0.005, seed=0,
@@ -193,86 +293,34 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     result's ``anisotropy`` gives their difference and its uncertainty.
     ``progress``: called with a :class:`FitProgress` as the fit goes.
     """
-    from scipy.optimize import least_squares
-
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {', '.join(MODELS)}, not {model!r}")
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, not {backend!r}")
-    init = parse_assignments(init, "init")
-    fix = parse_assignments(fix, "fix")
-    if starts is not None and (isinstance(starts, bool) or not isinstance(starts, (int, np.integer))
-                               or starts < 1):
-        raise ValueError(f"starts must be a whole number >= 1, got {starts!r}")
-    for name, v in (("rel_uncertainty", rel_uncertainty), ("abs_uncertainty", abs_uncertainty)):
-        if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
-    if rel_uncertainty == 0 and abs_uncertainty == 0 and set(data.observed) - set(data.uncertainty):
-        raise ValueError("rel_uncertainty and abs_uncertainty are both 0: the measurements "
-                         "without given uncertainties would have none")
+    _check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty)
+    init, fix = parse_assignments(init, "init"), parse_assignments(fix, "fix")
     objective, objective_reason = choose_objective(data, list(data.observed), objective)
     terms = make_terms(data, objective, rel_uncertainty, abs_uncertainty, log_floor)
-
+    init, fix, index_note = _with_index(data, init, fix, material, nk)
     wavelengths = data.wavelengths
-    index_note = ""
-    index = _index_from(material, nk, wavelengths)
-    if index is not None:
-        n0, k0, source = index
-        per_wavelength = {f"n@{w:g}": v for w, v in zip(wavelengths, n0)}
-        per_wavelength.update({f"k@{w:g}": v for w, v in zip(wavelengths, k0)})
-        named = {key.partition("@")[0] for key in list(init) + list(fix)}
-        polarized = any(q != "m00" for q in data.observed)
-        if not polarized and not named & {"n", "k"}:
-            fix = dict(per_wavelength, **fix)
-            index_note = (f"n, k fixed from {source} at the data's wavelengths: unpolarized "
-                          f"data (m00 alone) cannot determine the index")
-        else:
-            init = dict(per_wavelength, **init)
     layout = ParameterLayout(wavelengths, model, init, fix, anisotropic)
     n_obs = sum(len(t.y) for t in terms)
     if n_obs <= len(layout.free):
         raise ValueError(f"{n_obs} measured values cannot determine {len(layout.free)} "
                          f"free parameters")
     evaluator = BACKENDS[backend](data, layout, shadowing, dd_distribution, distribution)
-
-    def residuals_at(x):
-        m = evaluator.observables(x)
-        return np.concatenate([t.residuals(m[t.name][t.rows]) for t in terms])
-
-    def jacobian_at(x):
-        m = evaluator.observables(x)
-        cols = evaluator.jacobian_columns(x)
-        return np.stack([np.concatenate([t.derivative(m[t.name][t.rows]) * cols[p][t.name][t.rows]
-                                         for t in terms]) for p in layout.free], 1)
+    residuals = _Residuals(evaluator, terms, layout.free)
 
     lo, hi = layout.bounds()
     order = WidthOrder(layout, lo, hi)
     x0 = np.clip(layout.vector(), lo, hi)
     count = default_starts(layout, x0, lo, hi) if starts is None else int(starts)
     points = start_points(layout, x0, lo, hi, count, np.random.default_rng(seed))
-    t0 = time.perf_counter()
-    best = None
-    tol = 1e-10 if backend == "reference" else 1e-7   # float32 residuals: looser tolerances
-    for number, x_start in enumerate(points, 1):
-        calls = [0]
 
-        def residuals(z):
-            r = residuals_at(order.to_natural(z))
-            calls[0] += 1
-            if progress is not None and calls[0] % PROGRESS_EVERY == 0:
-                progress(FitProgress(model, distribution, number, len(points), calls[0],
-                                     0.5 * float(r @ r), best.cost if best else math.inf, False))
-            return r
-
-        sol = least_squares(residuals, order.to_internal(x_start),
-                            jac=lambda z: order.jacobian(jacobian_at(order.to_natural(z)), z),
-                            bounds=(order.lo, order.hi), method="trf", x_scale="jac",
-                            ftol=tol, xtol=tol, gtol=tol, max_nfev=400)
-        if best is None or sol.cost < best.cost:
-            best = sol
+    def report(start, evaluations, cost, best, finished):
         if progress is not None:
-            progress(FitProgress(model, distribution, number, len(points), calls[0],
-                                 float(sol.cost), float(best.cost), True))
+            progress(FitProgress(model, distribution, start, len(points), evaluations, cost,
+                                 best, finished))
+
+    t0 = time.perf_counter()
+    tol = 1e-10 if backend == "reference" else 1e-7   # float32 residuals: looser tolerances
+    best = _best_of_starts(residuals, order, points, tol, report)
     seconds = time.perf_counter() - t0
 
     x_best = order.to_natural(best.x)
@@ -285,8 +333,8 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     formal = (objective not in LIKELIHOODS
               or any(t.name not in data.uncertainty for t in terms))
     chi2_scale = max(chi2 / max(dof, 1), 1.0) if formal else 1.0
-    sd, undetermined, groups, cov = analyze(jacobian_at(x_best), layout.free, x_best, chi2_scale,
-                                            with_covariance=True)
+    sd, undetermined, groups, cov = analyze(residuals.jacobian(x_best), layout.free, x_best,
+                                            chi2_scale, with_covariance=True)
     errors = {"n": np.full(len(wavelengths), np.nan), "k": np.full(len(wavelengths), np.nan)}
     errors.update({p: math.nan for p in layout.shared})
     for name, s in zip(layout.free, sd):
@@ -310,16 +358,7 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
             anisotropy[base] = (values[u] - values[v], split)
 
     final = model_observables(data, values, shadowing, dd_distribution, distribution=distribution)
-    resid, rms, rel = {}, {}, {}
-    for q, y in data.observed.items():
-        r = final[q] - y
-        resid[q] = r
-        ok = np.isfinite(y)
-        rms[q] = float(np.sqrt(np.mean(r[ok] ** 2)))
-        # relative error where the value is >= 1 % of the column's largest
-        # (a goniometer's useful dynamic range; tiny values make ratios meaningless)
-        pos = ok & (np.abs(y) >= 0.01 * np.nanmax(np.abs(y)))
-        rel[q] = float(np.sqrt(np.mean((r[pos] / y[pos]) ** 2))) if pos.any() else math.nan
+    resid, rms, rel, rms_ln = _residual_summary(data, final)
     result = FitResult(model, backend, wavelengths, values, errors, chi2, dof, resid, rms, rel,
                        seconds, evaluator.count, bool(best.success), str(best.message),
                        [layout.label(n) for n in layout.free], at_bound, shadowing,
@@ -327,10 +366,7 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
                        [[layout.label(n) for n in g] for g in groups],
                        [layout.label(n) for n in _all_names(len(wavelengths), layout.shared)
                         if n not in layout.free], bool(anisotropic), distribution, anisotropy)
-    if "m00" in data.observed:
-        y, m = data.observed["m00"], final["m00"]
-        ok = np.isfinite(y) & (y > 0) & (m > 0)
-        result.rms_ln = float(np.sqrt(np.mean(np.log(m[ok] / y[ok]) ** 2))) if ok.any() else math.nan
+    result.rms_ln = rms_ln
     result.objective, result.objective_reason = objective, objective_reason
     result.log_floor = next((t.floor for t in terms if t.name == "m00"
                              and t.objective in ("log", "relative")), None)
