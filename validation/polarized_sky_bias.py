@@ -14,7 +14,9 @@ whose centre ray hits it, luminance Stokes vector): the median and 90th
 percentile of |DoLP(polarized sky) - DoLP(unpolarized sky)| and of the AoLP
 difference (pixels with DoLP > 0.05 under both), and the same statistics
 between two renders of the unpolarized sky with different seeds (the Monte
-Carlo noise floor).
+Carlo noise floor). Also writes ``validation/figures/polarized_sky_gallery.png``:
+per sun elevation, intensity, DoLP and AoLP under the polarized sky beside the
+same under the unpolarized sky of equal intensity.
 """
 
 import argparse
@@ -28,7 +30,7 @@ ROOT = os.path.dirname(HERE)
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from common import table, use_variant, write_markdown  # noqa: E402
+from common import pyplot, save_figure, table, use_variant, write_markdown  # noqa: E402
 
 ELEVATIONS = (15.0, 35.0, 60.0)
 SPHERES = {"Cu": [-0.55, 0.0, 0.5], "Al": [0.55, 0.0, 0.5]}
@@ -64,6 +66,12 @@ def masks(loaded):
     return first
 
 
+def luminance_stokes(image):
+    from mitsuba_pbrdf.stokes import luminance_stokes as lum
+
+    return lum(image).astype(np.float64)
+
+
 def dolp_aolp(image):
     from mitsuba_pbrdf.stokes import aolp, dolp, luminance_stokes
 
@@ -80,6 +88,35 @@ def differences(a, b, mask):
     return (*stats(ddolp), *stats(daolp), int(mask.sum()), int(both.sum()))
 
 
+def gallery(frames):
+    """Gallery-style figure: one row per sun elevation, intensity, DoLP and AoLP
+    (hue, brightness by DoLP) under the polarized sky, then under the unpolarized
+    sky of the same intensity; returns the path relative to validation/."""
+    from mitsuba_pbrdf.pictures.colours import aolp_rgb
+
+    plt = pyplot()
+    fig, axes = plt.subplots(len(frames), 6, figsize=(13.5, 1.9 * len(frames) + 0.4))
+    axes = np.atleast_2d(axes)
+    titles = ("intensity", "DoLP", "AoLP (hue),\ndark where DoLP is low")
+    for i, (elevation, images) in enumerate(frames):
+        scale = np.percentile(images[0][0][..., 0], 99.5)      # one exposure per row
+        for j, (label, (s, d, a)) in enumerate(zip(("polarized sky", "unpolarized sky"), images)):
+            tone = np.clip(s[..., 0] / scale, 0, 1) ** (1 / 2.2)
+            axes[i, 3 * j].imshow(tone, cmap="gray", vmin=0, vmax=1)
+            im = axes[i, 3 * j + 1].imshow(d, cmap="viridis", vmin=0, vmax=0.8)
+            axes[i, 3 * j + 2].imshow(aolp_rgb(a) * np.clip(d / 0.5, 0, 1)[..., None])
+            for k in range(3):
+                axes[i, 3 * j + k].set_title(f"{label}:\n{titles[k]}" if i == 0 else "")
+        axes[i, 0].set_ylabel(f"sun {elevation:g}°")
+    for ax in axes.ravel():
+        ax.set_xticks([])
+        ax.set_yticks([])
+        ax.grid(False)
+    fig.subplots_adjust(right=0.92, wspace=0.05, hspace=0.08)
+    fig.colorbar(im, cax=fig.add_axes([0.935, 0.2, 0.01, 0.6]), label="DoLP")
+    return save_figure(fig, "polarized_sky_gallery")
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true")
@@ -88,7 +125,7 @@ def main(argv=None):
     from proof import polarized_light as pl
 
     width, height, spp = (96, 72, 32) if args.quick else (160, 120, 128)
-    rows, noise_rows = [], []
+    rows, noise_rows, frames = [], [], []
     for elevation in ELEVATIONS:
         sun = pl.sun_vector(elevation, 120.0 + 90.0).tolist()   # view along +Y (azimuth 90)
         polarized = {"type": "polarized_sky", "sun_direction": sun, "dolp_max": 0.8}
@@ -98,9 +135,12 @@ def main(argv=None):
         img_u2, _ = pl.render_stokes(scene(mi, plain, width, height), spp=spp, seed=2)
         m = masks(loaded)
         a_p, a_u, a_u2 = dolp_aolp(img_p), dolp_aolp(img_u), dolp_aolp(img_u2)
+        frames.append((elevation, [(luminance_stokes(img_p), *a_p),
+                                   (luminance_stokes(img_u), *a_u)]))
         for material, mask in m.items():
             rows.append([f"{elevation:g}°", material, *differences(a_p, a_u, mask)])
             noise_rows.append([f"{elevation:g}°", material, *differences(a_u2, a_u, mask)])
+    figure = gallery(frames)
     headers = ["sun elevation", "sphere", "median |ΔDoLP|", "p90 |ΔDoLP|", "median |ΔAoLP| (°)",
                "p90 |ΔAoLP| (°)", "pixels", "pixels with DoLP > 0.05"]
     text = f"""# The unpolarized-sky assumption on metals
@@ -131,7 +171,14 @@ polarization either adds to the s-polarization of reflection or, crossed with it
 of it and turns the AoLP: the 90th percentiles. Wherever the rows exceed the noise floor, an
 analysis that assumes an unpolarized sky (shape from polarization outdoors, in particular)
 misreads the DoLP and AoLP by that much. (Recovering normals under both assumptions, the
-issue's second question, is not done here.)
+issue's second question, is in [validation/sky_normals.md](sky_normals.md).)
+
+![copper and aluminium spheres under the polarized and the unpolarized sky]({figure})
+
+The figure (copper on the left, aluminium on the right): one row per sun elevation;
+intensity (the luminance S0, one exposure per row, gamma 2.2), DoLP, and AoLP as hue darkened
+where the DoLP is low, under `polarized_sky`, then under `sunsky` of the same intensity. The intensities are nearly the same; the DoLP and AoLP of the
+upper halves of the spheres, which reflect the sky, are not.
 """
     write_markdown("polarized_sky_bias", text)
 

@@ -52,6 +52,7 @@ ARGUMENTS = {
     "physics": (["--pairs", "100000"], ["--pairs", "10000"]),
     "rendered_stokes": (["--spp", "256", "--passes", "8"], ["--spp", "64", "--passes", "8"]),
     "shape_from_polarization": (["--long", "200"], ["--quick"]),
+    "sky_normals": ([], ["--quick"]),
     "stress": (["--samples", "1000000"], ["--samples", "100000"]),
     "svbrdf_recovery": ([], ["--quick"]),
 }
