@@ -53,6 +53,7 @@ ARGUMENTS = {
     "rendered_stokes": (["--spp", "256", "--passes", "8"], ["--spp", "64", "--passes", "8"]),
     "shape_from_polarization": (["--long", "200"], ["--quick"]),
     "sky_normals": ([], ["--quick"]),
+    "polarized_sky_bias": ([], ["--quick"]),
     "stress": (["--samples", "1000000"], ["--samples", "100000"]),
     "svbrdf_recovery": ([], ["--quick"]),
 }
