@@ -36,7 +36,9 @@ __all__ = ["VertexStore", "trace", "replay", "column0", "mueller_times",
 
 def column0(m):
     """First column of a Mueller matrix: what it does to unpolarized light of
-    unit radiance (every emitter is unpolarized: ``Le = depolarizer(le)``)."""
+    unit radiance. An emitter's Mueller matrix carries its Stokes vector there
+    (an unpolarized one is ``depolarizer(le)``; ``polarized_sky`` and the other
+    polarized emitters fill the whole column)."""
     return mi.SpectrumEntry(m[0][0], m[1][0], m[2][0], m[3][0])
 
 
