@@ -81,10 +81,10 @@ ROWS = [
      "--targets: target 0 is zero everywhere", "{tmp}/rn/recovery.json"),
     ("recover-normals: a NaN truth", ["recover-normals", "{plate}", "--targets", "{exr8}",
      "--out", "{tmp}/rn", "--iterations", "1", "--truth", "{nan_truth}"], 2,
-     "--truth: truth has non-finite values", "{tmp}/rn/recovery.json"),
+     "nan_truth.exr: not a normal map (vectors of length nan to nan", "{tmp}/rn/recovery.json"),
     ("recover-normals: a zero-length truth", ["recover-normals", "{plate}", "--targets",
      "{exr8}", "--out", "{tmp}/rn", "--iterations", "1", "--truth", "{zero_truth}"], 2,
-     "--truth: 16 normals have zero length", "{tmp}/rn/recovery.json"),
+     "zero_truth.exr: not a normal map (vectors of length 0 to 0", "{tmp}/rn/recovery.json"),
     # files named in their errors
     ("fit: a binary file", ["fit", "{binary}"], 2, "binary.csv: not a text (UTF-8) CSV file",
      None),
