@@ -29,7 +29,6 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf import use_variant
 from mitsuba_pbrdf import reference
 from proof.rendered import pixel_rays
 
@@ -96,7 +95,6 @@ def expected_stokes(scene, case, light_dir):
 
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_rendered_stokes_image_matches_reference(name):
-    use_variant("llvm_ad_spectral_polarized")
     case = CASES[name]
     overrides = {key: str(value) for key, value in case.items()}
     scene = mi.load_file(SCENE, width=str(WIDTH), height=str(HEIGHT),

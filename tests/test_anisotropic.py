@@ -12,10 +12,9 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import WAVELENGTHS, as_numpy, chi2_sampling_test, hemisphere_pairs, make_si, sample_both, to_vector
+from bsdf_harness import WAVELENGTHS, as_numpy, chi2_sampling_test, hemisphere_pairs, make_si, sample_both, to_vector
 from mitsuba_pbrdf import frames as mf
 from mitsuba_pbrdf import reference as ref
-from mitsuba_pbrdf import use_variant
 from proof.bad_input import NAN, bitmap
 from proof.mitsuba_g1 import mitsuba_beckmann_G1
 
@@ -75,7 +74,6 @@ def test_anisotropic_plugin_matches_reference(name, mode):
     """Tolerance as tests/test_bsdf_vs_reference.py: 1e-4 M00 per element plus
     the lane's underflow floor (Mitsuba's D cos(theta_h) < 1e-20 cut-off);
     measured worst: 3.5e-5 M00."""
-    use_variant("llvm_ad_spectral_polarized")
     config = CONFIGS[name]
     bsdf = mi.load_dict(dict({"type": "pbrdf"}, **config))
     rng = np.random.default_rng(zlib.crc32(f"{name}/{mode}".encode()))
@@ -120,7 +118,6 @@ def test_eval_and_pdf_match_roughconductor(distribution, alphas):
     alpha_v. Mueller matrices within 1e-5 M00 (tests/test_roughconductor.py:
     float32 level); pdfs equal within 1e-5 for GGX, and for Beckmann after
     the exact/approximate G1 ratio of roughconductor's pdf."""
-    use_variant("llvm_ad_spectral_polarized")
     wi, wo = hemisphere_pairs(12000, seed=21)
     si, w = make_si(wi), to_vector(wo)
     rc, pb = pair("Cu", *alphas, distribution)
@@ -144,7 +141,6 @@ def test_sample_matches_roughconductor(distribution):
     ratio for Beckmann), same Mueller weight (roughconductor's F G1(wo) and our
     eval/pdf agree to float32, with 1e-6/cos_o near the horizon as in
     tests/test_roughconductor.py)."""
-    use_variant("llvm_ad_spectral_polarized")
     rc, pb = pair("Al", 0.6, 0.06, distribution)
     wi, _ = hemisphere_pairs(5000, seed=22)
     rng = np.random.default_rng(23)
@@ -179,10 +175,9 @@ CHI2 = {
 @pytest.mark.parametrize("name", sorted(CHI2))
 def test_anisotropic_sampling_passes_chi_square(name):
     """Mitsuba's chi-square test through the project's polarized adapter
-    (conftest.chi2_sampling_test), in the suite's family of chi-square tests
-    (conftest.CHI2_TESTS). Oblique wi off both axes (anisotropy seen
+    (bsdf_harness.chi2_sampling_test), in the suite's family of chi-square tests
+    (bsdf_harness.CHI2_TESTS). Oblique wi off both axes (anisotropy seen
     obliquely), 300,000 samples."""
-    use_variant("llvm_ad_spectral_polarized")
     config, wi = CHI2[name]
     test = chi2_sampling_test(config, wi, 300_000)
     assert test.passed, test.messages
@@ -192,7 +187,6 @@ def test_anisotropic_sampling_passes_chi_square(name):
 
 
 def test_isotropic_scenes_expose_sigma_and_anisotropic_ones_its_refinements():
-    use_variant("llvm_ad_spectral_polarized")
     iso = {key.split(".")[0] for key in mi.traverse(mi.load_dict({"type": "pbrdf"})).keys()}
     assert "sigma" in iso and not iso & {"sigma_u", "sigma_v"}
     bsdf = mi.load_dict({"type": "pbrdf", "sigma": 0.2, "sigma_u": 0.4, "kdd": 0.1})
@@ -221,7 +215,6 @@ def test_anisotropic_flag_marks_the_anisotropic_lobes(props, anisotropic):
 
 def test_updating_sigma_u_changes_the_lobe_as_loading_it_does():
     """An update through traverse gives the BSDF loaded with that value."""
-    use_variant("llvm_ad_spectral_polarized")
     wi, wo = hemisphere_pairs(2000, seed=24)
     si, w, ctx = make_si(wi), to_vector(wo), mi.BSDFContext()
     bsdf = mi.load_dict({"type": "pbrdf", "sigma_u": 0.1, "sigma_v": 0.3})
@@ -239,7 +232,6 @@ def test_updating_sigma_u_changes_the_lobe_as_loading_it_does():
 
 @pytest.mark.parametrize("name", ["sigma_u", "sigma_v", "sigma_dd_u", "sigma_dd_v"])
 def test_bad_texels_of_a_width_texture_are_rejected(name):
-    use_variant("llvm_ad_spectral_polarized")
     for value in (NAN, -0.2, 0.0):
         with pytest.raises(RuntimeError, match=f"parameter '{name}'"):
             mi.load_dict({"type": "pbrdf", "kdd": 0.1, name: bitmap(value)})
@@ -249,7 +241,6 @@ def test_bad_texels_of_a_width_texture_are_rejected(name):
 def test_equal_widths_are_the_isotropic_lobe():
     """sigma_u = sigma_v = sigma goes through the anisotropic code path and
     gives the isotropic values to float32 rounding (1e-5 M00)."""
-    use_variant("llvm_ad_spectral_polarized")
     wi, wo = hemisphere_pairs(5000, seed=25)
     si, w, ctx = make_si(wi), to_vector(wo), mi.BSDFContext()
     for extra in ({}, {"shadowing": "smith"}, {"distribution": "ggx", "shadowing": "smith"}):
@@ -272,7 +263,6 @@ def test_equal_widths_are_the_isotropic_lobe():
 def test_extreme_anisotropy_and_roughness_give_finite_values(widths, distribution):
     """eval, pdf and sample at grazing, normal and random directions: finite,
     M00 >= 0, pdf >= 0, and DoP <= 1 (+1e-5 float32)."""
-    use_variant("llvm_ad_spectral_polarized")
     wi, wo = hemisphere_pairs(4000, seed=26, min_cos=1e-6)
     grazing = np.array([[np.sqrt(1 - 1e-12), 0.0, 1e-6], [0.0, np.sqrt(1 - 1e-12), 1e-6],
                         [0.0, 0.0, 1.0]])
@@ -300,7 +290,6 @@ def test_forward_derivatives_by_sigma_u_and_sigma_v_match_the_reference(extra):
     1e-5: truncation ~1e-10, rounding ~1e-11 relative). Tolerance 2e-4 of the
     largest derivative plus 1e-3 relative: float32 evaluation of the
     exponent, amplified as in the value comparison (1e-4 M00)."""
-    use_variant("llvm_ad_spectral_polarized")
     config = dict({"material": "Cu", "sigma_u": 0.25, "sigma_v": 0.08}, **extra)
     bsdf = mi.load_dict(dict({"type": "pbrdf"}, **config))
     params = mi.traverse(bsdf)

@@ -35,7 +35,6 @@ def check_message(last_line, error, message):
 def test_bad_input_is_rejected_at_load_time_naming_the_parameter(extra, error, message):
     """Mitsuba's loader wraps a plugin's exception in a RuntimeError whose last
     line is ours: '<ErrorType>: pbrdf: ... <parameter> ...'."""
-    use_variant("llvm_ad_spectral_polarized")
     check_message(load_error(extra), error, message)
 
 
@@ -79,7 +78,6 @@ def negative_exr(tmp_path_factory):
 
 @pytest.mark.parametrize("body,message", BAD_XML, ids=[b[0][:50] for b in BAD_XML])
 def test_bad_xml_is_rejected_naming_the_parameter(body, message, negative_exr):
-    use_variant("llvm_ad_spectral_polarized")
     body = body.replace("$NEGATIVE", negative_exr)
     bsdf = f'<bsdf version="3.0.0" type="pbrdf">{body}</bsdf>'
     with pytest.raises(Exception) as info:
@@ -115,7 +113,6 @@ BAD_UPDATES = [
 @pytest.mark.parametrize("key,value,message", BAD_UPDATES,
                          ids=[f"{k}={v}" for k, v, _ in BAD_UPDATES])
 def test_bad_parameter_update_is_rejected_naming_the_parameter(key, value, message):
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict({"type": "pbrdf", "eta": 1.2, "k": 7.0, "sigma": 0.1, "kdd": 0.2,
                          "sigma_dd": 0.5, "kid": 0.1})
     params = mi.traverse(bsdf)
@@ -129,7 +126,6 @@ def test_bad_tabulated_update_is_rejected():
     """A named conductor's tabulated n with one negative value is rejected.
     Mitsuba's own spectrum node refuses it first, with its message ("entries
     must be non-negative"), before the plugin's parameters_changed runs."""
-    use_variant("llvm_ad_spectral_polarized")
     params = mi.traverse(mi.load_dict({"type": "pbrdf", "material": "Cu"}))
     values = np.array(params["eta.values"])
     values[len(values) // 2] = -0.1
@@ -159,7 +155,6 @@ def test_bad_input_in_other_variants(variant):
 def test_every_texel_of_a_bitmap_is_checked_256():
     """A bad texel anywhere in a bitmap (here off any 64 x 64 sampling grid)
     is caught; once only a grid of texel centres was evaluated."""
-    use_variant("llvm_ad_spectral_polarized")
     for value in (NAN, -0.5, INF):
         texels = np.full((256, 256, 1), 0.3, dtype=np.float32)
         texels[1, 1, 0] = value
@@ -177,7 +172,6 @@ def test_every_texel_of_a_bitmap_is_checked_in_scalar_variants(variant):
 def test_negative_inline_spectrum_names_the_parameter():
     """An inline XML spectrum with a negative entry (Mitsuba's own
     ContinuousDistribution refuses it) gets a message naming the parameter."""
-    use_variant("llvm_ad_spectral_polarized")
     xml = ('<bsdf version="3.0.0" type="pbrdf"><spectrum name="eta" value="400:1.2, 700:-0.3"/>'
            '<spectrum name="k" value="1"/></bsdf>')
     with pytest.raises(Exception) as info:
@@ -191,7 +185,6 @@ def test_roughness_below_mitsubas_floor_is_rejected(extra, name):
     """Mitsuba's MicrofacetDistribution clamps alpha to >= 1e-4 (sigma 7.07e-5):
     a smaller sigma would render a wider lobe than asked (sigma = 1e-5: a peak
     50x lower than the model's) and is rejected instead."""
-    use_variant("llvm_ad_spectral_polarized")
     check_message(load_error(extra), ValueError, name)
 
 
@@ -245,7 +238,6 @@ def test_a_zero_texel_of_an_rgb_roughness_bitmap_is_caught_in_spectral_variants(
     clamp it to [0, 1]: NaN, Inf and negative texels cannot get through), so
     the check evaluates the texture at every texel centre: a roughness texel
     of 0 off the centre (row 3, column 5 of 8 x 8) is refused."""
-    use_variant("llvm_ad_spectral_polarized")
     for value in (0.0, -0.5):
         texels = np.full((8, 8, 3), 0.4, dtype=np.float32)
         texels[3, 5] = value

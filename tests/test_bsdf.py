@@ -9,7 +9,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import as_numpy, chi2_sampling_test, hemisphere_pairs, make_si, to_vector
+from bsdf_harness import as_numpy, chi2_sampling_test, hemisphere_pairs, make_si, to_vector
 from mitsuba_pbrdf import use_variant
 
 FULL = {"type": "pbrdf", "material": "Cu", "sigma": 0.15, "kdd": 0.3, "sigma_dd": 0.6, "kid": 0.2}
@@ -29,14 +29,18 @@ CONFIGS = {
 
 # ---------------------------------------------------------------- sampling
 
+#: Incidence angles (deg) of the chi-square tests.
+CHI2_ANGLES = (10.0, 60.0, 85.0)
+
+
 @pytest.mark.parametrize("name", sorted(CONFIGS))
-@pytest.mark.parametrize("theta_deg", [10.0, 60.0, 85.0])
+@pytest.mark.parametrize("theta_deg", CHI2_ANGLES)
 def test_sample_distribution_matches_pdf(name, theta_deg):
     """Chi-square goodness of fit of `sample` against `pdf` (Mitsuba's own
     BSDF test harness, 400,000 samples, 101 x 202 cells), with wi at several
     incidence angles, in the polarized spectral variant. Significance: 1 %
-    for the family of the suite's 16 chi-square tests (conftest.CHI2_TESTS;
-    Sidak, 6.3e-4 each)."""
+    for the family of the suite's chi-square tests (bsdf_harness.CHI2_TESTS;
+    Sidak, 5.3e-4 each)."""
     theta = np.radians(theta_deg)
     test = chi2_sampling_test(CONFIGS[name], (np.sin(theta), 0.0, np.cos(theta)), 400_000)
     assert test.passed, test.messages
@@ -49,7 +53,6 @@ def test_sample_distribution_matches_pdf(name, theta_deg):
 # ---------------------------------------------------------------- lobes and flags
 
 def test_flags_list_exactly_the_lobes_present():
-    use_variant("llvm_ad_spectral_polarized")
     glossy = int(mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide)
     diffuse = int(mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide)
     cases = [
@@ -70,7 +73,6 @@ def test_flags_list_exactly_the_lobes_present():
 
 
 def test_traverse_exposes_the_parameters_of_present_lobes():
-    use_variant("llvm_ad_spectral_polarized")
     keys = set(mi.traverse(mi.load_dict(FULL)).keys())
     for name in ("eta", "k", "sigma", "ks", "kdd", "sigma_dd", "kid"):
         assert any(k.startswith(name + ".") for k in keys), name
@@ -82,7 +84,6 @@ def test_traverse_exposes_the_parameters_of_present_lobes():
 
 
 def test_parameter_update_changes_eval():
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict(FULL)
     si, wo, ctx = make_si([[0.5, 0, 0.866]]), to_vector([[-0.5, 0, 0.866]]), mi.BSDFContext()
     before = as_numpy(bsdf.eval(ctx, si, wo))[0, :, 0, 0]
@@ -94,7 +95,6 @@ def test_parameter_update_changes_eval():
 
 
 def test_parameter_update_to_invalid_value_raises():
-    use_variant("llvm_ad_spectral_polarized")
     params = mi.traverse(mi.load_dict(FULL))
     params["sigma.value"] = -0.1
     with pytest.raises(ValueError, match="'sigma'"):
@@ -103,7 +103,6 @@ def test_parameter_update_to_invalid_value_raises():
 
 @pytest.mark.parametrize("mode", [mi.TransportMode.Radiance, mi.TransportMode.Importance])
 def test_components_sum_to_total_and_can_be_selected(mode):
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict(FULL)
     wi, wo = hemisphere_pairs(3000, seed=8)
     si, w = make_si(wi), to_vector(wo)
@@ -122,7 +121,6 @@ def test_components_sum_to_total_and_can_be_selected(mode):
 
 
 def test_type_mask_selects_diffuse_only():
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict(FULL)
     wi, wo = hemisphere_pairs(1000, seed=9)
     si, w = make_si(wi), to_vector(wo)
@@ -159,7 +157,6 @@ def test_directions_below_the_horizon_give_zero(variant):
 def test_valid_rgb_and_bitmap_weights_load_in_spectral_variants():
     """Spectral variants store RGB colours and bitmaps as spectral-upsampling
     coefficients, which may be negative for valid colours: they must pass."""
-    use_variant("llvm_ad_spectral_polarized")
     bitmap = mi.Bitmap(np.full((4, 4, 3), [0.5, 0.2, 0.05], dtype=np.float32))
     bsdf = mi.load_dict({"type": "pbrdf", "kdd": {"type": "rgb", "value": [0.2, 0.1, 0.05]},
                          "kid": mi.ScalarColor3f(0.1, 0.05, 0.02),
@@ -170,7 +167,6 @@ def test_valid_rgb_and_bitmap_weights_load_in_spectral_variants():
 
 
 def test_explicit_ior_and_options_load():
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict({"type": "pbrdf", "eta": 1.5, "k": 0.0, "shadowing": "SMITH",
                          "dd_distribution": "GGX", "kdd": 0.1})
     assert "smith" in str(bsdf) and "ggx" in str(bsdf)
@@ -196,7 +192,6 @@ def test_register_after_switching_variant(variant):
 def test_smallest_accepted_roughness_loads():
     """sigma and sigma_dd exactly at the floor MIN_SIGMA (alpha = 1e-4) are
     valid; only smaller ones are rejected (tests/test_bad_input.py)."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.schema import MIN_SIGMA
 
     floor = float(np.float32(MIN_SIGMA))
@@ -207,7 +202,6 @@ def test_smallest_accepted_roughness_loads():
 
 
 def test_parameter_update_to_negative_eta_raises():
-    use_variant("llvm_ad_spectral_polarized")
     params = mi.traverse(mi.load_dict({"type": "pbrdf", "eta": 1.5, "k": 0.0}))
     params["eta.value"] = -1.0
     with pytest.raises(ValueError, match="'eta'"):
@@ -218,7 +212,6 @@ def test_short_ior_table_holds_its_last_value_to_830_nm():
     """A conductor table that stops short of Mitsuba's spectral range (AlSb:
     302-590 nm) is held at its end values beyond it (an irregular spectrum
     would be 0 there): the same BSDF as the constant index of the last row."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.reference.materials import _ior_tables
 
     (_, n), (_, k) = _ior_tables("AlSb")
@@ -240,7 +233,6 @@ def test_rgb_colours_above_one_are_refused_in_spectral_variants():
     naming the parameter) instead of silently clipped; colours within [0, 1]
     load and equal Mitsuba's own upsampled texture, and RGB variants take any
     colour as it is."""
-    use_variant("llvm_ad_spectral_polarized")
     grey = mi.load_dict({"type": "srgb", "color": [1.5, 1.5, 1.5], "unbounded": True})
     si = dr.zeros(mi.SurfaceInteraction3f)
     si.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 650.0)
@@ -267,7 +259,6 @@ def test_rgb_colours_above_one_are_refused_in_spectral_variants():
 
 def test_k_may_be_updated_to_zero():
     """k = 0 (a dielectric) is valid in a parameter update, as at load time."""
-    use_variant("llvm_ad_spectral_polarized")
     params = mi.traverse(mi.load_dict({"type": "pbrdf", "eta": 1.5, "k": 2.0}))
     params["k.value"] = 0.0
     params.update()
@@ -277,7 +268,6 @@ def test_k_may_be_updated_to_zero():
 def test_sample_with_every_lobe_masked_out_is_empty():
     """A context that selects no lobe: sample() returns an invalid record with
     pdf 0, component 0, type 0 and a zero weight."""
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict(FULL)
     ctx = mi.BSDFContext()
     ctx.type_mask = int(mi.BSDFFlags.DeltaReflection)
@@ -295,7 +285,6 @@ def test_cosine_sampling_reports_the_first_enabled_lobe(lobes):
     """With sampling="cosine" the sampled component is the first lobe present
     (cosine sampling picks no lobe; components are numbered over the lobes
     present): one lobe alone, or the first of two."""
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict(dict({"type": "pbrdf", "sampling": "cosine"}, **lobes))
     si = make_si([[0.3, 0.1, 0.9]] * 3)
     bs, _ = bsdf.sample(mi.BSDFContext(), si, mi.Float([0.1, 0.5, 0.9]),
@@ -310,7 +299,6 @@ def test_pdf_falls_back_to_equal_lobe_shares_where_every_weight_is_zero():
     estimates over their sum) are 0 / 0: sampling falls back to equal shares,
     so pdf() is the mean of the three lobes' own pdfs (single-component
     contexts), finite, and eval is 0."""
-    use_variant("llvm_ad_spectral_polarized")
     half = {"type": "bitmap", "bitmap": mi.Bitmap(np.float32([[[0.0], [1.0]]])),
             "raw": True, "filter_type": "nearest"}
     bsdf = mi.load_dict({"type": "pbrdf", "sigma": 0.3, "sigma_dd": 0.6, "ks": half,

@@ -29,8 +29,7 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import frames as mf
-from conftest import WAVELENGTHS
-from mitsuba_pbrdf import use_variant
+from bsdf_harness import WAVELENGTHS
 from mitsuba_pbrdf import reference as ref
 from proof.mitsuba_g1 import mitsuba_beckmann_G1
 
@@ -94,7 +93,6 @@ def floor(config, wi_hat, wo_hat):
 @pytest.mark.parametrize("mode", ["radiance", "importance"])
 @pytest.mark.parametrize("name", sorted(CONFIGS))
 def test_plugin_matches_reference(name, mode):
-    use_variant("llvm_ad_spectral_polarized")
     config = CONFIGS[name]
     bsdf = mi.load_dict(dict({"type": "pbrdf"}, **config))
     rng = np.random.default_rng(zlib.crc32(f"{name}/{mode}".encode()))

@@ -125,7 +125,6 @@ def test_fixed_hostile_pairs_at_moderate_roughness_have_tight_bounds(name):
     so the bound ACCURACY_UNITS u (1 + kappa) must itself be tight (< 1e-3 of
     M00) and the error within it, in both transport modes (the fuzz test's
     random lanes of these regions are often ill-conditioned)."""
-    use_variant("llvm_ad_spectral_polarized")
     config = FIXED_CONFIGS[name]
     bsdf = mi.load_dict(dict({"type": "pbrdf"}, **{k: v for k, v in config.items()}))
     rows = _fixed_pairs()
@@ -157,7 +156,6 @@ def test_fixed_hostile_pairs_at_moderate_roughness_have_tight_bounds(name):
 
 
 def test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs():
-    use_variant("llvm_ad_spectral_polarized")
     to_viewer = np.array([[-0.9379628896713257, 0.3467355966567993, 1.8534957746396685e-07]])
     to_light = np.array([[0.9379963278770447, -0.3466451168060303, 3.581859800760867e-06]])
     bsdf = mi.load_dict({"type": "pbrdf", "ks": 0.0, "kdd": 1.0, "sigma_dd": 3.8,

@@ -49,8 +49,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from conftest import WAVELENGTHS
-from mitsuba_pbrdf import use_variant
+from bsdf_harness import WAVELENGTHS
 from mitsuba_pbrdf import frames as mf
 from mitsuba_pbrdf import reference as ref
 from proof.mitsuba_g1 import mitsuba_beckmann_G1
@@ -194,7 +193,6 @@ def check_close(name, got, expected, rtol):
 @pytest.mark.parametrize("name", sorted(CONFIGS))
 def test_eval_forward_derivatives_match_reference(name, kind):
     """Forward mode, all 16 elements, every parameter, both modes."""
-    use_variant("llvm_ad_spectral_polarized")
     config = CONFIGS[name]
     rtol = 1e-3 if kind == "generic" else 1e-2
     wi_hat, wo_hat = directions(kind, seed=zlib.crc32(f"{name}/{kind}".encode()))
@@ -233,7 +231,6 @@ def test_eval_forward_derivatives_match_reference(name, kind):
 def test_eval_reverse_gradients_match_reference(name):
     """Reverse mode: the gradient of sum(W * M) for random weights W, with
     respect to each parameter (for tabulated spectra: each table entry)."""
-    use_variant("llvm_ad_spectral_polarized")
     config = CONFIGS[name]
     wi_hat, wo_hat = directions("generic", seed=7)
     W = np.random.default_rng(3).normal(size=(len(wi_hat), len(WAVELENGTHS), 4, 4))
@@ -270,7 +267,6 @@ def test_eval_reverse_gradients_match_reference(name):
 def test_texture_texel_gradients_match_reference():
     """sigma and kid as 2x2 bitmaps (nearest filtering): the gradient of a
     linear functional of the BRDF with respect to each texel."""
-    use_variant("llvm_ad_spectral_polarized")
     sigma = np.array([[0.1, 0.2], [0.3, 0.15]], dtype=np.float32)
     kid = np.array([[0.1, 0.2], [0.3, 0.05]], dtype=np.float32)
     bitmap = lambda a: {"type": "bitmap", "data": mi.TensorXf(a[..., None]), "raw": True,
@@ -328,7 +324,6 @@ def _global(d):
 def test_updates_through_traverse_change_eval_as_the_reference(name):
     """Every parameter changed through `mi.traverse` + `update()` (so through
     `parameters_changed`) gives the reference at the new values."""
-    use_variant("llvm_ad_spectral_polarized")
     config = CONFIGS[name]
     bsdf = mi.load_dict(dict({"type": "pbrdf"}, **config))
     params = mi.traverse(bsdf)
@@ -449,7 +444,6 @@ def test_rendered_loss_gradient_matches_finite_differences_direct(method):
     loss is linear in the image, so the two agree up to float32 rounding of
     the images and the finite-difference truncation (see `_fd_of_renders`):
     relative 2e-3."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.rendering.passes import derivative_seed
     from mitsuba_pbrdf.inverse import loss_and_gradient
     scene = _plane_scene({"type": "direct"}, spp=8)
@@ -488,7 +482,6 @@ def test_rendered_stokes_loss_gradient_matches_finite_differences_path():
     derivative), independent between blocks (pixels sample independently).
     A t-test of mean(d_b) = 0 per component (15 degrees of freedom) at a
     family-wise 1e-3 for the 7 components (Sidak: 1.4e-4 each). 64 spp."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.rendering.passes import derivative_seed
     from mitsuba_pbrdf.inverse import loss_and_gradient, render, stokes_loss
     scene = _plane_scene({"type": "path", "max_depth": 3}, spp=64)

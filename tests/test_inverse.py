@@ -9,7 +9,6 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf import use_variant
 
 KEYS = ["object.bsdf." + p + ".value" for p in ("eta", "k", "sigma", "ks", "kdd", "sigma_dd", "kid")]
 
@@ -35,7 +34,6 @@ def test_gradient_methods_agree_with_mi_render():
     """forward (symbolic loops), reverse with one pass, and mi.render +
     dr.backward: the same estimator with the same seeds, equal to float32
     rounding (relative 1e-4 of the largest component)."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import loss_and_gradient
     sc = scene()
     params, loss = perturbed_loss(sc)
@@ -60,7 +58,6 @@ def test_gradient_methods_agree_with_mi_render():
 @pytest.mark.slow
 def test_passes_forward_and_reverse_agree():
     """Samples split into 3 passes: both methods see the same paths."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import loss_and_gradient
     sc = scene()
     params, loss = perturbed_loss(sc)
@@ -77,7 +74,6 @@ def test_passes_forward_and_reverse_agree():
 def test_memory_passes_and_forward_mode():
     """Dr.Jit's peak memory: reverse mode grows with the samples (path
     depth 4), passes divide it, forward mode stores nothing per sample."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import loss_and_gradient
     sc = scene(size=48, spp=16, max_depth=4)
     params, loss = perturbed_loss(sc)
@@ -93,7 +89,6 @@ def test_memory_passes_and_forward_mode():
 
 
 def test_reverse_passes_estimate():
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import reverse_passes
     sc = scene(size=512, spp=64)
     assert reverse_passes(sc, 64, 4, memory_budget=4 * 1024**3) == 9   # 37.6 GB / 4 GiB
@@ -101,7 +96,6 @@ def test_reverse_passes_estimate():
 
 
 def test_stokes_loss_needs_stokes_channels_and_light():
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import stokes_indices, stokes_loss
     sc = scene()
     (s0, s1, s2) = stokes_indices(sc, (0, 1, 2))
@@ -144,7 +138,6 @@ def test_adam_recovers_metal_sphere_from_stokes_images():
     128 spp, direct illumination, 32 x 32. Start: n = 1.5, k = 5, sigma = 0.18,
     ks = 0.75. Adam on log-parameters, 80 iterations of 16 spp, loss on S0,
     S1, S2: every parameter within 10 % (measured: 0.6-5 %)."""
-    use_variant("llvm_ad_spectral_polarized")
     result, error, initial_loss, final_loss = _fit((0, 1, 2))
     print("\nS0..S2 fit, relative errors:", {k: f"{100 * v:+.1f} %" for k, v in error.items()},
           f"loss (128 spp) {initial_loss:.4f} -> {final_loss:.4f}")
@@ -158,7 +151,6 @@ def test_polarization_makes_n_k_ks_identifiable():
     reflectance (ks compensating n and k) and ends far from the truth, and
     the Cramer-Rao bounds of n, k, ks from the Jacobian images are several
     times smaller with S0, S1, S2 than with S0 (1 % pixel noise)."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import fisher_information, jacobian, stokes_indices
     result, error, initial_loss, final_loss = _fit((0,))
     print("\nS0-only fit, relative errors:", {k: f"{100 * v:+.1f} %" for k, v in error.items()},

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from conftest import WAVELENGTHS, as_numpy, hemisphere_pairs, make_si
+from bsdf_harness import WAVELENGTHS, as_numpy, hemisphere_pairs, make_si
 from mitsuba_pbrdf import frames, use_variant
 from mitsuba_pbrdf import reference as ref
 from proof.conditioning import lane_parameters, reference_brdf, sensitivity
@@ -165,7 +165,6 @@ def test_pdf_is_the_documented_mixture_of_lobe_pdfs(name):
     Tolerance: :func:`pdf_rtol` relative, plus the pdf the lobes would have at
     Mitsuba's cut-off D cos(theta_h) = 1e-20 (:data:`D_CUTOFF`), below which D
     is 0 (measured errors: see the printout)."""
-    use_variant("llvm_ad_spectral_polarized")
     config = CONFIGS[name]
     bsdf = load(config)
     wi, wo = hemisphere_pairs(20000, seed=21)
@@ -204,7 +203,6 @@ def test_sampled_component_frequencies_follow_the_documented_probabilities(name,
     of freedom at least, far above the 1e-4 critical value ~19-21 for 1-2
     degrees of freedom only when summed; the printed statistic shows the margin).
     Every sample of component l has that lobe's type flags."""
-    use_variant("llvm_ad_spectral_polarized")
     config = CONFIGS[name]
     bsdf = load(config)
     n = 40_000
@@ -245,7 +243,6 @@ def test_sample_weight_is_reference_value_over_mixture_pdf(name, mode):
     whose bound exceeds 1e-2 (ill-conditioned, e.g. the narrowest lobe's far
     tail) are not compared, and at least 80 % of the valid lanes must be (50 %
     for sigma = 0.003)."""
-    use_variant("llvm_ad_spectral_polarized")
     config = CONFIGS[name]
     bsdf = load(config)
     wi, _ = hemisphere_pairs(6000, seed=5)

@@ -14,8 +14,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import as_numpy, make_si, to_vector
-from mitsuba_pbrdf import use_variant
+from bsdf_harness import as_numpy, make_si, to_vector
 
 N = 20_000
 
@@ -48,7 +47,6 @@ ROUGHNESS = [(1e-4, 1e-3), (0.3, 0.5), (2.0, 5.0)]
 @pytest.mark.parametrize("eta,k", IORS)
 @pytest.mark.slow
 def test_extreme_inputs_give_finite_physical_values(eta, k):
-    use_variant("llvm_ad_spectral_polarized")
     rng = np.random.default_rng(int(eta * 100 + k))
     wi, wo, below = stress_directions(rng)
     si, w = make_si(wi), to_vector(wo)
@@ -84,7 +82,6 @@ def test_normal_incidence_reflectance_is_fresnel():
     -R D0 / 4 with its sign (reflection reverses the handedness of circular
     polarization; r_p = -r_s at normal incidence), which no rotation of S1/S2
     changes."""
-    use_variant("llvm_ad_spectral_polarized")
     eta, k, sigma = 1.2, 7.0, 0.05
     alpha = np.sqrt(2) * sigma
     bsdf = mi.load_dict({"type": "pbrdf", "eta": eta, "k": k, "sigma": sigma})

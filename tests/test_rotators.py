@@ -19,7 +19,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import use_variant
+from mitsuba_pbrdf import use_variant
 
 
 @pytest.fixture(params=["llvm_ad_spectral_polarized", "llvm_ad_mono_polarized"])

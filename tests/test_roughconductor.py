@@ -22,8 +22,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import as_numpy, hemisphere_pairs, make_si, sample_both, to_vector
-from mitsuba_pbrdf import use_variant
+from bsdf_harness import as_numpy, hemisphere_pairs, make_si, sample_both, to_vector
 from mitsuba_pbrdf import reference
 from proof.mitsuba_g1 import mitsuba_beckmann_G1
 
@@ -140,7 +139,6 @@ def test_rendered_stokes_image_matches_roughconductor():
     the same paths. The weights differ only by roughconductor's approximate
     G1 in its pdf (<= 0.35 %, also through the MIS weights), so each Stokes
     component agrees within 4e-3 of the pixel's S0 (+1e-6 for float32)."""
-    use_variant("llvm_ad_spectral_polarized")
     images = []
     for bsdf in ({"type": "roughconductor", "material": "Cu", "alpha": 0.2},
                  {"type": "pbrdf", "material": "Cu", "sigma": 0.2 / math.sqrt(2), "shadowing": "smith"}):

@@ -5,11 +5,10 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from conftest import WAVELENGTHS, as_numpy, chi2_sampling_test, hemisphere_pairs, make_si
+from bsdf_harness import WAVELENGTHS, as_numpy, chi2_sampling_test, hemisphere_pairs, make_si
 from proof.conditioning import lane_parameters, reference_brdf
 from mitsuba_pbrdf.diagnostics.realizability import U32
 from test_mixture_sampling import to_global
-from mitsuba_pbrdf import use_variant
 
 COSINE = {"type": "pbrdf", "material": "Cu", "sigma": 0.15, "kdd": 0.3, "kid": 0.2,
           "sampling": "cosine"}
@@ -17,9 +16,22 @@ COSINE = {"type": "pbrdf", "material": "Cu", "sigma": 0.15, "kdd": 0.3, "kid": 0
 
 def test_cosine_sampling_distribution_matches_pdf():
     """Chi-square goodness of fit, 200,000 samples; significance 1 % for the
-    family of the suite's chi-square tests (conftest.CHI2_TESTS)."""
+    family of the suite's chi-square tests (bsdf_harness.CHI2_TESTS)."""
     test = chi2_sampling_test(COSINE, (0.5, 0.0, 0.8660254), 200_000)
     assert test.passed, test.messages
+
+
+def test_the_chi_square_family_counts_every_chi_square_test():
+    """bsdf_harness.CHI2_TESTS, the family size of the Sidak correction, is the
+    number of chi-square tests the parametrizations make: test_bsdf's configs
+    x angles, this file's one, test_anisotropic's cases."""
+    import test_anisotropic
+    import test_bsdf
+
+    from bsdf_harness import CHI2_TESTS
+
+    made = len(test_bsdf.CONFIGS) * len(test_bsdf.CHI2_ANGLES) + 1 + len(test_anisotropic.CHI2)
+    assert CHI2_TESTS == made
 
 
 @pytest.mark.parametrize("mode", [mi.TransportMode.Radiance, mi.TransportMode.Importance])
@@ -29,7 +41,6 @@ def test_cosine_sampling_weight_and_pdf(mode):
     plugin's own eval). Tolerance 1e-4 of W00: the accuracy test's float32
     bound (tests/test_bsdf_vs_reference.py), lanes where the float32 Beckmann
     D is cut off (R00 < 1e-18 /sr, Mitsuba's D cos < 1e-20) excepted."""
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict(COSINE)
     wi, _ = hemisphere_pairs(5000, seed=12)
     si, ctx = make_si(wi), mi.BSDFContext(mode)
@@ -55,7 +66,6 @@ def test_cosine_sampling_weight_and_pdf(mode):
 
 
 def test_a_context_selecting_no_lobe_gives_zero():
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict({"type": "pbrdf", "kid": 0.3})
     ctx = mi.BSDFContext()
     ctx.type_mask = int(mi.BSDFFlags.DeltaReflection)  # pbrdf has no delta lobe
@@ -82,7 +92,6 @@ def test_single_lobe_closed_form_weight_is_eval_over_pdf(name):
     must equal eval(wo)/pdf(wo). The sampled facet normal m and the recomputed
     half vector differ by float32 ulps (amplified by the Beckmann exponent,
     2e-5), and near the horizon G depends on cos(theta_o) (+1e-6/cos_o)."""
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict(SINGLE_LOBES[name])
     wi, _ = hemisphere_pairs(20000, seed=15)
     si, ctx = make_si(wi), mi.BSDFContext()
@@ -103,7 +112,6 @@ def test_single_lobe_closed_form_weight_is_eval_over_pdf(name):
 def test_ideal_diffuse_alone_has_constant_weight_kid():
     """Cosine sampling of a cosine lobe: every weight is exactly kid (white
     furnace of the Lambertian lobe, no noise)."""
-    use_variant("llvm_ad_spectral_polarized")
     bsdf = mi.load_dict({"type": "pbrdf", "ks": 0.0, "kid": 0.7})
     wi, _ = hemisphere_pairs(2000, seed=17)
     rng = np.random.default_rng(18)

@@ -36,8 +36,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from conftest import as_numpy, make_si
-from mitsuba_pbrdf import use_variant
+from bsdf_harness import as_numpy, make_si
 
 SAMPLES = 1 << 18          # 16 independent replicates of a jittered 128 x 128 grid
 REPLICATES = 16
@@ -74,7 +73,6 @@ def quadrature(bsdf, wi, n_mu, n_phi):
 @pytest.mark.parametrize("case", sorted(CASES))
 @pytest.mark.slow
 def test_sampling_is_unbiased_for_each_microfacet_lobe(case, shadowing):
-    use_variant("llvm_ad_spectral_polarized")
     params, theta_deg, *phi_deg = CASES[case]
     bsdf = mi.load_dict(dict({"type": "pbrdf", "shadowing": shadowing}, **params))
     theta, phi = np.radians(theta_deg), np.radians(phi_deg[0] if phi_deg else 0.0)

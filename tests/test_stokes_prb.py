@@ -122,7 +122,6 @@ def mitsuba_bsdfs():
 @pytest.mark.parametrize("case", ["depth1", "depth6-roulette", "mitsuba-bsdfs-hidden-emitters"])
 @pytest.mark.slow
 def test_primal_equals_stokes_path(case):
-    use_variant("llvm_ad_spectral_polarized")
     kwargs = {
         "depth1": dict(max_depth=1),
         "depth6-roulette": dict(max_depth=6, rr_depth=2, bsdf=pbrdf("mixture")),
@@ -139,7 +138,6 @@ def test_primal_equals_stokes_path(case):
 
 
 def test_channels_are_those_of_stokes():
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.stokes.image import channel_names
     names = []
     for integrator in ("path", "stokes_prb"):
@@ -163,7 +161,6 @@ def test_gradients_equal_path_ad_per_sample(depth, rr_depth):
     the floor's reflectance; at depth 2 the roughness is a 4 x 4 bitmap (the
     gradient of each texel), at depth 5 roulette starts at depth 2 (depths 1
     to 6: validation/path_replay_gradients.py)."""
-    use_variant("llvm_ad_spectral_polarized")
     texture = depth == 2
     scene, replay = both(max_depth=depth, rr_depth=rr_depth,
                          bsdf=pbrdf(sigma=bitmap_sigma()) if texture else pbrdf())
@@ -185,7 +182,6 @@ def test_singular_case_polarizer_depolarizing_floor_and_mitsuba_bsdfs():
     parameters that do not move the sampled directions (where path AD is
     exact: not pplastic's diffuse reflectance, which sets its sampling
     weights) equal path AD's, in reverse and forward mode."""
-    use_variant("llvm_ad_spectral_polarized")
     scene, replay = both(max_depth=4, extra=mitsuba_bsdfs())
     keys = ["object.bsdf.kdd.value", "object.bsdf.eta.value", "object.bsdf.ks.value",
             "floor.bsdf.reflectance.value", "filter.bsdf.theta.value", "small.bsdf.eta.value",
@@ -206,7 +202,6 @@ def test_gradients_of_emitter_parameters_equal_path_ad():
     traced random numbers: the gradients of the two area lights', the sky's
     and two BSDF parameters equal path AD's (cosine sampling: path AD is
     exact)."""
-    use_variant("llvm_ad_spectral_polarized")
     scene, replay = both(max_depth=3)
     keys = ["key.emitter.radiance.value", "back.emitter.radiance.value",
             "sky.radiance.value", "object.bsdf.kdd.value", "object.bsdf.eta.value"]
@@ -221,7 +216,6 @@ def test_gradients_of_emitter_parameters_equal_path_ad():
 def test_forward_equals_reverse_with_mixture_sampling():
     """pbrdf's own lobe-mixture sampling (where path AD is no oracle): the
     two modes of stokes_prb compute the same estimator."""
-    use_variant("llvm_ad_spectral_polarized")
     scene, replay = both(max_depth=3, bsdf=pbrdf("mixture"))
     keys = ["object.bsdf.sigma.value", "object.bsdf.eta.value", "object.bsdf.kdd.value"]
     weights = random_weights(4)
@@ -233,7 +227,6 @@ def test_forward_equals_reverse_with_mixture_sampling():
 
 @pytest.mark.slow
 def test_loss_and_gradient_uses_replay_by_default():
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.integrators import from_path
     from mitsuba_pbrdf.inverse import gradient_method, loss_and_gradient
     path = mi.load_dict(scene_dict("path", max_depth=3, bsdf=pbrdf("mixture")))
@@ -264,7 +257,6 @@ def test_loss_image_of_the_replay_is_the_scenes_render():
     """With path replay, loss_and_gradient renders its primal image with
     stokes_prb: it must be the scene's own stokes + path image (same random
     numbers; tolerance of test_primal_equals_stokes_path) and give its loss."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import loss_and_gradient, render
     path = mi.load_dict(scene_dict("path", max_depth=3, bsdf=pbrdf("mixture")))
     params = mi.traverse(path)
@@ -281,7 +273,6 @@ def test_loss_image_of_the_replay_is_the_scenes_render():
 
 
 def test_scenes_it_cannot_replay():
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse import gradient_method
     direct = scene_dict("path")
     direct["integrator"] = {"type": "stokes", "integrator": {"type": "direct"}}
@@ -307,7 +298,6 @@ def test_svbrdf_example_runs_and_moves_the_maps():
     (the study is validation/svbrdf_recovery.py): two Adam steps on the 2 x 64 texels keep
     them inside their bounds, change the texels the cameras see, and leave
     the others."""
-    use_variant("llvm_ad_spectral_polarized")
     from mitsuba_pbrdf.inverse.svbrdf import BOUNDS, START, recover
     result = recover(iterations=2, size=12, spp=2, target_spp=4, log=None)
     assert len(result["loss"]) == 2 and np.all(np.isfinite(result["loss"]))
