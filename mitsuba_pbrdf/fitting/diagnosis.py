@@ -72,7 +72,7 @@ def region_labels(data) -> np.ndarray:
     return labels
 
 
-def regional_fit(data, model, terms, residuals=None):
+def regional_fit(data, model, terms):
     """:class:`Region` rows for the fitted *model* ({quantity: values}) under
     the objective's *terms*; regions without measurements are left out."""
     labels = region_labels(data)

@@ -372,7 +372,7 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
                              and t.objective in ("log", "relative")), None)
     result.index_note, result.starts, result.formal = index_note, len(points), formal
     result.rel_uncertainty, result.abs_uncertainty = rel_uncertainty, abs_uncertainty
-    result.regions = regional_fit(data, final, terms, resid)
+    result.regions = regional_fit(data, final, terms)
     result.warnings = diagnose(result, data, material)
     return result
 
