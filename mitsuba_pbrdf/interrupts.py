@@ -24,6 +24,11 @@ An output is never replaced while an interrupt is pending
 outputs that belong together are replaced together, after the last is
 written, or not at all (:func:`mitsuba_pbrdf.outputs.together`).
 
+Once the command's outcome is decided (:func:`settle`: its outputs written
+together, or its error or interruption being reported), the command line
+ignores SIGINT to the end of the process, so that a late Ctrl-C during the
+interpreter's shutdown changes neither the outputs nor the exit status.
+
 Signal handlers belong to the main thread: elsewhere (Dask workers' threads)
 every function here does nothing. A SIGINT that Python ignores (``SIG_IGN``,
 e.g. a background job) stays ignored. Standard library only.
@@ -38,9 +43,9 @@ import threading
 from contextlib import contextmanager
 
 __all__ = ["hold", "release", "held", "pending", "discard", "is_held", "before_replace", "interrupted",
-           "hold_for_command_line"]
+           "hold_for_command_line", "is_command_line", "settle"]
 
-_state = {"held": False, "previous": None, "pending": False}
+_state = {"held": False, "previous": None, "pending": False, "command_line": False}
 
 #: The names the command line runs under (console scripts, ``python -m``).
 _COMMANDS = ("pbrdf", "pbrdf-fit")
@@ -130,8 +135,33 @@ def hold_for_command_line() -> bool:
     script = bool(sys.argv) and os.path.basename(sys.argv[0]) in _COMMANDS
     if by_module or script:
         hold()
+        _state["command_line"] = _state["held"]
         return _state["held"]
     return False
+
+
+def is_command_line() -> bool:
+    """Whether this process is the ``pbrdf`` command line and holds SIGINT
+    for it (:func:`hold_for_command_line`)."""
+    return _state["command_line"]
+
+
+def settle():
+    """The command's outcome is decided (its outputs are written, or its error
+    or interruption is being reported). On the command line a SIGINT from now
+    on is ignored (``SIG_IGN``), to the end of the process: the interpreter's
+    shutdown (Dr.Jit's and Mitsuba's, a second or more on a busy machine)
+    restores the default action for a Python handler, and a SIGINT then would
+    kill a command that has finished, with the shell's status 130 and its new
+    outputs in place. Elsewhere (a Python session): :func:`release`, a SIGINT
+    that came meanwhile forgotten. Idempotent."""
+    _state["pending"] = False
+    if _state["command_line"] and _main_thread():
+        if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        _state["held"] = False
+        return
+    release()
 
 
 def interrupted(error: BaseException) -> bool:

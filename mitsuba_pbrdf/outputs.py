@@ -150,8 +150,8 @@ def together():
                 with contextlib.suppress(OSError):
                     os.unlink(tmp)
         _together["on"], _together["files"] = False, []
-        if not outer_hold:
-            interrupts.release()
+        if not outer_hold and not (committed and interrupts.is_command_line()):
+            interrupts.release()  # on the command line the outputs are its last act: still held
 
 
 def write_bytes(path, data: bytes) -> str:

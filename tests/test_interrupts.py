@@ -110,6 +110,60 @@ def test_a_keyboard_interrupt_wrapped_by_drjit_is_an_interruption(capfd):
     assert err.strip().splitlines()[-1] == "pbrdf recover-normals: interrupted"
 
 
+def test_on_the_command_line_a_sigint_after_the_outputs_changes_nothing(tmp_path, capfd, monkeypatch):
+    """Once together() has replaced the outputs the command has finished: on
+    the command line SIGINT stays held to the end, then is ignored (SIG_IGN
+    survives the interpreter's shutdown, a Python handler does not), so a
+    late Ctrl-C neither reports an interruption nor kills the process."""
+    from mitsuba_pbrdf.cli.common import run_command
+
+    monkeypatch.setitem(interrupts._state, "command_line", True)
+    target = write_text(tmp_path / "a.txt", "old\n")
+
+    def command(args):
+        with together():
+            write_text(target, "new\n")
+        assert interrupts.is_held()     # still held after the commit
+        _sigint_now()                   # recorded, not raised
+        print("wrote a.txt")
+        return 0
+
+    try:
+        assert run_command(command, None, "render") == 0
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        _sigint_now()                   # ignored to the end of the process
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    assert open(target).read() == "new\n"
+    out, err = capfd.readouterr()
+    assert out == "wrote a.txt\n" and err == ""
+
+
+def test_on_the_command_line_an_error_or_interruption_ends_with_sigint_ignored(capfd, monkeypatch):
+    from mitsuba_pbrdf.cli.common import CliError, run_command
+
+    monkeypatch.setitem(interrupts._state, "command_line", True)
+
+    def failing(args):
+        raise CliError("--spp: must be positive")
+
+    def interrupted_while_failing(args):
+        interrupts.hold()
+        _sigint_now()
+        raise CliError("--spp: must be positive")
+
+    try:
+        assert run_command(failing, None, "render") == 2
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        assert run_command(interrupted_while_failing, None, "render") == 130
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    err = capfd.readouterr().err.splitlines()
+    assert err == ["pbrdf render: error: --spp: must be positive", "pbrdf render: interrupted"]
+
+
 @pytest.mark.parametrize("orig_argv, argv0, holds", [
     (["python", "-m", "mitsuba_pbrdf", "render"], "-m", True),
     (["/venv/bin/python", "/venv/bin/pbrdf", "fit"], "/venv/bin/pbrdf", True),
@@ -174,6 +228,22 @@ def _recover(out):
 
 COMMANDS = {"render": _render, "render --bands": _bands, "fit": _fit, "batch": _batch,
             "recover-normals": _recover}
+
+
+@pytest.mark.slow
+def test_a_sigint_once_the_outputs_are_written_lets_the_command_finish(tmp_path):
+    """SIGINT the moment ``pbrdf render``'s PNG appears (the EXR and PNG are
+    replaced together, last): the command has finished, so it exits 0 with
+    both outputs complete. (Before, Python's shutdown, which takes a second
+    on this machine, restored SIGINT's default action and the process died
+    of the signal: the shell's status 130 for a finished render.)"""
+    from mitsuba_pbrdf.stokes.exr import read_stokes_exr
+    from proof.interrupt import interrupt_once_output_exists
+
+    args, _ = _render(str(tmp_path))
+    result = interrupt_once_output_exists(args, tmp_path, "r.png")
+    assert result.returncode == 0, (result.returncode, result.stderr)
+    assert "r.png" in result.stdout and read_stokes_exr(str(tmp_path / "r.exr")).width == 48
 
 
 @pytest.mark.slow

@@ -26,7 +26,7 @@ import sys
 from typing import Optional
 
 from ..errors import ParameterError, describe_error, one_line
-from ..interrupts import discard, interrupted, release
+from ..interrupts import discard, hold, interrupted, pending, release, settle
 
 PROG = "pbrdf"
 EXIT_ERROR = 2
@@ -63,16 +63,20 @@ def run_command(func, args, command: str) -> int:
         try:
             status = func(args)
         except BaseException:
-            release()  # a SIGINT that came while held wins over the error
+            hold()               # the outcome is decided: a SIGINT from now on is recorded
+            if pending():        # one that came while held wins over the error
+                discard()
+                raise KeyboardInterrupt from None
             raise
-        discard()      # done: every output is written, a late SIGINT changes nothing
-        release()
+        settle()                 # done: every output is written, a late SIGINT changes nothing
         return status
     except KeyboardInterrupt:
+        settle()
         sys.stdout.flush()
         print(f"{prefix}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (CliError, OSError, ValueError, RuntimeError, MemoryError) as e:
+        settle()
         if interrupted(e):  # Ctrl-C that Dr.Jit or Mitsuba wrapped (dr.while_loop ...)
             sys.stdout.flush()
             print(f"{prefix}: interrupted", file=sys.stderr)
@@ -80,9 +84,12 @@ def run_command(func, args, command: str) -> int:
         print(f"{prefix}: error: {option_message(e, args)}", file=sys.stderr)
         return EXIT_ERROR
     except Exception as e:  # a bug: still one line, and how to see more
+        settle()
         print(f"{prefix}: internal error: {type(e).__name__}: {describe_error(e)} "
               f"(set {TRACEBACK_VARIABLE}=1 for the traceback)", file=sys.stderr)
         return EXIT_INTERNAL
+    finally:
+        settle()  # also for SystemExit and the like, which pass through
 
 
 def version_text() -> str:
