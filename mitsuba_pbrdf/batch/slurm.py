@@ -20,7 +20,6 @@ those it knows, then whatever is still queued under the sweep's own job name
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import logging
 import os
@@ -282,6 +281,24 @@ def _why_ended(job: str) -> str:
     return job_ended(job, job_states([job]).get(job, {}))
 
 
+def _first_worker_joined(client, keeper: Keeper, timeout: float) -> bool:
+    """Whether a worker joined within *timeout* s. A worker that joined and was
+    lost at once counts (it started; the keeper replaces it): waiting for one
+    to be present, as ``Client.wait_for_workers`` does, can miss every worker
+    that lives less than its poll interval and then wait out *timeout* after
+    the keeper has given up. Raises :class:`SlurmError` with the keeper's line
+    when it gives up first."""
+    deadline = time.monotonic() + timeout
+    while True:
+        if keeper.error:
+            raise SlurmError(keeper.error)
+        if _worker_jobs(client) or client.scheduler_info().get("workers"):
+            return True
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.1)
+
+
 def _session(cluster_class, options: SlurmOptions, partition: str, log_directory: str,
              done, on_give_up):
     """The body of :func:`connect_slurm` (a generator it delegates to)."""
@@ -304,9 +321,7 @@ def _session(cluster_class, options: SlurmOptions, partition: str, log_directory
                             done=done, why_ended=_why_ended, on_give_up=on_give_up,
                             logs=log_directory)
             keeper.start()
-            try:
-                client.wait_for_workers(1, timeout=options.start_timeout)
-            except (TimeoutError, asyncio.TimeoutError):
+            if not _first_worker_joined(client, keeper, options.start_timeout):
                 queued = _queued(job_name)
                 why = ", ".join(sorted({f"{s} ({r})" for _, s, r in queued})) or \
                     "no job in the queue: sbatch failed, see the logs in " + log_directory
