@@ -1,5 +1,5 @@
 """Does submitting a sweep as one graph in its order
-(:mod:`mitsuba_pbrdf.batch.priority`: "ordered") slow a sweep without faults,
+(:mod:`mitsuba_pbrdf.batch.runner`: "ordered") slow a sweep without faults,
 against the submission before it ("equal": one ``client.submit`` per job,
 one priority for all)? Runs the same sweep both ways, interleaved, on one
 local cluster of 2 workers kept for all runs (its start is not timed), after
@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))
 
 from mitsuba_pbrdf.batch import runner  # noqa: E402
 from mitsuba_pbrdf.batch.cluster import connect  # noqa: E402
-from mitsuba_pbrdf.batch.priority import submit_in_order  # noqa: E402
+from mitsuba_pbrdf.batch.runner import submit_in_order  # noqa: E402
 from mitsuba_pbrdf.batch.sweep import load_sweep  # noqa: E402
 
 SPHERE = ROOT / "scenes" / "gallery" / "sphere.xml"

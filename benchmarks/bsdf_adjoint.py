@@ -13,7 +13,7 @@ time, the first repetition left out: it compiles):
 
 * Stokes-basis rotations: Mitsuba's (``mi.mueller.rotate_mueller_basis`` for
   the facet's Fresnel matrix, ``si.to_world_mueller``; an inverse sine and
-  ``sincos`` each) or :mod:`mitsuba_pbrdf.plugin.rotators` (dot and cross
+  ``sincos`` each) or :mod:`mitsuba_pbrdf.mueller` (dot and cross
   products);
 * forward only, or forward and adjoint (``dr.backward_from`` in the loop);
 * the BSDF called directly, or through the surface's BSDF pointer (a
@@ -68,7 +68,8 @@ def build(lanes):
 def kernel(bsdf, si0, ray, lanes, ours, adjoint, symbolic_call):
     """A function running the benchmark loop once; returns its accumulator."""
     from mitsuba_pbrdf.integrators.replay import mueller_times, stokes_dot
-    from mitsuba_pbrdf.plugin import fresnel, rotators
+    from mitsuba_pbrdf import mueller as rotators
+    from mitsuba_pbrdf.bsdfs import fresnel
 
     @dr.syntax
     def run(mueller_times=mueller_times, stokes_dot=stokes_dot, rotators=rotators, bsdf=bsdf,

@@ -58,7 +58,7 @@ def main(argv=None):
 
     from mitsuba_pbrdf import inverse
     from mitsuba_pbrdf.stokes import from_mitsuba, write_stokes_exr
-    from mitsuba_pbrdf.pictures.panels import save_overview_png
+    from mitsuba_pbrdf.visualization.panels import save_overview_png
 
     # A pbrdf sphere lit by two soft boxes and a dim sky, inside the stokes
     # integrator ("direct": one bounce, the cheapest to differentiate).

@@ -37,7 +37,7 @@ import numpy as np
 
 from mitsuba_pbrdf.rendering import render_scene
 from mitsuba_pbrdf.stokes import write_stokes_exr
-from mitsuba_pbrdf.pictures.panels import save_overview_png
+from mitsuba_pbrdf.visualization.panels import save_overview_png
 from mitsuba_pbrdf.stokes.image import aolp, dolp, luminance_stokes
 
 #: x0, y0, x1, y1 as fractions of the image width and height (y downwards).

@@ -15,14 +15,14 @@ variant (the plugin, rendering) says what to type when none is set.
 
 Sub-packages, one concern each:
 
-* :mod:`~mitsuba_pbrdf.plugin`: the Dr.Jit BSDF ``pbrdf`` (never imports the reference);
+* :mod:`~mitsuba_pbrdf.bsdfs`: the Dr.Jit BSDF ``pbrdf`` (never imports the reference);
 * :mod:`~mitsuba_pbrdf.reference`: the NumPy float64 reference evaluator (NumPy only);
 * :mod:`~mitsuba_pbrdf.frames`: any Mitsuba BSDF in the reference's frames;
 * :mod:`~mitsuba_pbrdf.rendering`: rendering a scene file in passes, narrow bands;
 * :mod:`~mitsuba_pbrdf.stokes`: Stokes images and their EXR files;
-* :mod:`~mitsuba_pbrdf.pictures`: pictures of Stokes images (panels, PNG);
+* :mod:`~mitsuba_pbrdf.visualization`: pictures of Stokes images (panels, PNG);
 * :mod:`~mitsuba_pbrdf.camera`: what a polarization camera records;
-* :mod:`~mitsuba_pbrdf.figures`: pBRDF plots and the scene gallery;
+* :mod:`~mitsuba_pbrdf.visualization`: pBRDF plots and the scene gallery;
 * :mod:`~mitsuba_pbrdf.measured`: measured-data files (goniometer CSV);
 * :mod:`~mitsuba_pbrdf.fitting`: least-squares fits of the model to measurements;
 * :mod:`~mitsuba_pbrdf.inverse`: gradients of rendered Stokes images, Adam fits;

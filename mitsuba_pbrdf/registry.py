@@ -39,10 +39,10 @@ log = logging.getLogger(__name__)
 #: Every Mitsuba plugin the package registers: (plugin kind, name in scene
 #: files, module, class). Each module sets ``VARIANT = mi.variant()``.
 PLUGINS = (
-    ("bsdf", "pbrdf", "mitsuba_pbrdf.plugin.bsdf", "PolarizedBRDF"),
+    ("bsdf", "pbrdf", "mitsuba_pbrdf.bsdfs.pbrdf", "PolarizedBRDF"),
     ("integrator", "stokes_prb", "mitsuba_pbrdf.integrators.stokes_prb", "StokesPRBIntegrator"),
-    ("bsdf", "polarized_normalmap", "mitsuba_pbrdf.shading.normalmap", "PolarizedNormalMap"),
-    ("bsdf", "polarized_bumpmap", "mitsuba_pbrdf.shading.bumpmap", "PolarizedBumpMap"),
+    ("bsdf", "polarized_normalmap", "mitsuba_pbrdf.bsdfs.normalmap", "PolarizedNormalMap"),
+    ("bsdf", "polarized_bumpmap", "mitsuba_pbrdf.bsdfs.bumpmap", "PolarizedBumpMap"),
     ("emitter", "polarized_sky", "mitsuba_pbrdf.emitters.polarized_sky", "PolarizedSky"),
     ("emitter", "stokes_envmap", "mitsuba_pbrdf.emitters.stokes_envmap", "StokesEnvmap"),
     ("emitter", "polarized_emitter", "mitsuba_pbrdf.emitters.polarized_emitter",

@@ -4,7 +4,7 @@ flags and a one-line doc.
 Pure Python, no imports beyond the standard library. Everything that takes a
 model parameter reads it from here:
 
-* the plugin (:mod:`mitsuba_pbrdf.plugin.bsdf`): which properties it reads and
+* the plugin (:mod:`mitsuba_pbrdf.bsdfs.pbrdf`): which properties it reads and
   checks, what ``traverse`` exposes with which flags, the lobe records and the
   parameter table of its docstring;
 * the reference evaluator's parameter record
@@ -18,7 +18,7 @@ model parameter reads it from here:
 
 The plugin and the reference still compute the model independently: only the
 names, defaults and bounds are shared. Adding a parameter means a line here and
-its physics in ``plugin/`` and ``reference/``.
+its physics in ``bsdfs/`` and ``reference/``.
 """
 
 from __future__ import annotations
@@ -319,7 +319,7 @@ def write_docs_table(path: str) -> None:
 
 def write_plugin_docstring_table(path: str) -> None:
     """Replace the ``.. list-table::`` in the docstring of the plugin module
-    *path* (``mitsuba_pbrdf/plugin/bsdf.py``) by :func:`rst_table`."""
+    *path* (``mitsuba_pbrdf/bsdfs/pbrdf.py``) by :func:`rst_table`."""
     with open(path, encoding="utf-8") as f:
         text = f.read()
     start = text.index(".. list-table::")
@@ -330,7 +330,7 @@ def write_plugin_docstring_table(path: str) -> None:
         f.write(text[:start] + rst_table().rstrip("\n") + text[end:])
 
 
-if __name__ == "__main__":  # python -m mitsuba_pbrdf.schema docs/plugin.md mitsuba_pbrdf/plugin/bsdf.py
+if __name__ == "__main__":  # python -m mitsuba_pbrdf.schema docs/plugin.md mitsuba_pbrdf/bsdfs/pbrdf.py
     import sys
 
     for target in sys.argv[1:]:

@@ -5,7 +5,7 @@
     python validation/mutation.py --defects [--tests-rev REV]           # the issue's named defects
     python validation/mutation.py --summary LABEL [LABEL ...]           # score, survivors of runs
 
-A mutant changes one thing in one module of ``mitsuba_pbrdf/plugin/`` or
+A mutant changes one thing in one module of ``mitsuba_pbrdf/bsdfs/`` or
 ``mitsuba_pbrdf/reference/`` (the operators of mutmut, applied with Python's
 ``ast``): ``+`` <-> ``-``, ``*`` <-> ``/``, ``**`` -> ``*``; ``<`` <-> ``<=``,
 ``>`` <-> ``>=``, ``==`` <-> ``!=``, ``is`` <-> ``is not``, ``in`` <-> ``not in``;
@@ -51,7 +51,16 @@ from .mutation_tables import DEFECTS, EQUIVALENT, SUBSETS  # noqa: F401 (re-expo
 #: The repository: the folder that holds proof/ (this file's folder) and the package.
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-PACKAGES = ("mitsuba_pbrdf/plugin", "mitsuba_pbrdf/reference")
+#: The study's population: the pbrdf plugin's modules (with the Stokes rotations
+#: it calls) and the reference evaluator's, by the name of their test subset.
+STUDIED = {
+    "plugin": [f"mitsuba_pbrdf/bsdfs/{name}.py"
+               for name in ("fresnel", "ior", "lobes", "microfacet", "params", "pbrdf")]
+              + ["mitsuba_pbrdf/mueller.py"],
+    "reference": sorted(f"mitsuba_pbrdf/reference/{name}"
+                        for name in os.listdir(os.path.join(ROOT, "mitsuba_pbrdf", "reference"))
+                        if name.endswith(".py")),
+}
 
 BINOPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
           ast.Pow: ast.Mult, ast.FloorDiv: ast.Div, ast.Mod: ast.Div}
@@ -208,11 +217,15 @@ def mutated_source(m):
 
 def all_mutants():
     out = []
-    for package in PACKAGES:
-        for name in sorted(os.listdir(os.path.join(ROOT, package))):
-            if name.endswith(".py"):
-                out.extend(mutants_of(f"{package}/{name}"))
+    for paths in STUDIED.values():
+        for path in paths:
+            out.extend(mutants_of(path))
     return out
+
+
+def study_of(path: str) -> str:
+    """The population (a key of :data:`STUDIED` and :data:`SUBSETS`) a file belongs to."""
+    return next(key for key, paths in STUDIED.items() if path in paths)
 
 
 # ---------------------------------------------------------------------------
@@ -270,7 +283,7 @@ def run_tests(folder, tests, timeout, stop_first=True):
 
 
 def subset_for(path):
-    return SUBSETS[path.split("/")[1]]
+    return SUBSETS[study_of(path)]
 
 
 def run_mutant(m, folder, timeout):
@@ -293,7 +306,7 @@ def run_study(mutants, jobs, tests_rev, progress=True, timeout_factor=3.0):
     unmutated run (at least 60 s)."""
     folders = [make_copy(tests_rev) for _ in range(jobs)]
     baseline = {}
-    for package in sorted({m.path.split("/")[1] for m in mutants}):
+    for package in sorted({study_of(m.path) for m in mutants}):
         status, seconds, last = run_tests(folders[0], SUBSETS[package], timeout=3600)
         if status != "survived":
             raise SystemExit(f"mutation.py: the unmutated {package} subset fails: {last}")
@@ -305,7 +318,7 @@ def run_study(mutants, jobs, tests_rev, progress=True, timeout_factor=3.0):
     def work(m):
         folder = free.pop()
         try:
-            limit = max(60.0, timeout_factor * baseline[m.path.split("/")[1]])
+            limit = max(60.0, timeout_factor * baseline[study_of(m.path)])
             return run_mutant(m, folder, timeout=limit)
         finally:
             free.append(folder)

@@ -10,35 +10,35 @@ SUBSETS = {
 }
 #: Survivors that no test can kill, with the reason (validation/mutation.md).
 EQUIVALENT = {
-    'mitsuba_pbrdf/plugin/bsdf.py::_define_class.PolarizedBRDF._eval_pdf: want_pdf and probs is None -> want_pdf or probs is None':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF._eval_pdf: want_pdf and probs is None -> want_pdf or probs is None':
         'recomputes the same lobe probabilities (slower only)',
-    'mitsuba_pbrdf/plugin/bsdf.py::_read_ior: 0.0 -> 1.0':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_read_ior: 0.0 -> 1.0':
         'default of eta in a branch that requires eta: unreachable',
-    'mitsuba_pbrdf/plugin/bsdf.py::_read_ior: 0.0 -> 1.0 #2':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_read_ior: 0.0 -> 1.0 #2':
         'default of k in a branch that requires k: unreachable',
-    'mitsuba_pbrdf/plugin/bsdf.py::_define_class.PolarizedBRDF.sample: 0.0 -> 1.0':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.sample: 0.0 -> 1.0':
         'start value of wo: every active lane is overwritten, inactive ones have weight 0',
-    'mitsuba_pbrdf/plugin/bsdf.py::_define_class.PolarizedBRDF.sample: 0.0 -> 1.0 #4':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.sample: 0.0 -> 1.0 #4':
         '_sample_record zeroes the pdf of the (inactive) empty record',
-    'mitsuba_pbrdf/plugin/bsdf.py::_define_class.PolarizedBRDF.sample: sample1 < cdf + prob -> sample1 <= cdf + prob':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.sample: sample1 < cdf + prob -> sample1 <= cdf + prob':
         'moves a lobe boundary by one float32 value (probability <= 2^-24; weight stays value / mixture pdf)',
-    'mitsuba_pbrdf/plugin/bsdf.py::_define_class.PolarizedBRDF.sample: sample1 >= cdf -> sample1 > cdf #2':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.sample: sample1 >= cdf -> sample1 > cdf #2':
         'moves a lobe boundary by one float32 value (probability <= 2^-24)',
-    'mitsuba_pbrdf/plugin/bsdf.py::_define_class.PolarizedBRDF.sample: -1 -> 1':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.sample: -1 -> 1':
         'moves the guard at the top of the cdf: only samples above the rounded sum of probabilities',
-    'mitsuba_pbrdf/plugin/bsdf.py::_define_class.PolarizedBRDF._parameter_table: True -> False #2':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF._parameter_table: True -> False #2':
         'widths keep minimum = MIN_SIGMA > 0, which refuses 0 and negatives',
-    'mitsuba_pbrdf/plugin/bsdf.py::_define_class.PolarizedBRDF.__init__: False -> True #2':
+    'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.__init__: False -> True #2':
         'NOT equivalent for an RGB colour above 1 as sigma_dd (refused vs accepted); not a documented input',
-    'mitsuba_pbrdf/plugin/fresnel.py::fresnel_amplitudes: 0.0 * c -> 0.0 / c':
+    'mitsuba_pbrdf/bsdfs/fresnel.py::fresnel_amplitudes: 0.0 * c -> 0.0 / c':
         'c > 0 on every active lane: 0 / c = 0 * c',
-    'mitsuba_pbrdf/plugin/lobes.py::MicrofacetLobe.eval_pdf: 0.0 -> 1.0':
+    'mitsuba_pbrdf/bsdfs/lobes.py::MicrofacetLobe.eval_pdf: 0.0 -> 1.0':
         'cos(beta) = |wi + wo| / 2 > 0 on every active lane',
-    'mitsuba_pbrdf/plugin/params.py::: 1024 -> 1025':
+    'mitsuba_pbrdf/bsdfs/params.py::: 1024 -> 1025':
         "resolution cap of the check's grid for bitmaps over 1024^2",
-    'mitsuba_pbrdf/plugin/params.py::check_texture_values: low < minimum -> low <= minimum':
+    'mitsuba_pbrdf/bsdfs/params.py::check_texture_values: low < minimum -> low <= minimum':
         'no float32 texture value equals MIN_SIGMA (float64)',
-    'mitsuba_pbrdf/plugin/params.py::_evaluated_values: 4 -> 5 #4':
+    'mitsuba_pbrdf/bsdfs/params.py::_evaluated_values: 4 -> 5 #4':
         '24 wavelengths: the padding of the last block stays empty',
     "mitsuba_pbrdf/reference/geometry.py::_geometry: g['cos_b'] > 0 -> g['cos_b'] >= 0":
         'cos(beta) > 0 for every float64 angle input',
@@ -78,29 +78,29 @@ _GRAD = "tests/test_gradients.py::test_rendered_stokes_loss_gradient_matches_fin
 #: suite's tests it was named for (``--tests-rev``; they passed on it).
 DEFECTS = [
     _defect("Lobe selection: specular lobe picked without its Fresnel factor",
-            "mitsuba_pbrdf/plugin/bsdf.py", "                if lobe.polarizing:",
+            "mitsuba_pbrdf/bsdfs/pbrdf.py", "                if lobe.polarizing:",
             "                if lobe.polarizing and False:",
             [_FREQ, _MIX + "test_pdf_is_the_documented_mixture_of_lobe_pdfs"],
             ["tests/test_bsdf.py::test_components_sum_to_total_and_can_be_selected",
              "tests/test_bsdf.py::test_sampled_component_and_type"]),
-    _defect("Lobe selection: uniform lobe probabilities", "mitsuba_pbrdf/plugin/bsdf.py",
+    _defect("Lobe selection: uniform lobe probabilities", "mitsuba_pbrdf/bsdfs/pbrdf.py",
             "estimates[lobe.index] = dr.maximum(dr.mean(estimate, axis=0), 0.0)",
             "estimates[lobe.index] = mi.Float(1.0)",
             [_FREQ, _MIX + "test_pdf_is_the_documented_mixture_of_lobe_pdfs"],
             ["tests/test_bsdf.py::test_components_sum_to_total_and_can_be_selected",
              "tests/test_bsdf.py::test_sampled_component_and_type"]),
-    _defect("Circular weight test: G dropped from a lobe", "mitsuba_pbrdf/plugin/lobes.py",
+    _defect("Circular weight test: G dropped from a lobe", "mitsuba_pbrdf/bsdfs/lobes.py",
             "value = D * G * half.inv_4cos_i", "value = D * half.inv_4cos_i",
             [_WEIGHT], [_OLD_WEIGHT + "[TransportMode.Radiance-full-vgroove]"]),
-    _defect("Circular weight test: 1 / (4 cos_o) in the pdf", "mitsuba_pbrdf/plugin/lobes.py",
+    _defect("Circular weight test: 1 / (4 cos_o) in the pdf", "mitsuba_pbrdf/bsdfs/lobes.py",
             "visible_g1(distribution, si.wi) * half.inv_4cos_i",
             "visible_g1(distribution, si.wi) * dr.rcp(4.0 * mi.Frame3f.cos_theta(wo))",
             [_WEIGHT], [_OLD_WEIGHT + "[TransportMode.Radiance-full-vgroove]"]),
-    _defect("Circular weight test: G1(wo) in the pdf", "mitsuba_pbrdf/plugin/lobes.py",
+    _defect("Circular weight test: G1(wo) in the pdf", "mitsuba_pbrdf/bsdfs/lobes.py",
             "visible_g1(distribution, si.wi) * half.inv_4cos_i",
             "visible_g1(distribution, wo) * half.inv_4cos_i",
             [_WEIGHT], [_OLD_WEIGHT + "[TransportMode.Radiance-full-vgroove]"]),
-    _defect("Circular cosine-sampling weight test: G dropped", "mitsuba_pbrdf/plugin/lobes.py",
+    _defect("Circular cosine-sampling weight test: G dropped", "mitsuba_pbrdf/bsdfs/lobes.py",
             "value = D * G * half.inv_4cos_i", "value = D * half.inv_4cos_i",
             ["tests/test_sampling.py::test_cosine_sampling_weight_and_pdf"],
             ["tests/test_sampling.py::test_cosine_sampling_weight_and_pdf"]),
@@ -118,7 +118,7 @@ DEFECTS = [
             "        opt.step()", "        pass  # no step",
             ["tests/test_inverse.py::test_polarization_makes_n_k_ks_identifiable"],
             ["tests/test_inverse.py::test_polarization_makes_n_k_ks_identifiable"]),
-    _defect("Normal incidence: M33 with the wrong sign", "mitsuba_pbrdf/plugin/fresnel.py",
+    _defect("Normal incidence: M33 with the wrong sign", "mitsuba_pbrdf/bsdfs/fresnel.py",
             "    M[3, 3] = C", "    M[3, 3] = -C",
             ["tests/test_robustness.py::test_normal_incidence_reflectance_is_fresnel"],
             ["tests/test_robustness.py::test_normal_incidence_reflectance_is_fresnel"]),
@@ -130,12 +130,12 @@ DEFECTS = [
             'mitsuba_variant("llvm_ad_spectral_polarized")', 'mitsuba_variant("llvm_ad_no_such")',
             ["tests/test_reference.py"], ["tests/test_reference.py"]),
     _defect("Accuracy test's floor: 0.3 % error in the specular lobe's tail (D < 1e-3 /sr)",
-            "mitsuba_pbrdf/plugin/lobes.py", "value = D * G * half.inv_4cos_i",
+            "mitsuba_pbrdf/bsdfs/lobes.py", "value = D * G * half.inv_4cos_i",
             "value = D * G * half.inv_4cos_i * dr.select(D < 1e-3, 1.003, 1.0)",
             ["tests/test_bsdf_vs_reference.py::test_plugin_matches_reference"],
             ["tests/test_bsdf_vs_reference.py::test_plugin_matches_reference"]),
     _defect("Fuzz accuracy: cos(beta) = wi.h (17 x error on nearly opposite pairs)",
-            "mitsuba_pbrdf/plugin/lobes.py", "mi.Frame3f.cos_theta(h), 0.5 * dr.norm(half),",
+            "mitsuba_pbrdf/bsdfs/lobes.py", "mi.Frame3f.cos_theta(h), 0.5 * dr.norm(half),",
             "mi.Frame3f.cos_theta(h), dr.dot(wi, h),",
             ["tests/test_fuzz.py::test_fixed_hostile_pairs_at_moderate_roughness_have_tight_bounds",
              "tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"],
@@ -145,22 +145,22 @@ DEFECTS = [
             "ACCURACY_UNITS = 128 * 10 ** 6",
             ["tests/test_fuzz.py::test_fuzz_covers_the_regions"],
             ["tests/test_fuzz.py::test_fuzz_covers_the_regions"]),
-    _defect("Transport modes differ by 1e-4", "mitsuba_pbrdf/plugin/bsdf.py",
+    _defect("Transport modes differ by 1e-4", "mitsuba_pbrdf/bsdfs/pbrdf.py",
             "value = dr.select(active, value, zero)",
             "value = dr.select(active, value * (1.0 + 1e-4 * (ctx.mode == mi.TransportMode.Importance)), zero)",
             ["tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"],
             ["tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"]),
-    _defect("Gradient: d/dkid with the wrong sign", "mitsuba_pbrdf/plugin/bsdf.py",
+    _defect("Gradient: d/dkid with the wrong sign", "mitsuba_pbrdf/bsdfs/pbrdf.py",
             "weight = lobe.weight.eval(si, active) * value",
             "weight = (2 * dr.detach(lobe.weight.eval(si, active)) - lobe.weight.eval(si, active) if lobe.name == 'ideal_diffuse' else lobe.weight.eval(si, active)) * value",
             [_GRAD], [_GRAD]),
     _defect("Unbiasedness: Smith lobes' pdf with Mitsuba's approximate Beckmann G1",
-            "mitsuba_pbrdf/plugin/lobes.py",
+            "mitsuba_pbrdf/bsdfs/lobes.py",
             "pdf = prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i",
             "pdf = prob * D * (distribution.smith_g1(si.wi, mi.Vector3f(0.0, 0.0, 1.0)) if self.shadowing == 'smith' else visible_g1(distribution, si.wi)) * half.inv_4cos_i",
             [_UNBIASED], ["tests/test_physics.py::test_sample_weights_are_unbiased_for_beckmann_lobes",
                           "tests/test_physics.py::test_albedo_of_each_lobe_plugin_sampling_vs_reference_quadrature"]),
-    _defect("Unbiasedness: every lobe pdf 0.3 % high", "mitsuba_pbrdf/plugin/lobes.py",
+    _defect("Unbiasedness: every lobe pdf 0.3 % high", "mitsuba_pbrdf/bsdfs/lobes.py",
             "pdf = prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i",
             "pdf = 1.003 * prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i",
             [_UNBIASED], ["tests/test_physics.py::test_sample_weights_are_unbiased_for_beckmann_lobes",

@@ -50,7 +50,7 @@ def figure(runs, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mitsuba_pbrdf.pictures.png import save_png
+    from mitsuba_pbrdf.visualization.png import save_png
 
     by = {str(r["name"]): r for r in runs}
     fig, axes = plt.subplots(2, 3, figsize=(15, 9))

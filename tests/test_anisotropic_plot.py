@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf.figures.pbrdf_plots import PBRDFParams, hemisphere, pbrdf_figure
+from mitsuba_pbrdf.visualization.pbrdf_plots import PBRDFParams, hemisphere, pbrdf_figure
 
 ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
 BRUSHED = PBRDFParams(material="Al", sigma_u=0.3, sigma_v=0.03)

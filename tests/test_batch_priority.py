@@ -1,5 +1,5 @@
 """A job whose worker was lost runs again before any job that has not
-started (:mod:`mitsuba_pbrdf.batch.priority`), on the sweep's own local
+started (:mod:`mitsuba_pbrdf.batch.runner`), on the sweep's own local
 cluster settings (:func:`mitsuba_pbrdf.batch.cluster.connect`: one thread per
 worker, ``worker-saturation = 1.0``, so each worker holds only the job it
 runs), with plain Python tasks instead of renders so that it takes seconds.
@@ -22,7 +22,7 @@ import uuid
 import pytest
 
 from mitsuba_pbrdf.batch.cluster import connect
-from mitsuba_pbrdf.batch.priority import submit_in_order
+from mitsuba_pbrdf.batch.runner import submit_in_order
 
 JOBS = 12
 

@@ -317,7 +317,7 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
     assert 1 <= len(cancel) <= 2 and 1 <= len(timeout) <= 2, notes
     # every lost job ran again and is done before the interrupt: the runner submits the jobs
     # as one graph in the sweep's order, each with a priority of its own
-    # (mitsuba_pbrdf.batch.priority), so a lost job comes before every job that has not
+    # (mitsuba_pbrdf.batch.runner), so a lost job comes before every job that has not
     # started and Dask sends it to the next free worker. 8 new outputs after the walltime leave room for up to 4 lost jobs (2 per
     # worker, and both workers may reach the walltime at one check of Slurm: their renders
     # again are new outputs), a render running on the other worker at the loss, and a

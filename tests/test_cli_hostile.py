@@ -428,8 +428,8 @@ def test_unpolarized_variant_is_refused_before_loading_the_scene(files, capfd, m
 def test_unusable_pixels_are_counted_and_marked(files, capfd, tmp_path):
     """Some non-finite, negative and over-polarized pixels: exit 0, one warning
     line with the counts, and the picture paints them in each panel's marker."""
-    from mitsuba_pbrdf.pictures.colours import MARKERS
-    from mitsuba_pbrdf.pictures.panels import overview_figure
+    from mitsuba_pbrdf.visualization.colours import MARKERS
+    from mitsuba_pbrdf.visualization.panels import overview_figure
     from mitsuba_pbrdf.stokes.quality import assess
 
     path = stokes_exr(tmp_path / "bad.exr", some_bad)

@@ -12,7 +12,7 @@ import pytest
 from mitsuba_pbrdf.camera.polcam import SensorModel, mono_mosaic, polcam_outputs
 from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.errors import ParameterError
-from mitsuba_pbrdf.pictures.cube_sheet import parse_region, stokes_spectrum
+from mitsuba_pbrdf.visualization.cube_sheet import parse_region, stokes_spectrum
 from mitsuba_pbrdf.rendering.bands import parse_bands
 from mitsuba_pbrdf.rendering.cube import cube_image
 from mitsuba_pbrdf.stokes.exr import read_exr_channels, read_stokes_exr, write_stokes_exr
@@ -177,7 +177,7 @@ def test_cube_sheet_shares_one_dolp_scale_and_its_titles_do_not_collide():
     every band is drawn on one scale (0-0.5), so the least polarized band looks
     the least polarized; per band, the first spans a scale 2.5 x narrower. The
     three titles of a row do not overlap when drawn."""
-    from mitsuba_pbrdf.pictures.cube_sheet import cube_sheet_figure, shared_dolp_limit
+    from mitsuba_pbrdf.visualization.cube_sheet import cube_sheet_figure, shared_dolp_limit
 
     image = known_cube()
     assert shared_dolp_limit(image) == 0.5

@@ -148,7 +148,7 @@ def test_the_option_check_reads_the_docs():
 
 
 def test_gallery_help_lists_every_gallery_item():
-    from mitsuba_pbrdf.figures.gallery import GALLERY_ITEMS
+    from mitsuba_pbrdf.visualization.gallery import GALLERY_ITEMS
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")

@@ -1,4 +1,4 @@
-"""The scene gallery (scenes/gallery, mitsuba_pbrdf.figures.gallery): tiny renders of
+"""The scene gallery (scenes/gallery, mitsuba_pbrdf.visualization.gallery): tiny renders of
 every gallery scene, Malus's law on the polarizer renders, and the committed
 README pictures."""
 
@@ -10,8 +10,8 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf.figures import gallery
-from mitsuba_pbrdf.figures.gallery import (
+from mitsuba_pbrdf.visualization import gallery
+from mitsuba_pbrdf.visualization.gallery import (
                                            POLARIZER_ANGLES,
                                            _Settings,
                                            polarization_camera_stokes,

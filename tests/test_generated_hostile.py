@@ -64,11 +64,11 @@ BASE = {
 
 #: Where each command's long work starts: (module, function) replaced by the stub.
 WORK = [("mitsuba_pbrdf.rendering.render", "render_request"),
-        ("mitsuba_pbrdf.pictures.panels", "save_overview_png"),
-        ("mitsuba_pbrdf.pictures.cube_sheet", "save_cube_sheet"),
+        ("mitsuba_pbrdf.visualization.panels", "save_overview_png"),
+        ("mitsuba_pbrdf.visualization.cube_sheet", "save_cube_sheet"),
         ("mitsuba_pbrdf.camera.polcam", "write_polcam_files"),
-        ("mitsuba_pbrdf.figures.pbrdf_plots", "save_pbrdf_plot"),
-        ("mitsuba_pbrdf.figures.gallery", "run_gallery"),
+        ("mitsuba_pbrdf.visualization.pbrdf_plots", "save_pbrdf_plot"),
+        ("mitsuba_pbrdf.visualization.gallery", "run_gallery"),
         ("mitsuba_pbrdf.fitting", "fit_models"),
         ("mitsuba_pbrdf.measured.export", "export_pbsdf"),
         ("mitsuba_pbrdf.batch.runner", "run_sweep"),
@@ -180,7 +180,7 @@ def stubbed(monkeypatch):
 
     # modules that import a stubbed function by name at their own import: import
     # them first, so that they keep the real one after this test
-    for module in ("mitsuba_pbrdf.figures.gallery", "mitsuba_pbrdf.inverse",
+    for module in ("mitsuba_pbrdf.visualization.gallery", "mitsuba_pbrdf.inverse",
                    "mitsuba_pbrdf.batch", "mitsuba_pbrdf.fitting"):
         importlib.import_module(module)
     for module, name in WORK:

@@ -49,9 +49,9 @@ def imported_modules(folder):
 
 
 def test_plugin_never_imports_the_reference():
-    for name, modules in imported_modules("plugin").items():
+    for name, modules in imported_modules("bsdfs").items():
         bad = [m for m in modules if m.startswith("mitsuba_pbrdf.reference")]
-        assert not bad, f"plugin/{name} imports {bad}"
+        assert not bad, f"bsdfs/{name} imports {bad}"
 
 
 def test_reference_imports_numpy_and_the_standard_library_only():
@@ -70,12 +70,12 @@ def test_reference_imports_numpy_and_the_standard_library_only():
 def test_the_import_scan_sees_a_forbidden_import(tmp_path, monkeypatch):
     """The scan above resolves relative imports: a plugin module importing the
     reference would be caught."""
-    folder = tmp_path / "mitsuba_pbrdf" / "plugin"
+    folder = tmp_path / "mitsuba_pbrdf" / "bsdfs"
     folder.mkdir(parents=True)
     (folder / "bad.py").write_text("from ..reference import pbrdf\nfrom . import lobes\n")
     monkeypatch.setattr(sys.modules[__name__], "PACKAGE", str(tmp_path / "mitsuba_pbrdf"))
-    found = imported_modules("plugin")["bad.py"]
-    assert "mitsuba_pbrdf.reference" in found and "mitsuba_pbrdf.plugin.lobes" in found
+    found = imported_modules("bsdfs")["bad.py"]
+    assert "mitsuba_pbrdf.reference" in found and "mitsuba_pbrdf.bsdfs.lobes" in found
 
 
 def test_reference_works_without_mitsuba():
@@ -95,7 +95,7 @@ def test_import_needs_no_variant_and_first_use_says_what_to_type():
                         "except mitsuba_pbrdf.VariantNotSetError as e:\n    print(e)")
     assert result.returncode == 0, result.stderr
     assert "mitsuba_pbrdf.use_variant('llvm_ad_spectral_polarized')" in result.stdout
-    result = run_python("import mitsuba_pbrdf.plugin.bsdf")
+    result = run_python("import mitsuba_pbrdf.bsdfs.pbrdf")
     assert result.returncode != 0
     assert "VariantNotSetError" in result.stderr
     assert "mitsuba_pbrdf.use_variant('llvm_ad_spectral_polarized')" in result.stderr

@@ -1,6 +1,6 @@
 """Mixture sampling checked against quantities the test computes itself.
 
-The plugin's docstring (mitsuba_pbrdf/plugin/bsdf.py) documents the rule:
+The plugin's docstring (mitsuba_pbrdf/bsdfs/pbrdf.py) documents the rule:
 lobe l is picked with probability p_l proportional to its albedo estimate for
 wi (ks times the unpolarized Fresnel reflectance at theta_i, kdd, kid; averaged
 over the wavelengths), the specular and directional diffuse lobes are sampled

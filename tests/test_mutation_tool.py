@@ -65,8 +65,10 @@ def test_each_mutant_changes_exactly_its_node_and_compiles(module):
 
 def test_the_study_population_is_the_plugin_and_the_reference():
     mutants = mutation.all_mutants()
-    paths = {m.path.split("/")[1] for m in mutants}
-    assert paths == {"plugin", "reference"}
+    studies = {mutation.study_of(m.path) for m in mutants}
+    assert studies == {"plugin", "reference"}
+    assert {m.path for m in mutants} >= {"mitsuba_pbrdf/bsdfs/pbrdf.py", "mitsuba_pbrdf/mueller.py",
+                                         "mitsuba_pbrdf/reference/model.py"}
     assert len(mutants) > 700
     sample = mutation.sample_mutants(mutants, 20, seed=0)
     assert sample == mutation.sample_mutants(mutants, 20, seed=0) and len(sample) == 20

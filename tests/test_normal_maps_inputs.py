@@ -145,9 +145,9 @@ def test_polarized_render_warns_once_about_mitsubas_wrapper(tmp_path, caplog, wr
         </bsdf></bsdf>
     </shape>
 </scene>""")
-    with caplog.at_level(logging.WARNING, logger="mitsuba_pbrdf.shading"):
+    with caplog.at_level(logging.WARNING, logger="mitsuba_pbrdf.bsdfs"):
         render_scene(tmp_path / "scene.xml", spp=1, variant="llvm_ad_spectral_polarized")
-    lines = [r.getMessage() for r in caplog.records if r.name.startswith("mitsuba_pbrdf.shading")]
+    lines = [r.getMessage() for r in caplog.records if r.name.startswith("mitsuba_pbrdf.bsdfs")]
     if expected is None:
         assert lines == []
     else:
@@ -160,7 +160,7 @@ def test_polarized_render_warns_once_about_mitsubas_wrapper(tmp_path, caplog, wr
 def test_plate_normal_map_is_what_the_generator_writes(tmp_path):
     """scenes/gallery/plate_normals.exr is write_hammered_normal_map's output
     (half floats: 1e-3 relative)."""
-    from mitsuba_pbrdf.figures.normalmap_plate import hammered_normals
+    from mitsuba_pbrdf.visualization.normalmap_plate import hammered_normals
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     stored = np.array(mi.Bitmap(os.path.join(root, "scenes", "gallery", "plate_normals.exr")),
@@ -172,7 +172,7 @@ def test_plate_normal_map_is_what_the_generator_writes(tmp_path):
 def test_gallery_plate_differs_in_aolp_only():
     """plate.xml with Mitsuba's normalmap and with ours, at the same seed: the
     same S0 (the same paths; float32 rounding), an AoLP that differs."""
-    from mitsuba_pbrdf.figures.normalmap_plate import aolp_difference
+    from mitsuba_pbrdf.visualization.normalmap_plate import aolp_difference
     from mitsuba_pbrdf.rendering import render_scene
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -337,7 +337,7 @@ def test_recovery_picture_shows_truth_fit_error_and_loss(tmp_path):
     the error map with unseen texels grey and out of the median, the loss)."""
     from PIL import Image
 
-    from mitsuba_pbrdf.figures.normal_recovery import recovery_figure, save_recovery_png
+    from mitsuba_pbrdf.visualization.normal_recovery import recovery_figure, save_recovery_png
     from mitsuba_pbrdf.inverse.normal_scenes import true_normals
 
     truth = true_normals(8)

@@ -206,7 +206,7 @@ def test_frame_convention_matches_renders_through_mitsubas_polarizer(tmp_path):
     would swap I45 and I135, an error of |S2| (checked to be well above 1 %)."""
     from pathlib import Path
 
-    from mitsuba_pbrdf.figures.gallery import _Settings, render_polarizer_images
+    from mitsuba_pbrdf.visualization.gallery import _Settings, render_polarizer_images
 
     settings = _Settings(scenes=Path(SCENES), out=tmp_path, exr_dir=None, spp=2, scale=0.2,
                          variant="llvm_ad_spectral_polarized", progress=False)
@@ -223,7 +223,7 @@ def test_frame_convention_matches_renders_through_mitsubas_polarizer(tmp_path):
 
 
 def test_polcam_figure_draws_eight_panels(tmp_path):
-    from mitsuba_pbrdf.figures.polcam_figure import _most_polarized_block, polcam_figure
+    from mitsuba_pbrdf.visualization.polcam_figure import _most_polarized_block, polcam_figure
 
     image = random_stokes(24, 32, seed=5, smooth=True)
     image.stokes[8:16, 12:20, 1] *= 3  # the most polarized block

@@ -1,4 +1,4 @@
-"""Stokes-basis rotations without trigonometry (mitsuba_pbrdf/plugin/rotators.py)
+"""Stokes-basis rotations without trigonometry (mitsuba_pbrdf/mueller.py)
 against Mitsuba's own ``mueller.rotate_mueller_basis`` and
 ``SurfaceInteraction3f.to_world_mueller``.
 
@@ -68,7 +68,7 @@ SPECIAL = np.array([0.0, 1e-6, -1e-6, 1e-3, math.pi / 2, -math.pi / 2, math.pi, 
 
 
 def test_rotate_mueller_basis_matches_mitsubas(polarized):
-    from mitsuba_pbrdf.plugin import rotators
+    from mitsuba_pbrdf import mueller
 
     rng = np.random.default_rng(3)
     n = 4096
@@ -80,14 +80,14 @@ def test_rotate_mueller_basis_matches_mitsubas(polarized):
     m = _random_mueller(rng, n)
     args = (m, _vectors(f_in), _vectors(cur_in), _vectors(tgt_in),
             _vectors(f_out), _vectors(cur_out), _vectors(tgt_out))
-    ours = _entries(rotators.rotate_mueller_basis(*args))
+    ours = _entries(mueller.rotate_mueller_basis(*args))
     theirs = _entries(mi.mueller.rotate_mueller_basis(*args))
     worst = np.max(np.abs(ours - theirs))
     assert worst < 2e-6, f"largest difference {worst:.3g}"
 
 
 def test_to_world_mueller_matches_mitsubas(polarized):
-    from mitsuba_pbrdf.plugin import rotators
+    from mitsuba_pbrdf import mueller
 
     rng = np.random.default_rng(5)
     n = 4096
@@ -99,7 +99,7 @@ def test_to_world_mueller_matches_mitsubas(polarized):
     axes = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, 1, 0], [0, -1, 0]], float)
     wo[:len(axes)], wi[:len(axes)] = axes, axes[::-1]
     m = _random_mueller(rng, n)
-    ours = _entries(rotators.to_world_mueller(si, m, _vectors(wo), _vectors(wi)))
+    ours = _entries(mueller.to_world_mueller(si, m, _vectors(wo), _vectors(wi)))
     theirs = _entries(si.to_world_mueller(m, _vectors(wo), _vectors(wi)))
     worst = np.max(np.abs(ours - theirs))
     assert worst < 2e-6, f"largest difference {worst:.3g}"
@@ -108,13 +108,13 @@ def test_to_world_mueller_matches_mitsubas(polarized):
 def test_rotator_entries_are_the_double_angle():
     """cos 2θ, sin 2θ for known angles θ, and a finite derivative at θ = 0
     (where the angle Mitsuba measures, 2 asin(|a - b| / 2), has none)."""
-    from mitsuba_pbrdf.plugin import rotators
+    from mitsuba_pbrdf import mueller
 
     rng = np.random.default_rng(7)
     angles = np.concatenate([SPECIAL, rng.uniform(-math.pi, math.pi, 1000)])
     forward = _unit(rng, len(angles))
     current, target = _basis_pairs(forward, angles, rng)
-    c2, s2 = rotators.rotator_entries(_vectors(forward), _vectors(current), _vectors(target))
+    c2, s2 = mueller.rotator_entries(_vectors(forward), _vectors(current), _vectors(target))
     assert np.allclose(np.array(c2), np.cos(2 * angles), atol=1e-6)
     assert np.allclose(np.array(s2), np.sin(2 * angles), atol=1e-6)
 
@@ -124,6 +124,6 @@ def test_rotator_entries_are_the_double_angle():
     f = mi.Vector3f(0.0, 0.0, 1.0)
     a = mi.Vector3f(1.0, 0.0, 0.0)
     b = mi.Vector3f(dr.cos(t), dr.sin(t), 0.0)
-    _, s = rotators.rotator_entries(f, a, b)
+    _, s = mueller.rotator_entries(f, a, b)
     dr.forward(t)
     assert dr.allclose(dr.grad(s), 2.0)

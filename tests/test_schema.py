@@ -33,8 +33,8 @@ def test_plugin_docstring_holds_the_table():
     for p in schema.PARAMETERS:
         assert f"``{p.name}``" in doc
     assert schema.rst_table() in doc, (
-        "plugin/bsdf.py's parameter table is out of date: run "
-        "`python -m mitsuba_pbrdf.schema mitsuba_pbrdf/plugin/bsdf.py`")
+        "bsdfs/pbrdf.py's parameter table is out of date: run "
+        "`python -m mitsuba_pbrdf.schema mitsuba_pbrdf/bsdfs/pbrdf.py`")
 
 
 @pytest.mark.parametrize("p", VALUED, ids=lambda p: p.name)
@@ -66,7 +66,7 @@ def plugin_reads():
     ``PolarizedBRDF.__init__`` (tuple targets included), read from the source."""
     import ast
 
-    path = os.path.join(ROOT, "mitsuba_pbrdf", "plugin", "bsdf.py")
+    path = os.path.join(ROOT, "mitsuba_pbrdf", "bsdfs", "pbrdf.py")
     tree = ast.parse(open(path, encoding="utf-8").read())
     cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "PolarizedBRDF")
     init = next(n for n in cls.body if isinstance(n, ast.FunctionDef) and n.name == "__init__")

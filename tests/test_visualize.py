@@ -1,5 +1,5 @@
-"""Pictures of Stokes images (mitsuba_pbrdf.pictures.panels) and pBRDF plots
-(mitsuba_pbrdf.figures.pbrdf_plots): the figures are built, saved and opened again, and the
+"""Pictures of Stokes images (mitsuba_pbrdf.visualization.panels) and pBRDF plots
+(mitsuba_pbrdf.visualization.pbrdf_plots): the figures are built, saved and opened again, and the
 numbers behind them are checked against the reference evaluator."""
 
 import math
@@ -10,7 +10,7 @@ import pytest
 from PIL import Image
 
 from mitsuba_pbrdf import reference
-from mitsuba_pbrdf.figures.pbrdf_plots import (
+from mitsuba_pbrdf.visualization.pbrdf_plots import (
                                                PBRDFParams,
                                                dop_unpolarized,
                                                hemisphere,
@@ -21,8 +21,8 @@ from mitsuba_pbrdf.figures.pbrdf_plots import (
 from mitsuba_pbrdf.stokes.image import StokesImage
 from matplotlib.figure import Figure
 
-from mitsuba_pbrdf.pictures.colours import nice_ceiling
-from mitsuba_pbrdf.pictures.panels import (
+from mitsuba_pbrdf.visualization.colours import nice_ceiling
+from mitsuba_pbrdf.visualization.panels import (
                                            PANEL_PRESETS,
                                            draw_aolp,
                                            draw_docp,
@@ -80,7 +80,7 @@ def test_python_pictures_take_the_command_lines_defaults(tmp_path):
     """save_overview_png without options draws what pbrdf view draws: one
     defaults table (DoLP scaled to the data, not 0-1), read by both."""
     from mitsuba_pbrdf.cli import build_parser
-    from mitsuba_pbrdf.pictures.defaults import PICTURE_DEFAULTS
+    from mitsuba_pbrdf.visualization.defaults import PICTURE_DEFAULTS
 
     parser = build_parser()
     view = parser.parse_args(["view", "x.exr"])
@@ -154,7 +154,7 @@ def test_aolp_colours_are_polanalysers_hue_wheel():
     """The AoLP panel's colours are those of polanalyser's applyColorToAoLP
     (hue = AoLP / 180 deg, full saturation and value) up to its 8-bit
     rounding, no angle is dark, and grey marks DoLP below the threshold."""
-    from mitsuba_pbrdf.pictures.colours import MASKED_GREY, aolp_rgb
+    from mitsuba_pbrdf.visualization.colours import MASKED_GREY, aolp_rgb
 
     angles = np.linspace(-90.0, 90.0, 181)
     rgb = aolp_rgb(angles)

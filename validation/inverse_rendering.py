@@ -178,7 +178,7 @@ def _figures(fits, truth, keys, target, initial, film, stokes_io):
     import matplotlib
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
-    from mitsuba_pbrdf.pictures import panels as visualize
+    from mitsuba_pbrdf.visualization import panels as visualize
 
     os.makedirs(FIGURES, exist_ok=True)
     styles = {"S0": "--", "S0..S2": "-"}

@@ -92,7 +92,7 @@ def gallery(frames):
     """Gallery-style figure: one row per sun elevation, intensity, DoLP and AoLP
     (hue, brightness by DoLP) under the polarized sky, then under the unpolarized
     sky of the same intensity; returns the path relative to validation/."""
-    from mitsuba_pbrdf.pictures.colours import aolp_rgb
+    from mitsuba_pbrdf.visualization.colours import aolp_rgb
 
     plt = pyplot()
     fig, axes = plt.subplots(len(frames), 6, figsize=(13.5, 1.9 * len(frames) + 0.4))

@@ -15,7 +15,7 @@ order, it times (seconds, medians over the repetitions):
   rendered by the scene's ``stokes`` around ``path`` (as before it changed);
 * ``gradient before``: that, with Mitsuba's Stokes-basis rotations in the
   pbrdf and the replay (``mi.mueller.rotate_mueller_basis``,
-  ``si.to_world_mueller``) instead of ``plugin/rotators.py``: the code before
+  ``si.to_world_mueller``) instead of ``mueller.py``: the code before
   both changes, interleaved with the code after;
 * ``render_backward``: split into its kernels with ``dr.kernel_history()``
   (the film-adjoint kernel, and the trace + replay kernel);
@@ -127,13 +127,13 @@ def main(argv=None):
         finally:
             gradients_module.render = render
 
-    from mitsuba_pbrdf.plugin import fresnel as fresnel_module
+    from mitsuba_pbrdf.bsdfs import fresnel as fresnel_module
 
     def gradient_before():
         """``gradient, loss image by stokes + path`` with Mitsuba's Stokes-basis
         rotations (``mi.mueller.rotate_mueller_basis`` for the facet's Fresnel
         matrix, ``si.to_world_mueller`` in the replay) instead of
-        :mod:`mitsuba_pbrdf.plugin.rotators`: the code before both changes."""
+        :mod:`mitsuba_pbrdf.mueller`: the code before both changes."""
         saved = fresnel_module.rotate_mueller_basis, replay_module.to_world_mueller
         fresnel_module.rotate_mueller_basis = mi.mueller.rotate_mueller_basis
         replay_module.to_world_mueller = lambda si, m, wo, wi: si.to_world_mueller(m, wo, wi)

@@ -75,7 +75,7 @@ def figure(runs, path):
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from mitsuba_pbrdf.pictures.png import save_png
+    from mitsuba_pbrdf.visualization.png import save_png
 
     shown = [r for r in runs if r["case"].views == 1 and r["case"].observables in
              ("stokes", "intensity") and r["case"].iterations == runs[0]["case"].iterations]

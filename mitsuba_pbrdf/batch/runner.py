@@ -16,7 +16,7 @@ What :func:`run_sweep` guarantees:
   one-line error and the others go on;
 * a job whose worker dies (killed, crashed, out of memory) is run again on a
   worker that the nanny restarted or on another one, with the same seed,
-  before any job that has not started (:mod:`mitsuba_pbrdf.batch.priority`);
+  before any job that has not started (:func:`submit_in_order`, below);
   one that kills ``allowed-failures + 1`` workers is recorded as failed
   (:mod:`mitsuba_pbrdf.batch.cluster`);
 * the manifest's ``note`` says why a job ran again (its worker process
@@ -32,6 +32,38 @@ What :func:`run_sweep` guarantees:
   each finished job (at most every ``MANIFEST_INTERVAL_S`` seconds) and at
   the end, also on Ctrl-C (then ``KeyboardInterrupt`` propagates) and on any
   error: the manifest always describes files that exist.
+
+The jobs' order: they start in the sweep's order, each worker holding only
+the job it runs, and a job whose worker was lost is rendered again before any
+job that has not started.
+
+Dask orders the tasks waiting for a worker by their priority tuple
+``(-user priority, generation, graph order)``. Jobs submitted one by one
+with ``client.submit`` all had graph order 0, and the scheduler starts a new
+*generation* only when 100 ms (``fifo_timeout``) have passed since the last
+one, so the hundreds of jobs submitted within 100 ms shared one priority,
+among which Dask's queue keeps no particular order. A job whose worker was
+lost (killed, ``scancel``, Slurm walltime) went back among the waiting jobs
+of its generation, often behind all of them: on Slurm one waited more than
+60 renders after its worker's walltime (tests/test_batch_slurm.py), on a
+local cluster one ran last of 12 (tests/test_batch_priority.py). Submitted
+one by one, the first jobs also reached the scheduler as a task group too
+small to queue (Dask queues only groups larger than twice the cluster's
+threads), so they were handed to the first worker up front: a worker lost
+early took 3 jobs with it.
+
+:func:`submit_in_order` submits all jobs as one graph (``client.map``): one
+generation, graph order = the sweep's order (all priorities distinct), and
+one task group as large as the sweep. With the scheduler's queue
+(``worker-saturation`` finite, as :mod:`.cluster` and :mod:`.slurm` set
+it) and a sweep larger than twice the workers' threads, every job waits in
+that queue and leaves it highest priority first: jobs start in the sweep's
+order, so every job that has started (a lost one included) comes before
+every job still waiting, and a lost job goes to the next free worker. A
+scheduler that assigns tasks to workers up front (queuing off, e.g. an
+existing scheduler with ``worker-saturation: inf``, or a sweep of at most
+twice the threads) gives a lost job to another worker, which runs it
+before the later jobs it holds (workers run their ready tasks by priority).
 """
 
 from __future__ import annotations
@@ -42,14 +74,13 @@ import threading
 import time
 import uuid
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from .job import JobTask, run_job
 from .manifest import is_finished, job_row, read_manifest, write_manifest
-from .priority import submit_in_order
 from .sweep import Sweep
 
-__all__ = ["SweepSummary", "run_sweep", "MANIFEST_INTERVAL_S"]
+__all__ = ["SweepSummary", "run_sweep", "submit_in_order", "MANIFEST_INTERVAL_S"]
 
 #: Folder of ``out`` for Slurm's logs of the worker jobs (``--slurm``).
 SLURM_LOGS = "slurm-logs"
@@ -285,3 +316,17 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
                     summary.pending += 1
         summary.seconds = time.perf_counter() - start
     return summary
+
+
+# ------------------------------------------------------- the jobs' order
+def submit_in_order(client, function: Callable, arguments: Sequence[Tuple],
+                    keys: Sequence[str]) -> List:
+    """Futures of ``function(*arguments[i])`` under the task keys *keys*,
+    submitted to *client* as one graph whose order is that of *arguments*
+    (not pure: run even if a key was seen)."""
+    if len(keys) != len(arguments):
+        raise ValueError(f"{len(arguments)} jobs but {len(keys)} keys")
+    if not arguments:
+        return []
+    columns = [list(column) for column in zip(*arguments)]
+    return client.map(function, *columns, key=list(keys), pure=False)

@@ -119,7 +119,7 @@ def parse_defines(items) -> dict:
 
 def parse_panels(text: str):
     """``--panels`` as panel names, or a :class:`CliError` naming unknown ones."""
-    from ..pictures.panels import parse_panels as parse
+    from ..visualization.panels import parse_panels as parse
 
     try:
         return parse(text)
@@ -217,8 +217,8 @@ def check_outputs(*outputs, create_folders: bool = True):
 
 def picture_options(parser, panels_default: str):
     """The options of the Stokes pictures that ``render`` and ``view`` draw
-    (defaults: :data:`~mitsuba_pbrdf.pictures.defaults.PICTURE_DEFAULTS`, as in Python)."""
-    from ..pictures.defaults import PICTURE_DEFAULTS as D
+    (defaults: :data:`~mitsuba_pbrdf.visualization.defaults.PICTURE_DEFAULTS`, as in Python)."""
+    from ..visualization.defaults import PICTURE_DEFAULTS as D
 
     parser.add_argument("--panels", default=panels_default,
                         help="comma-separated panels: intensity, dolp, aolp, docp, hsv, s1, s2, "
@@ -243,7 +243,7 @@ def picture_options(parser, panels_default: str):
 
 
 def picture_kwargs(args, image=None) -> dict:
-    """Checked keyword arguments of :func:`~mitsuba_pbrdf.pictures.panels.save_overview_png`
+    """Checked keyword arguments of :func:`~mitsuba_pbrdf.visualization.panels.save_overview_png`
     from the picture options (and *image*'s bands, for ``--band``)."""
     panels = parse_panels(args.panels)
     finite_float("--min-dolp", args.min_dolp, 0.0, 1.0)

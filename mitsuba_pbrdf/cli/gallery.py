@@ -27,7 +27,7 @@ def repository_gallery() -> str:
 
 def run(args) -> int:
     """``pbrdf gallery``."""
-    from ..figures.gallery import GALLERY_ITEMS, RENDERED_ITEMS, run_gallery
+    from ..visualization.gallery import GALLERY_ITEMS, RENDERED_ITEMS, run_gallery
 
     only = [i.strip() for i in args.only.split(",") if i.strip()] if args.only else None
     unknown = [i for i in only or [] if i not in GALLERY_ITEMS]

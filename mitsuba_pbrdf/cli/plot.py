@@ -11,7 +11,7 @@ from .model_options import add_model_arguments, params_from_args
 
 def run(args) -> int:
     """``pbrdf plot``."""
-    from ..figures.pbrdf_plots import save_pbrdf_plot
+    from ..visualization.pbrdf_plots import save_pbrdf_plot
     from ..reference.params import check_theta_i
 
     params = params_from_args(args)

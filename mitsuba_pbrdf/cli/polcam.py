@@ -47,7 +47,7 @@ def run(args) -> int:
     from ..stokes.exr import read_stokes_exr
     from ..camera.polcam import polcam_file_names, polcam_outputs, write_polcam_files
     from ..camera.raw_frames import mosaic_previews
-    from ..pictures.png import write_pixels_png
+    from ..visualization.png import write_pixels_png
     from ..stokes.image import StokesChannelError
 
     require_file(args.exr, "EXR file")

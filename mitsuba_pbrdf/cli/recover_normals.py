@@ -8,7 +8,7 @@ per sensor: Stokes EXRs (``pbrdf render``) for ``--observables intensity`` or
 normals in the shape's tangent frame), ``DIR/normals.png`` (the usual
 (n + 1) / 2 colour encoding, one pixel per texel: a texture),
 ``DIR/recovery.png`` (the picture to look at: true and recovered normals, the
-angular error map, the loss curve; :mod:`mitsuba_pbrdf.figures.normal_recovery`)
+angular error map, the loss curve; :mod:`mitsuba_pbrdf.visualization.normal_recovery`)
 and ``DIR/recovery.json`` (loss per iteration, options, angular errors with
 ``--truth``, which takes ``normals.exr`` or a normal-map texture such as
 ``write_plate_files``' ``plate_normals.exr``), each atomically, after checking
@@ -113,9 +113,9 @@ def run(args) -> int:
 
 
 def _write(paths, args, result, normals, truth):
-    from ..figures.normal_recovery import save_recovery_png
+    from ..visualization.normal_recovery import save_recovery_png
     from ..outputs import write_json
-    from ..pictures.png import write_pixels_png
+    from ..visualization.png import write_pixels_png
     from ..stokes.exr import write_exr
 
     write_exr(paths["normals.exr"], {c: normals[..., i] for i, c in enumerate("XYZ")},

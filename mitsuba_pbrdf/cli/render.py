@@ -47,7 +47,7 @@ def _wrote(path: str, existed: bool, detail: str = "") -> str:
 
 def run(args) -> int:
     """``pbrdf render``."""
-    from ..pictures.panels import save_overview_png
+    from ..visualization.panels import save_overview_png
     from ..rendering.render import SceneLoadError, check_render, render_request
     from ..stokes.exr import write_stokes_exr
     from ..stokes.image import StokesChannelError

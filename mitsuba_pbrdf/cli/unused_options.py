@@ -9,7 +9,7 @@ import inspect
 import sys
 from typing import List
 
-from ..pictures.defaults import PICTURE_DEFAULTS
+from ..visualization.defaults import PICTURE_DEFAULTS
 from .common import PROG
 
 #: picture option -> (argparse dest, its default, the panel functions' keyword);
@@ -34,7 +34,7 @@ def _given(args) -> List[tuple]:
 def unused_picture_options(args, panels) -> List[str]:
     """The warnings (one line each, without the program prefix) for the
     picture options given a non-default value that none of *panels* uses."""
-    from ..pictures.panels import PANELS
+    from ..visualization.panels import PANELS
 
     users_of = {"stokes_scale": list(STOKES_PANELS)}
     for name, function in PANELS.items():
@@ -50,8 +50,8 @@ def unused_cube_sheet_options(args) -> List[str]:
     """The warnings, as :func:`unused_picture_options`, for the contact sheet of
     a Stokes cube (``view --cube`` / ``--spectrum``): it draws S0 (each band at
     its own exposure), DoLP and AoLP of every band and takes only
-    :data:`~mitsuba_pbrdf.pictures.cube_sheet.SHEET_OPTIONS`."""
-    from ..pictures.cube_sheet import SHEET_OPTIONS
+    :data:`~mitsuba_pbrdf.visualization.cube_sheet.SHEET_OPTIONS`."""
+    from ..visualization.cube_sheet import SHEET_OPTIONS
 
     used = ", ".join("--" + keyword.replace("_", "-") for keyword in SHEET_OPTIONS)
     why = f"(it draws S0, DoLP and AoLP of every band; it uses {used})"

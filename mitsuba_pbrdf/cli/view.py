@@ -7,7 +7,7 @@ marked in the picture; a file with no usable pixel is an error (exit 2).
 A Stokes cube (``pbrdf render --bands``) can be drawn as a contact sheet
 (``--cube``: S0, DoLP, AoLP per band) with the Stokes spectrum of a pixel or
 region (``--spectrum X,Y[,W,H]``, also written as ``<out>.csv``;
-:mod:`mitsuba_pbrdf.pictures.cube_sheet`), its DoLP on one scale for all bands
+:mod:`mitsuba_pbrdf.visualization.cube_sheet`), its DoLP on one scale for all bands
 (``--dolp-scale per-band``: each its own); ``--band 460nm`` draws one band.
 The files of ``pbrdf polcam`` (a raw mosaic, or a polarizer image with the
 other three beside it) are drawn as the Stokes image the camera measures
@@ -28,10 +28,10 @@ from ..outputs import together
 def run(args) -> int:
     """``pbrdf view``."""
     from ..stokes.exr import read_stokes_exr
-    from ..pictures.panels import save_overview_png
+    from ..visualization.panels import save_overview_png
     from ..stokes.image import StokesChannelError
 
-    from ..pictures.cube_sheet import DOLP_SCALES
+    from ..visualization.cube_sheet import DOLP_SCALES
 
     require_file(args.exr, "EXR file")
     picture_kwargs(args)  # the options' own checks, before reading anything
@@ -75,7 +75,7 @@ def run(args) -> int:
 
 def _cube_sheet(args, image, out: str, existed: bool) -> int:
     """``--cube`` / ``--spectrum``: the contact sheet (and the spectrum CSV)."""
-    from ..pictures.cube_sheet import (parse_region, region_spectrum, save_cube_sheet,
+    from ..visualization.cube_sheet import (parse_region, region_spectrum, save_cube_sheet,
                                        write_spectrum_csv)
     from ..stokes.quality import UnusableImageError, require_usable
 

@@ -11,8 +11,8 @@ vector (docs/polarized-light.md).
 
 Each plugin module defines its class at module level for the active variant;
 :func:`mitsuba_pbrdf.registry.variant_module` runs it once per variant and
-:data:`mitsuba_pbrdf.registry.PLUGINS` registers it. :mod:`.stokes_light`
+:data:`mitsuba_pbrdf.registry.PLUGINS` registers it. :mod:`mitsuba_pbrdf.mueller`
 (emitted Stokes vectors as Mueller matrices, the Stokes basis of emitted
-light), :mod:`.sky_models` (the sky's polarization pattern) and :mod:`.props`
+light), :mod:`.sky_models` (the sky's polarization pattern) and :mod:`.params`
 (reading and checking parameters) are plain modules shared by the plugins.
 """

@@ -86,8 +86,8 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from . import props as read
-from .stokes_light import basis, emitted, intensity, linear_ratios
+from . import params as read
+from ..mueller import basis, emitted, intensity, linear_ratios
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
 VARIANT = mi.variant()

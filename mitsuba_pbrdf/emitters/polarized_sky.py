@@ -67,7 +67,7 @@
 The emitted light, seen in direction ``d`` (propagating along ``w = -d``),
 has the intensity's radiance ``L(d)`` and the Stokes vector
 ``L (1, q, u, 0)`` of :mod:`.sky_models` in Mitsuba's Stokes basis of ``w``
-(``mi.mueller.stokes_basis(w)``; :mod:`.stokes_light`); the sun disk of a
+(``mi.mueller.stokes_basis(w)``; :mod:`mitsuba_pbrdf.mueller`); the sun disk of a
 ``sunsky`` intensity (within half of ``sun_aperture`` of the sun) is
 unpolarized. ``eval``, ``eval_direction``, ``sample_direction``,
 ``sample_ray`` and ``sample_wavelengths`` take the intensity emitter's value
@@ -97,9 +97,9 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from . import props as read
+from . import params as read
 from .sky_models import MODELS, berry, neutral_points, rayleigh
-from .stokes_light import emitted, intensity
+from ..mueller import emitted, intensity
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
 VARIANT = mi.variant()

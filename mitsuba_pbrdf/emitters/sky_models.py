@@ -1,7 +1,7 @@
 """The polarization pattern of the clear sky: the normalized Stokes parameters
 ``(q, u) = (S1/S0, S2/S0)`` of skylight propagating along ``w`` (seen in
 direction ``-w``), in Mitsuba's Stokes basis of ``w``
-(:func:`.stokes_light.basis`). Skylight is linearly polarized: ``S3 = 0``.
+(:func:`mitsuba_pbrdf.mueller.basis`). Skylight is linearly polarized: ``S3 = 0``.
 
 **Single scattering (Rayleigh).** A dipole scatterer lit by the sun radiates,
 towards a viewer at scattering angle gamma (the angle between the viewing
@@ -50,7 +50,7 @@ import math
 
 import drjit as dr
 
-from .stokes_light import basis
+from ..mueller import basis
 
 #: The models of ``polarized_sky``'s ``model`` parameter.
 MODELS = ("rayleigh", "berry")

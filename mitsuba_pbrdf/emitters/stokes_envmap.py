@@ -74,8 +74,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from . import props as read
-from .stokes_light import basis, emitted, intensity
+from . import params as read
+from ..mueller import basis, emitted, intensity
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
 VARIANT = mi.variant()

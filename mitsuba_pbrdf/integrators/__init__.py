@@ -11,7 +11,7 @@
   integrator into one.
 """
 
-from .limits import MAX_DEPTH_LIMIT, STOKES_CHANNELS
+from .scenes import MAX_DEPTH_LIMIT, STOKES_CHANNELS
 from .scenes import from_path, integrator_class, supports_scene
 
 __all__ = ["MAX_DEPTH_LIMIT", "STOKES_CHANNELS", "from_path", "integrator_class",

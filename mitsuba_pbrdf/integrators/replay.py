@@ -26,7 +26,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..plugin.rotators import to_world_mueller
+from ..mueller import to_world_mueller
 
 __all__ = ["VertexStore", "trace", "replay", "column0", "mueller_times",
            "times_mueller"]

@@ -1,5 +1,7 @@
 """Which scenes ``stokes_prb`` can replay, and a ``stokes_prb`` made from a
-scene's ``stokes``/``path`` integrator. Variant-independent."""
+scene's ``stokes``/``path`` integrator; what it writes (its film channels)
+and where it runs (its depth limit, the variants it needs).
+Variant-independent."""
 
 from __future__ import annotations
 
@@ -7,9 +9,21 @@ import re
 
 import mitsuba as mi
 
-from .limits import MAX_DEPTH_LIMIT, usable_variant
+__all__ = ["STOKES_CHANNELS", "MAX_DEPTH_LIMIT", "usable_variant", "supports_scene", "from_path",
+           "integrator_class"]
 
-__all__ = ["supports_scene", "from_path", "integrator_class"]
+#: The Stokes channels ``stokes`` adds after R, G, B (and A).
+STOKES_CHANNELS = [f"S{i}.{c}" for i in range(4) for c in "RGB"]
+#: Largest ``max_depth``: each vertex costs ~0.5 kB of local memory per lane.
+MAX_DEPTH_LIMIT = 64
+
+
+def usable_variant(variant):
+    """Whether ``stokes_prb`` runs in Mitsuba variant *variant* (a polarized
+    JIT variant)."""
+    variant = variant or ""
+    return "polarized" in variant and not variant.startswith("scalar")
+
 
 
 def integrator_class():

@@ -8,10 +8,10 @@
 * :mod:`.scene_params`: checks of the values given to a scene's ``$key`` parameters;
 * :mod:`.scene_files`: the scenes shipped with the package;
 * :mod:`.narrowband`: Stokes renders at one wavelength or over a narrow band;
-* :mod:`.mitsuba_errors`: Mitsuba's loader errors and Ctrl-C, in the package's terms.
+* :mod:`.scene_loading`: Mitsuba's loader errors and Ctrl-C in the package's terms; a rewritten scene's XML loaded as its file would be.
 
 Stokes images and their files are :mod:`mitsuba_pbrdf.stokes`, pictures of them
-:mod:`mitsuba_pbrdf.pictures`, what a polarization camera records
+:mod:`mitsuba_pbrdf.visualization`, what a polarization camera records
 :mod:`mitsuba_pbrdf.camera`.
 """
 

@@ -52,7 +52,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..stokes.image import StokesImage
 from .bands import SpectralBands
-from .scene_text import load_scene_text
+from .scene_loading import load_scene_text
 
 __all__ = ["scene_without_stokes", "load_cube_scene", "band_counts", "check_cube_spp",
            "cube_pass", "cube_image"]

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..stokes.image import StokesImage
-from .scene_text import load_scene_text
+from .scene_loading import load_scene_text
 
 __all__ = ["WavelengthBand", "parse_wavelength", "require_spectral", "band_response", "BandResponse",
            "scene_with_band", "band_image", "LINE_WIDTH"]

@@ -45,12 +45,12 @@ import numpy as np
 from ..errors import ParameterError
 from ..interrupts import release as release_interrupts
 from ..registry import use_variant
-from ..shading import warn_unpolarized_wrappers
+from ..bsdfs import warn_unpolarized_wrappers
 from ..variant import default_variant
 from .bands import SpectralBands, parse_bands, require_spectral_bands
 from ..numbers import MAX_SPP
 from .cube import check_cube_spp, cube_image, cube_pass, load_cube_scene
-from .mitsuba_errors import SceneLoadError, interrupted, scene_load_errors
+from .scene_loading import SceneLoadError, interrupted, scene_load_errors
 from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
                          parse_wavelength, require_spectral)
 from .passes import pass_seeds, plan_passes, samples_per_pass

@@ -3,7 +3,7 @@ and polarization above 1.
 
 A physical Stokes vector has S0 >= 0 and a degree of polarization
 sqrt(S1² + S2² + S3²) / S0 <= 1. :func:`assess` counts the pixels that break
-this, so that pictures mark them (:mod:`mitsuba_pbrdf.pictures.panels`) and
+this, so that pictures mark them (:mod:`mitsuba_pbrdf.visualization.panels`) and
 commands warn about them, or refuse an image with no usable pixel.
 
 Which Stokes vector is checked, and how strictly:

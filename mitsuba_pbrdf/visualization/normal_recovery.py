@@ -78,6 +78,6 @@ def recovery_figure(normals: np.ndarray, loss: Sequence[float], truth: Optional[
 
 def save_recovery_png(path, normals, loss, dpi: int = 100, **options) -> str:
     """Write :func:`recovery_figure` as a PNG (atomically); returns the path."""
-    from ..pictures.png import save_png
+    from .png import save_png
 
     return save_png(recovery_figure(normals, loss, **options), path, dpi=dpi)

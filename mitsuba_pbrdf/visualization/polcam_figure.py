@@ -13,7 +13,7 @@ import numpy as np
 from ..camera.polcam import (ANGLES, colour_layout, colour_mosaic, mono_layout, mono_mosaic,
                              polarizer_images)
 from ..stokes.image import StokesImage
-from ..pictures.tonemap import auto_exposure, linear_rgb, tonemap
+from .tonemap import auto_exposure, linear_rgb, tonemap
 
 __all__ = ["polcam_figure"]
 

@@ -1,6 +1,6 @@
 """Pixel arrays computed from a Stokes image for pictures (no matplotlib axes):
 the HSV polarization composite and the ratios S1/S0, S2/S0, S3/S0 with their
-shared symmetric scale. The panels of :mod:`mitsuba_pbrdf.pictures.panels`
+shared symmetric scale. The panels of :mod:`mitsuba_pbrdf.visualization.panels`
 draw them; AoLP angles are in the Stokes frame of the image (0 = image right,
 positive counter-clockwise)."""
 
@@ -26,8 +26,8 @@ def polarization_hsv(
     band: Optional[str] = None,
 ) -> np.ndarray:
     """The usual polarization composite as RGB in [0, 1], shape (H, W, 3):
-    hue = AoLP (a full turn of hue for 180°, as :func:`~mitsuba_pbrdf.pictures.panels.draw_aolp`), saturation
-    = DoLP / *dolp_max* (``"auto"``: see :func:`~mitsuba_pbrdf.pictures.panels.draw_dolp`), value =
+    hue = AoLP (a full turn of hue for 180°, as :func:`~mitsuba_pbrdf.visualization.panels.draw_aolp`), saturation
+    = DoLP / *dolp_max* (``"auto"``: see :func:`~mitsuba_pbrdf.visualization.panels.draw_dolp`), value =
     tone-mapped intensity (luminance)."""
     from matplotlib.colors import hsv_to_rgb
 

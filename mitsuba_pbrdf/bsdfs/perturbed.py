@@ -4,7 +4,7 @@ common body of ``polarized_normalmap`` and ``polarized_bumpmap``.
 The steps are those of Mitsuba 3.9.1's ``normalmap`` and ``bumpmap``
 (``src/bsdfs/normalmap.cpp``, ``bumpmap.cpp``), in the same order and with the
 same arithmetic, so that unpolarized variants give the same numbers; the one
-addition is :func:`~.stokes_frames.to_unperturbed_bases` on the returned
+addition is :func:`~mitsuba_pbrdf.mueller.to_unperturbed_bases` on the returned
 Mueller matrix in polarized variants.
 
 ``frame_si`` is the perturbed frame P written in the unperturbed shading frame
@@ -12,13 +12,15 @@ S (``si.wi``, ``wo`` are S-local); ``frame_world`` is P in world space (the
 nested BSDF's ``si.sh_frame``). Plain functions: ``mi.*`` is looked up when
 called, so this module serves every variant. (The wrappers' eval, pdf, eval_pdf
 and sample are one-line calls of these in each class: nanobind refuses a
-Python mix-in base beside ``mi.BSDF``, "invalid number of bases".)
+Python mix-in base beside ``mi.BSDF``, "invalid number of bases".) The
+wrappers' parameters (nested objects, booleans) are read here too, with
+one-line errors that name the plugin.
 """
 
 import drjit as dr
 import mitsuba as mi
 
-from .stokes_frames import to_unperturbed_bases
+from ..mueller import to_unperturbed_bases
 
 
 def shadow_terminator(perturbed_n, wo):
@@ -95,3 +97,29 @@ def sample(nested, ctx, si, sample1, sample2, active, frame_si, frame_world, sha
     if shadowing:
         weight = weight * shadow_terminator(frame_si.n, wo)
     return bs, dr.select(active, weight, _zero())
+
+
+# ------------------------------------------------------ reading parameters
+
+
+def nested_objects(props, kinds):
+    """The objects of ``props`` that are instances of ``kinds``, by key."""
+    return {key: props[key] for key in props.keys()
+            if props.type(key) == mi.Properties.Type.Object and isinstance(props[key], kinds)}
+
+
+def single_nested_bsdf(props, name):
+    """The one nested BSDF of a wrapper ``name``; a one-line error otherwise."""
+    bsdfs = nested_objects(props, mi.BSDF)
+    if len(bsdfs) != 1:
+        raise ValueError(f"{name}: exactly one nested BSDF must be given, found {len(bsdfs)}")
+    return next(iter(bsdfs.values()))
+
+
+def flag(props, name, key, default):
+    """A boolean parameter."""
+    if key not in props:
+        return default
+    if props.type(key) != mi.Properties.Type.Bool:
+        raise TypeError(f"{name}: parameter '{key}' must be a boolean")
+    return bool(props[key])

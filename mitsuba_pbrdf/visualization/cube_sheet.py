@@ -156,7 +156,7 @@ DOLP_SCALES = ("shared", "per-band")
 
 def shared_dolp_limit(image: StokesImage, qualities=None) -> float:
     """The top of one DoLP scale for all bands of *image*: the automatic limit
-    (:func:`~mitsuba_pbrdf.pictures.colours.auto_limit`) of the usable, lit
+    (:func:`~mitsuba_pbrdf.visualization.colours.auto_limit`) of the usable, lit
     pixels' DoLP of every band together."""
     from ..stokes.image import dolp
     from ..stokes.quality import assess

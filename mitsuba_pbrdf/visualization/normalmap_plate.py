@@ -1,5 +1,5 @@
 """The normal-mapped plate of the gallery (``normalmap.png``, drawn by
-:func:`mitsuba_pbrdf.figures.gallery.render_normalmap_plate`): a hammered
+:func:`mitsuba_pbrdf.visualization.gallery.render_normalmap_plate`): a hammered
 aluminium plate (``scenes/gallery/plate.xml``) rendered with Mitsuba's
 ``normalmap`` and with ``polarized_normalmap``; same intensity and DoLP, a
 different AoLP inside the dimples (docs/normal-maps.md).

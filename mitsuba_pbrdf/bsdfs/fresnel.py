@@ -12,7 +12,7 @@ incidence on the facet.
 import drjit as dr
 import mitsuba as mi
 
-from .rotators import rotate_mueller_basis
+from ..mueller import rotate_mueller_basis
 
 
 def fresnel_amplitudes(cos_beta, eta, k):

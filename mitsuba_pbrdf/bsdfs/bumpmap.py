@@ -50,7 +50,7 @@ product; the tangent is ``dp_du`` projected off it. Same ``eval``/``pdf``/
 ``nested_bsdf.*``, ``scale``) as ``bumpmap``, so unpolarized variants give
 what ``bumpmap`` gives; in polarized variants the nested Mueller matrix is
 rotated from the perturbed frame's Stokes bases into the unperturbed frame's
-(:mod:`.stokes_frames`, docs/conventions.md), which ``bumpmap`` leaves out.
+(:func:`mitsuba_pbrdf.mueller.to_unperturbed_bases`, docs/conventions.md), which ``bumpmap`` leaves out.
 
 Kept from ``bumpmap``: the tangent is ``dp_du`` in world coordinates
 projected off the normal in shading coordinates. On shapes whose shading frame
@@ -87,7 +87,7 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
-from .props import flag, nested_objects, single_nested_bsdf
+from .perturbed import flag, nested_objects, single_nested_bsdf
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
 VARIANT = mi.variant()

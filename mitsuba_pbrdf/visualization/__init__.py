@@ -1,4 +1,7 @@
-"""Pictures of Stokes images: PNG files a person looks at.
+"""Everything a person looks at: PNG pictures of Stokes images and
+matplotlib figures.
+
+Pictures of Stokes images:
 
 * :mod:`.panels`: the panels (intensity, DoLP, AoLP, DoCP, HSV, S1-S3) and the
   overview sheet (:func:`~.panels.save_overview_png`);
@@ -8,4 +11,11 @@
 * :mod:`.defaults`: the picture options' defaults, shared by Python and the command line;
 * :mod:`.cube_sheet`: a Stokes cube's contact sheet and spectrum;
 * :mod:`.png`: atomic PNG writing.
+
+Figures built on them: the model's pBRDF plotted from the NumPy reference
+evaluator (:mod:`.pbrdf_plots`, ``pbrdf plot``), the scene gallery that README
+shows (:mod:`.gallery`, ``pbrdf gallery``), the polarization-camera figure
+(:mod:`.polcam_figure`), recover-normals' recovery picture
+(:mod:`.normal_recovery`) and the gallery plate's normal map
+(:mod:`.normalmap_plate`).
 """

@@ -25,7 +25,7 @@ Angles follow the Stokes frame of Mitsuba's ``stokes`` integrator: x-axis =
 cross(ray direction, camera up), i.e. image right, y-axis image up; AoLP = 0 is
 horizontal and positive angles turn counter-clockwise in the picture.
 
-Colours and scales (:mod:`mitsuba_pbrdf.pictures.colours`): AoLP on the hue
+Colours and scales (:mod:`mitsuba_pbrdf.visualization.colours`): AoLP on the hue
 wheel polarization cameras use (grey where DoLP is too low), DoLP and DoCP
 from 0 to a stated maximum (``"auto"`` by default: scaled to the data), S1,
 S2, S3 / S0 on one symmetric scale in the sheet; each colour bar states its
@@ -184,7 +184,7 @@ def draw_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis",
               quality: Optional[StokesQuality] = None) -> Drawing:
     """Degree of linear polarization sqrt(S1² + S2²)/S0, from 0 to *dolp_max*
     (a number, default 1, or ``"auto"``: the data's 99.5th percentile rounded
-    up, what the command line uses; see :mod:`~mitsuba_pbrdf.pictures.colours`),
+    up, what the command line uses; see :mod:`~mitsuba_pbrdf.visualization.colours`),
     ``viridis`` or ``gray``."""
     with np.errstate(invalid="ignore"):
         values = dolp(pixel_stokes(image, band), axis=-1)
@@ -206,7 +206,7 @@ def draw_docp(ax, image: StokesImage, cmap: str = "viridis",
 def draw_aolp(ax, image: StokesImage, min_dolp: float = 0.01, band: Optional[str] = None,
               quality: Optional[StokesQuality] = None) -> Drawing:
     """Angle of linear polarization 0.5·atan2(S2, S1) in degrees on the AoLP
-    hue wheel (:func:`~mitsuba_pbrdf.pictures.colours.aolp_rgb`: −90° and +90°
+    hue wheel (:func:`~mitsuba_pbrdf.visualization.colours.aolp_rgb`: −90° and +90°
     share a colour, no angle is dark), neutral grey where DoLP < *min_dolp*
     since the angle is noise there."""
     quality = _quality(image, band, quality)

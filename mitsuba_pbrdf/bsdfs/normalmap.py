@@ -46,7 +46,7 @@ unpolarized variants it gives what ``normalmap`` gives. In polarized variants
 Stokes bases of the perturbed frame, which the integrator reads as those of the
 unperturbed frame: the intensity is right, the angle of linear polarization is
 not (off by up to 45° on a tilted plane). ``polarized_normalmap`` rotates both
-bases into the unperturbed frame's (:mod:`.stokes_frames`; the derivation is in
+bases into the unperturbed frame's (:func:`mitsuba_pbrdf.mueller.to_unperturbed_bases`; the derivation is in
 docs/conventions.md): a constant normal map then renders as the physically
 tilted plane in DoLP and AoLP.
 
@@ -87,7 +87,7 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
-from .props import flag, single_nested_bsdf
+from .perturbed import flag, single_nested_bsdf
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
 VARIANT = mi.variant()

@@ -8,7 +8,7 @@ means s-polarized (``docs/conventions.md``).
 
 ::
 
-    from mitsuba_pbrdf.figures.pbrdf_plots import PBRDFParams, save_pbrdf_plot
+    from mitsuba_pbrdf.visualization.pbrdf_plots import PBRDFParams, save_pbrdf_plot
     save_pbrdf_plot("cu.png", PBRDFParams(material="Cu", sigma=0.1, kdd=0.2), theta_i=40)
 
 Geometry of the plots: the light lies in the plane of incidence at azimuth
@@ -365,8 +365,8 @@ def save_pbrdf_plot(path, params: PBRDFParams, theta_i: float,
                     title: Optional[str] = None, dpi: int = 110,
                     colors: Optional[int] = None, phi_i: float = 0.0) -> str:
     """Write :func:`pbrdf_figure` as a PNG; returns the path. *colors* as for
-    :func:`mitsuba_pbrdf.pictures.panels.save_png`."""
-    from ..pictures.panels import save_png
+    :func:`mitsuba_pbrdf.visualization.panels.save_png`."""
+    from .panels import save_png
 
     fig = pbrdf_figure(params, theta_i, wavelengths, title, phi_i=phi_i)
     return save_png(fig, os.fspath(path), dpi=dpi, colors=colors)

@@ -1,6 +1,6 @@
 """The picture options' defaults, one table for Python
-(:func:`~mitsuba_pbrdf.pictures.panels.overview_figure`,
-:func:`~mitsuba_pbrdf.pictures.panels.save_overview_png`) and the command line
+(:func:`~mitsuba_pbrdf.visualization.panels.overview_figure`,
+:func:`~mitsuba_pbrdf.visualization.panels.save_overview_png`) and the command line
 (``pbrdf render`` and ``view`` take their option defaults from it,
 :func:`mitsuba_pbrdf.cli.common.picture_options`), so a script's first picture
 looks like the command's: DoLP and DoCP scaled to the data (``"auto"``).

@@ -1,5 +1,9 @@
-"""Mitsuba's loader errors and Ctrl-C in the package's terms, shared by the
-scene loaders (:mod:`.render`, :mod:`.narrowband`) and the pass loop.
+"""Loading scenes: Mitsuba's loader errors and Ctrl-C in the package's terms,
+shared by the scene loaders (:mod:`.render`, :mod:`.narrowband`,
+:mod:`.cube`) and the pass loop, and :func:`load_scene_text`, a scene file's
+XML loaded after rewriting it (a sensor response for a narrow band, the
+``stokes`` integrator taken out for a Stokes cube) as ``mi.load_file`` would
+load the file itself.
 
 Mitsuba reports a scene it cannot load, and a Ctrl-C that reached Python code
 it was calling (the plugin's), as ``RuntimeError``: :func:`scene_load_errors`
@@ -9,12 +13,13 @@ into ``KeyboardInterrupt``.
 
 from __future__ import annotations
 
+import os
 import re
 from contextlib import contextmanager
 
 from ..interrupts import held, interrupted
 
-__all__ = ["SceneLoadError", "interrupted", "condense", "scene_load_errors"]
+__all__ = ["SceneLoadError", "interrupted", "condense", "scene_load_errors", "load_scene_text"]
 
 
 class SceneLoadError(RuntimeError):
@@ -41,3 +46,21 @@ def scene_load_errors():
             if interrupted(e):
                 raise KeyboardInterrupt from e
             raise SceneLoadError(condense(str(e))) from e
+
+
+def load_scene_text(text: str, scene_path, params=None):
+    """``mi.load_string(text)`` with the scene's ``$key`` *params*, resolving
+    relative paths (includes, textures) from *scene_path*'s folder; Mitsuba's
+    loader errors as :func:`scene_load_errors` turns them."""
+    import mitsuba as mi
+
+    resolver = mi.file_resolver()
+    saved = [resolver[i] for i in range(len(resolver))]
+    resolver.prepend(os.path.dirname(os.path.abspath(os.fspath(scene_path))))
+    try:
+        with scene_load_errors():
+            return mi.load_string(text, **{str(k): str(v) for k, v in (params or {}).items()})
+    finally:
+        resolver.clear()
+        for p in saved:
+            resolver.append(p)

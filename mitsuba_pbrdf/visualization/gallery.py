@@ -17,10 +17,10 @@ Pictures (PNG, palette-quantized to stay small enough to commit):
   check of Malus's law against the Stokes render (:func:`polarizer_check`).
 * ``polcam.png``: what a polarization camera records of the copper sphere:
   the four polarizer images and the raw mono and colour sensor frames
-  (:mod:`mitsuba_pbrdf.figures.polcam_figure`; ``pbrdf polcam``).
+  (:mod:`mitsuba_pbrdf.visualization.polcam_figure`; ``pbrdf polcam``).
 * ``normalmap.png``: a hammered plate (``scenes/gallery/plate.xml``) with
   Mitsuba's ``normalmap`` and with ``polarized_normalmap``
-  (its normal map: :mod:`mitsuba_pbrdf.figures.normalmap_plate`).
+  (its normal map: :mod:`mitsuba_pbrdf.visualization.normalmap_plate`).
 * ``stokes_sheet.png``: every Stokes panel of ``scenes/default.xml`` (what
   ``pbrdf view --panels all`` draws).
 * ``pbrdf_plot.png``: the model's lobes and DoP (what ``pbrdf plot`` draws).
@@ -44,7 +44,7 @@ from typing import Dict, Optional, Sequence
 import numpy as np
 
 from ..stokes.exr import write_stokes_exr
-from ..pictures.panels import (DRAWERS, auto_exposure, linear_rgb, overview_figure, plot_aolp,
+from .panels import (DRAWERS, auto_exposure, linear_rgb, overview_figure, plot_aolp,
                                plot_dolp, plot_intensity, save_png, tonemap)
 from ..rendering.render import render_scene
 from ..stokes.image import StokesImage
@@ -192,7 +192,7 @@ def montage_figure(
     exposure: Optional[float] = None,
 ):
     """A grid with one column per ``(label, StokesImage)`` and one row per
-    panel of :data:`~mitsuba_pbrdf.pictures.panels.DRAWERS` (``intensity``,
+    panel of :data:`~mitsuba_pbrdf.visualization.panels.DRAWERS` (``intensity``,
     ``dolp``, ``aolp``, ``hsv``, ...), all columns on the same scales (one
     exposure, one DoLP range) with one colour bar per row."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
