@@ -138,6 +138,62 @@ def nonnegative_texture(plugin, name, texture):
                          f"whole spectral range), found {values.min():g}")
 
 
+def nonnegative_texels(plugin, name, texture):
+    """Raise, naming the first bad texel (column, row), if a spatially varying
+    ``texture`` is negative, NaN or infinite: evaluated at the centre of each
+    of its texels (its ``resolution()``; a 512 x 256 grid of uv for a texture
+    without one, 64 x 32 in scalar variants), at 8 wavelengths spanning
+    360-830 nm (spectral variants) or in each channel, and, outside spectral
+    variants, on a bitmap's stored texels (``data``) themselves. A spectral
+    variant's non-raw bitmap stores spectral-upsampling coefficients instead:
+    Mitsuba's conversion has already mapped its NaN and negative texels to
+    valid spectra, so only what the texture returns can be checked there."""
+    import drjit as dr
+    import numpy as np
+
+    width, height = (int(c) for c in texture.resolution())
+    if width * height <= 1:
+        width, height = 512, 256
+    if mi.variant().startswith("scalar"):
+        width, height = min(width, 64), min(height, 32)
+    j, i = np.meshgrid(np.arange(height), np.arange(width), indexing="ij")
+    u, v = ((i + 0.5) / width).ravel(), ((j + 0.5) / height).ravel()
+    worst = {}        # kind -> per-texel mask
+    sets = np.linspace(360.0, 830.0, 8).reshape(2, 4) if mi.is_spectral else [None]
+    for lam in sets:
+        if mi.variant().startswith("scalar"):
+            values = []
+            for k in range(u.size):
+                si = dr.zeros(mi.SurfaceInteraction3f)
+                si.uv = mi.Point2f(u[k], v[k])
+                if lam is not None:
+                    si.wavelengths = mi.UnpolarizedSpectrum(*lam)
+                values.append(np.array(texture.eval(si), np.float64).ravel())
+            values = np.array(values)
+        else:
+            si = dr.zeros(mi.SurfaceInteraction3f, u.size)
+            si.uv = mi.Point2f(mi.Float(u), mi.Float(v))
+            if lam is not None:
+                si.wavelengths = mi.UnpolarizedSpectrum(*[float(x) for x in lam])
+            values = np.array(texture.eval(si), np.float64).reshape(-1, u.size).T
+        values = values.reshape(u.size, -1)
+        worst.setdefault("nan", np.zeros(u.size, bool))
+        worst["nan"] |= ~np.all(np.isfinite(values), -1)
+        worst.setdefault("negative", np.zeros(u.size, bool))
+        worst["negative"] |= np.any(values < 0, -1)
+    stored = mi.traverse(texture) if not mi.is_spectral else {}
+    if "data" in stored and mi.traverse(texture)["data"].shape[:2] == (height, width):
+        data = np.array(stored["data"], np.float64).reshape(height * width, -1)
+        worst["nan"] |= ~np.all(np.isfinite(data), -1)
+        worst["negative"] |= np.any(data < 0, -1)
+    for kind, what in (("nan", "NaN or infinite values"), ("negative", "negative values")):
+        bad = np.flatnonzero(worst[kind])
+        if bad.size:
+            raise ValueError(f"{plugin}: parameter '{name}' has {bad.size} texel(s) with "
+                             f"{what} (first at column {bad[0] % width}, row "
+                             f"{bad[0] // width}); it must be >= 0 everywhere")
+
+
 def nonnegative_values(plugin, name, values):
     """Raise if any of ``values`` is negative, NaN or infinite."""
     if not all(math.isfinite(v) for v in values):
