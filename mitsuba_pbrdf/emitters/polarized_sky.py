@@ -278,8 +278,14 @@ class PolarizedSky(mi.Emitter):
         for key, value in config.items():
             setattr(self, key, value)
         self.sun_direction = mi.Vector3f(self.sun)
+        self._set_sun_disk()
         self._set_pattern()
         self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
+
+    def _set_sun_disk(self):
+        """Where the intensity's sun is (``self.sun``): its disk is unpolarized."""
+        self.sun_disk = mi.Vector3f(self.sun)
+        dr.make_opaque(self.sun_disk)
 
     def _set_pattern(self):
         """The pattern's sun and neutral points from ``sun_direction``, in
@@ -301,7 +307,7 @@ class PolarizedSky(mi.Emitter):
         else:
             q, u = berry(w, self.babinet, self.brewster, self.dolp_max)
         if self.sun_half_aperture is not None:   # the sun disk is unpolarized
-            in_sun = -dr.dot(w, dr.detach(self.pattern_sun)) >= math.cos(self.sun_half_aperture)
+            in_sun = -dr.dot(w, self.sun_disk) >= math.cos(self.sun_half_aperture)
             q, u = dr.select(in_sun, 0.0, q), dr.select(in_sun, 0.0, u)
         return q, u
 
@@ -379,6 +385,7 @@ class PolarizedSky(mi.Emitter):
                     params["sun_direction"] = mi.Vector3f(sun)
                     params.update()
             self.sun = sun
+            self._set_sun_disk()
         elif self.kind == "sunsky" and any(k == "intensity" or k.startswith("intensity.")
                                            for k in keys):
             # the sunsky's own sun moved (its sun_direction, or its date and
@@ -387,6 +394,7 @@ class PolarizedSky(mi.Emitter):
                 mi.traverse(self.inner)["sun_direction"]))
             for i in range(3):
                 self.sun_direction[i] = mi.Float(self.sun[i])
+            self._set_sun_disk()
         self._set_pattern()
 
     def to_string(self):
