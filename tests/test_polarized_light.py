@@ -297,6 +297,36 @@ def test_sampling_is_the_intensitys_and_carries_the_polarization():
     assert scene.environment() is emitter
 
 
+@pytest.mark.parametrize("emitter", [
+    {"type": "polarized_sky", "sun_direction": [0.0, 0.6, 0.8]},
+    {"type": "polarized_sky", "sun_direction": [0.0, 0.6, 0.8], "radiance": 1.0},
+    {"type": "polarized_emitter", "lamp": {"type": "constant"}},
+], ids=["sunsky", "radiance", "polarized_emitter"])
+def test_shadow_rays_reach_occluders_beyond_the_unit_sphere(emitter):
+    """Mitsuba 3.9.1 never calls a Python emitter's set_scene, so the
+    wrapped infinite emitter keeps a unit bounding sphere and put its
+    sampled point 2 units away: a roof 5 units up did not shadow. Now the
+    point is wrapped.FAR away and the roof shadows every sample."""
+    from mitsuba_pbrdf.emitters.wrapped import FAR
+
+    roof = {"type": "rectangle", "to_world": mi.ScalarTransform4f().translate([0, 0, 5])
+            .scale(1000).rotate([1, 0, 0], 180)}
+    n = 256
+    it = dr.zeros(mi.SurfaceInteraction3f, n)
+    it.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
+    it.n = mi.Normal3f(0, 0, 1)
+    rng = np.random.default_rng(2)
+    sample = mi.Point2f(*rng.random((2, n)).astype(np.float32))
+    open_sky = mi.load_dict({"type": "scene", "sky": emitter})
+    roofed = mi.load_dict({"type": "scene", "sky": emitter, "roof": roof})
+    ds, weight = open_sky.sample_emitter_direction(it, sample, True)
+    up = np.array(ds.d.z) > 0.05
+    assert np.allclose(np.array(ds.dist), FAR) and up.sum() > 20
+    assert np.all(np.array(weight[0, 0])[:, up] > 0)
+    _, shadowed = roofed.sample_emitter_direction(it, sample, True)
+    assert np.all(np.array(shadowed[0, 0])[:, up] == 0)
+
+
 def test_a_constant_radiance_replaces_the_sunsky_intensity():
     emitter = mi.load_dict(sky(radiance=2.5))
     d = pl.unit(np.array([[0.3, 0.2, 0.9], [0.0, 0.9, -0.2]]))

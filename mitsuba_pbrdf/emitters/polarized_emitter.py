@@ -146,7 +146,6 @@ class PolarizedEmitter(mi.Emitter):
     pdf_direction = wrapped.pdf_direction
     sample_ray = wrapped.sample_ray
     sample_position = wrapped.sample_position
-    set_scene = wrapped.set_scene
     bbox = wrapped.bbox
 
     def pdf_position(self, ps, active=True):

@@ -181,8 +181,8 @@ def _intensity_emitter(props, up, sun, when):
     if "radiance" in props:
         texture, varying = _texture(props)
         if varying:   # unit radiance, uniform sampling; the texture scales it by direction
-            return mi.load_dict({"type": "constant", "radiance": 1.0}), "texture", None, \
-                texture, sun
+            unit = {"type": "constant", "radiance": {"type": "uniform", "value": 1.0}}
+            return mi.load_dict(unit), "texture", None, texture, sun
         return mi.load_dict({"type": "constant", "radiance": texture}), "constant", None, \
             None, sun
 
@@ -341,7 +341,6 @@ class PolarizedSky(mi.Emitter):
     pdf_direction = wrapped.pdf_direction
     sample_ray = wrapped.sample_ray
     sample_position = wrapped.sample_position
-    set_scene = wrapped.set_scene
     bbox = wrapped.bbox
 
     def sample_wavelengths(self, si, sample, active=True):

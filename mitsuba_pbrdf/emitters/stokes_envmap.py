@@ -207,7 +207,6 @@ class StokesEnvmap(mi.Emitter):
     pdf_direction = wrapped.pdf_direction
     sample_ray = wrapped.sample_ray
     sample_position = wrapped.sample_position
-    set_scene = wrapped.set_scene
     bbox = wrapped.bbox
 
     def sample_wavelengths(self, si, sample, active=True):
