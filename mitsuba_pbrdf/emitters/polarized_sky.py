@@ -13,9 +13,23 @@
      - Direction towards the sun, in world space, as Mitsuba's ``sunsky``
        takes it (its local frame has +Z up; ``to_world`` turns it). Must not
        be zero; with the ``sunsky`` intensity the sun must be above the
-       horizon.
+       horizon. Required unless a date, time and place are given.
+       Differentiable: the polarization pattern's derivative, with the
+       intensity held (a ``sunsky`` intensity gets the new direction without
+       its gradient: its own misses the moving sun disk).
      - (required)
-     - |exposed|
+     - |exposed|, |differentiable| (JIT variants); read-only with a date
+   * - ``year``, ``month``, ``day``, ``hour``, ``minute``, ``second``,
+       ``latitude``, ``longitude``, ``timezone``
+     - integer (the date), float
+     - Instead of ``sun_direction``: the date, local time, place (degrees,
+       north and east positive) and time zone (hours from UTC) that Mitsuba
+       3.9.1's ``sunsky`` takes; handed to the internal ``sunsky``, whose sun
+       (+X south, +Y west in its frame, measured) the pattern follows. Only
+       with the ``sunsky`` intensity; the sun must be above the horizon.
+     - ``sunsky``'s for those not given: 2010-07-10 15:00:00, 35.6894,
+       139.6917, 9
+     - ``intensity.*`` (not differentiable)
    * - ``model``
      - string
      - ``rayleigh``: single scattering, DoLP = ``dolp_max`` sin²γ/(1 + cos²γ)
@@ -44,14 +58,20 @@
      - The intensity's ``sunsky`` parameters (Hosek-Wilkie sky and sun),
        handed to an internal ``sunsky`` at the same sun direction; turbidity
        in [1, 10], albedo in [0, 1].
-     - ``sunsky``'s: 3, 0.3, 1, 1, 0.5338
+     - ``sunsky``'s: 3, 0.3, 1, 1, 0.5358
      - ``intensity.*``
    * - ``radiance``
-     - spectrum
-     - A constant sky radiance replacing the ``sunsky`` intensity (an
-       internal ``constant`` emitter: uniform sampling, no sun).
+     - spectrum or texture
+     - A sky radiance replacing the ``sunsky`` intensity, sampled uniformly
+       over the sphere, no sun. A spectrum: an internal ``constant``
+       emitter. A spatially varying texture (a ``bitmap``...): looked up by
+       direction at texture coordinates (u, v) = (azimuth from local +Y
+       towards +X / 2 pi, zenith angle from local +Z / pi), the lat-long
+       layout of Mitsuba's ``envmap`` turned +Y to +Z
+       (``<rotate x="1" angle="90"/>``). Refused at load time if negative,
+       NaN or infinite (``params.nonnegative_texels``).
      - --
-     - ``intensity.*``
+     - ``intensity.*`` (a spectrum), ``radiance.*`` (a texture)
    * - (nested emitter)
      - emitter
      - An infinite emitter (``envmap``, ``constant``, ``sunsky``...) whose
@@ -84,6 +104,16 @@ XML::
         <string name="model" value="berry"/>
         <float name="dolp_max" value="0.75"/>
         <float name="turbidity" value="3"/>
+    </emitter>
+
+    <emitter type="polarized_sky">   <!-- the sun of 21 June 2024, 09:30 in Paris -->
+        <integer name="year" value="2024"/>
+        <integer name="month" value="6"/>
+        <integer name="day" value="21"/>
+        <float name="hour" value="9.5"/>
+        <float name="latitude" value="48.86"/>
+        <float name="longitude" value="2.35"/>
+        <float name="timezone" value="2"/>
     </emitter>
 
 This module defines the class for the Mitsuba variant active when it is
