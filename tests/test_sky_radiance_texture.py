@@ -143,6 +143,22 @@ def test_bad_texels_are_refused_naming_the_parameter_and_the_texel(bad, text):
     assert last.startswith("ValueError: polarized_sky: parameter 'radiance' has ") and text in last
 
 
+@pytest.mark.parametrize("bad,text", [
+    (-0.5, "'radiance' is negative at 65536 of 131072 texture coordinates (first at (u, v) = "
+           "(0.0009766, 0.001953))"),
+    (float("nan"), "'radiance' is NaN or infinite at 65536 of 131072 texture coordinates"),
+])
+def test_a_procedural_texture_is_checked_on_a_grid_of_texture_coordinates(bad, text):
+    """A texture without texels (a checkerboard of a bad and a good colour):
+    evaluated on a 512 x 256 grid of (u, v), half of it bad."""
+    checkerboard = {"type": "checkerboard", "color0": {"type": "uniform", "value": bad}}
+    with pytest.raises(Exception) as error:
+        mi.load_dict(dict(sky(sky_map()), radiance=checkerboard))
+    assert text in str(error.value).strip().splitlines()[-1]
+    good = mi.load_dict(dict(sky(sky_map()), radiance={"type": "checkerboard"}))
+    assert good.kind == "texture"
+
+
 @pytest.fixture
 def mono():
     from mitsuba_pbrdf import use_variant
