@@ -185,7 +185,7 @@ def _configure(props):
     if model != "berry" and "neutral_point_separation" in props:
         raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
                          "model 'berry' only")
-    to_world = read.transform(props)
+    to_world = read.transform(props, "to_world")
     up = read.unit_vector(_NAME, "to_world", [to_world[i][2] for i in range(3)])
     horizontal = read.unit_vector(_NAME, "to_world", [to_world[i][0] for i in range(3)])
     sun = read.direction(props, _NAME, "sun_direction")
