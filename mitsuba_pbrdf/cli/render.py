@@ -12,11 +12,12 @@ import os
 import sys
 from typing import Optional
 
-from .common import (PROG, CliError, check_outputs, chosen_variant, parse_defines,
-                     picture_kwargs, picture_options, progress_options, report_quality,
-                     show_progress, variant_help)
-from .unused_options import warn_unused_picture_options
 from ..outputs import together
+from .arguments import (check_outputs, chosen_variant, parse_defines, progress_options,
+                        show_progress, variant_help)
+from .errors import PROG, CliError
+from .pictures import (picture_kwargs, picture_options, report_quality,
+                       warn_unused_picture_options)
 
 
 def _out_stem(out: Optional[str], scene_path: str) -> str:
