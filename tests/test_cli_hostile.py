@@ -515,12 +515,13 @@ def test_hostile_input(case, argv, status, text, absent, files, capfd, monkeypat
 
 
 def test_unpolarized_variant_is_refused_before_loading_the_scene(files, capfd, monkeypatch):
-    import mitsuba_pbrdf.rendering.render as render_module
+    import mitsuba as mi
 
     def no_load(*args, **kwargs):
         raise AssertionError("the scene was loaded")
 
-    monkeypatch.setattr(render_module, "load_scene", no_load)
+    for loader in ("load_file", "load_string"):  # every render mode loads with one of them
+        monkeypatch.setattr(mi, loader, no_load)
     assert main(["render", files["scene"], "--variant", "llvm_ad_rgb"]) == 2
     _, line = one_line_error(capfd, "render")
     assert "llvm_ad_spectral_polarized" in line and "llvm_ad_mono_polarized" in line

@@ -20,8 +20,9 @@ import os
 
 from ..interrupts import release
 from ..outputs import together
-from .common import (CliError, check_outputs, chosen_variant, progress_options, require_file,
-                     show_progress, variant_help)
+from .arguments import (check_outputs, chosen_variant, progress_options, require_file,
+                        show_progress, variant_help)
+from .errors import CliError
 
 OUTPUTS = ("normals.exr", "normals.png", "recovery.png", "recovery.json")
 
