@@ -3,7 +3,8 @@ the fit cannot survive, refused before it starts, each by its public
 parameter's name (:class:`~mitsuba_pbrdf.errors.ParameterError`):
 
 * ``seed``: an integer in ``[0, 2^32)`` (Mitsuba's sampler seeds are 32-bit;
-  the iterations' seeds are derived from it modulo 2^32: :func:`render_seed`);
+  the iterations' seeds are derived from it modulo 2^32:
+  :func:`mitsuba_pbrdf.inverse.driver.iteration_seeds`);
 * ``max_depth``: -1 (no limit) or at least 2: with 1 a path sees only the
   emitters, with 0 nothing, and no texel would get a gradient;
 * ``targets``: numeric arrays, finite, not zero everywhere (the loss divides
@@ -21,8 +22,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["SEED_LIMIT", "check_seed", "check_max_depth", "check_targets", "check_normal_field",
-           "render_seed"]
+__all__ = ["SEED_LIMIT", "check_seed", "check_max_depth", "check_targets", "check_normal_field"]
 
 #: Seeds are 32-bit (Mitsuba's samplers).
 SEED_LIMIT = 1 << 32
@@ -33,11 +33,6 @@ def check_seed(seed) -> int:
             or not 0 <= int(seed) < SEED_LIMIT:
         raise ParameterError("seed", f"must be an integer in [0, 2^32 - 1], got {seed!r}")
     return int(seed)
-
-
-def render_seed(seed: int, iteration: int, view: int) -> int:
-    """The sampler seed of one iteration's render of one view (32-bit)."""
-    return (int(seed) + 7919 * int(iteration) + 31 * int(view)) % SEED_LIMIT
 
 
 def check_max_depth(max_depth) -> int:

@@ -24,16 +24,15 @@ and the render is compared with them noise-free). A polarized variant with
 from __future__ import annotations
 
 import os
-import time
 from dataclasses import dataclass, field
 from typing import Callable, List, Optional
 
 import numpy as np
 
 from ..errors import ParameterError
-from .normal_inputs import (check_max_depth, check_normal_field, check_seed, check_targets,
-                            render_seed)
-from .fit_steps import LR_END, learning_rates, summed_gradients  # noqa: F401 (re-exported)
+from .driver import LR_END, learning_rates, run_adam
+from .fit_steps import summed_gradients
+from .normal_inputs import check_max_depth, check_normal_field, check_seed, check_targets
 
 OBSERVABLES = ("intensity", "stokes", "polcam")
 PARAMETRIZATIONS = ("normals", "height")
@@ -391,12 +390,11 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
             raise ParameterError("fit_roughness", "needs the wrapped pbrdf's sigma to be a "
                                                   "bitmap texture")
 
-    opt = mi.ad.Adam(lr=float(rates[0]))
-    opt["texels"] = texels.start
+    variables = {"texels": texels.start}
     if sigma_key:
-        opt["sigma"] = params[sigma_key]
+        variables["sigma"] = params[sigma_key]
 
-    def apply():
+    def apply(opt):
         normals = texels.normals(opt["texels"])
         params[key] = texels.texels(normals)
         if sigma_key:
@@ -404,44 +402,43 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
         params.update()
         return normals
 
-    history, view_loss, view_grad, touched = [], [], [], np.zeros(shape[:2], bool)
-    t0 = time.perf_counter()
-    for it in range(iterations):
+    view_loss, view_grad, touched = [], [], np.zeros(shape[:2], bool)
+
+    def gradient(opt, it, seeds):  # seeds: one per view
         penalty = [0.0]
 
-        def view_value(view, it=it):
-            normals = apply()
+        def view_value(view):
+            normals = apply(opt)
             image = mi.render(scene, params, sensor=view, integrator=integrator, spp=spp,
-                              seed=render_seed(seed, it, view))
+                              seed=seeds[view])
             value = losses[view](image)
             if smoothness > 0 and view == 0:
                 penalty[0] = smoothness * float(texels.smoothness(dr.detach(normals))[0])
                 value = value + smoothness * texels.smoothness(normals)
             return value
 
-        variables = [opt["texels"]] + ([opt["sigma"]] if sigma_key else [])
         values, grad_norms = summed_gradients(
-            [lambda v=v: view_value(v) for v in range(len(losses))], variables)
+            [lambda v=v: view_value(v) for v in range(len(losses))],
+            [opt[name] for name in variables])
         per_view = [values[0] - penalty[0]] + values[1:]
-        total = float(sum(per_view))
         before = np.array(dr.grad(opt["texels"]), np.float64)
-        touched |= (np.abs(before).reshape(*shape[:2], -1).sum(axis=2) != 0)
-        opt.step()
+        touched[...] |= (np.abs(before).reshape(*shape[:2], -1).sum(axis=2) != 0)
+        view_loss.append(per_view)
+        view_grad.append(grad_norms)
+        return float(sum(per_view))
+
+    def clamp(opt):
         opt["texels"] = texels.project(opt["texels"])
         if sigma_key:
             opt["sigma"] = dr.clip(opt["sigma"], *SIGMA_BOUNDS)
-        if it + 1 < iterations:
-            opt.set_learning_rate(float(rates[it + 1]))
-        history.append(total)
-        view_loss.append(per_view)
-        view_grad.append(grad_norms)
-        if callback is not None:
-            callback(it, total)
+
+    run = run_adam(variables, gradient, rates, seed=seed, renders=len(losses), clamp=clamp,
+                   callback=callback)
+    opt, history = run.optimizer, run.loss
     normals = np.array(texels.normals(dr.detach(opt["texels"])), np.float64).T.reshape(shape)
     normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
-    apply()
-    out = NormalRecovery(normals=normals, loss=history, visible=touched,
-                         seconds=time.perf_counter() - t0,
+    apply(opt)
+    out = NormalRecovery(normals=normals, loss=history, visible=touched, seconds=run.seconds,
                          info={"view_loss": np.array(view_loss),
                                "view_gradient_norm": np.array(view_grad),
                                "learning_rates": rates})
