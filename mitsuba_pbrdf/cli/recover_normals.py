@@ -28,7 +28,7 @@ OUTPUTS = ("normals.exr", "normals.png", "recovery.png", "recovery.json")
 
 
 def _targets(paths, scene, observables):
-    from ..inverse.normals import film_channels, film_target
+    from ..inverse.normal_targets import film_channels, film_target
     from ..stokes.exr import read_exr_channels, read_stokes_exr
 
     out = []
@@ -58,7 +58,8 @@ def run(args) -> int:
     """``pbrdf recover-normals``."""
     import numpy as np
 
-    from ..inverse.normals import LR_END, check_options, find_normalmap
+    from ..inverse.driver import LR_END
+    from ..inverse.normal_inputs import check_options, find_normalmap
     from ..registry import use_variant
     from ..rendering.progress import progress_reporter
     from ..rendering.render import load_scene, require_polarized
