@@ -338,6 +338,89 @@ def test_recover_normals_takes_the_plates_normal_map_as_truth(tmp_path, capsys):
         assert png.size[0] > 1000 and png.size[1] > 300  # four readable panels
 
 
+@pytest.mark.slow
+@pytest.mark.usefixtures("restore_variant")
+def test_save_writes_what_the_command_writes(tmp_path, monkeypatch):
+    """NormalRecovery.save, given the recovery the command made, writes the
+    command's four files: the same names, the same JSON, the same EXR channels
+    and header, the same PNGs byte for byte; and a recovery from a scene file
+    names that file as the command does."""
+    import json
+
+    import OpenEXR
+
+    from mitsuba_pbrdf.cli import main
+    from mitsuba_pbrdf.inverse import normals
+    from mitsuba_pbrdf.inverse.normal_result import RECOVERY_FILES
+    from mitsuba_pbrdf.inverse.normal_scenes import true_normals, write_plate_files
+    from mitsuba_pbrdf.stokes.exr import read_exr_channels
+
+    plate = write_plate_files(tmp_path, true_normals(8), size=8, spp=2)
+    variant = ["--variant", "llvm_ad_spectral_polarized"]
+    assert main(["render", plate, "-D", "spp=4", "--out", str(tmp_path / "target"), *variant]) == 0
+    made, fit = [], normals.recover_normals
+    monkeypatch.setattr(normals, "recover_normals", lambda *a, **k: made.append(fit(*a, **k))
+                        or made[-1])
+    assert main(["recover-normals", plate, "--targets", str(tmp_path / "target.exr"), "--out",
+                 str(tmp_path / "cli"), "--truth", str(tmp_path / "plate_normals.exr"),
+                 "--iterations", "2", "--spp", "1", "--no-progress", *variant]) == 0
+    (result,) = made
+    assert result.source is None  # the command passed its loaded scene, and names the file
+    result.save(tmp_path / "py", source=os.path.basename(plate))
+    cli, py = tmp_path / "cli", tmp_path / "py"
+    assert sorted(os.listdir(cli)) == sorted(os.listdir(py)) == sorted(RECOVERY_FILES)
+    assert json.loads((cli / "recovery.json").read_text()) == \
+        json.loads((py / "recovery.json").read_text())
+    for name in ("normals.png", "recovery.png"):
+        assert (cli / name).read_bytes() == (py / name).read_bytes(), name
+    channels = [read_exr_channels(folder / "normals.exr") for folder in (cli, py)]
+    assert sorted(channels[0]) == sorted(channels[1]) == ["X", "Y", "Z"]
+    for c in "XYZ":
+        np.testing.assert_array_equal(channels[0][c], channels[1][c])
+    headers = [{k: v for k, v in OpenEXR.InputFile(str(folder / "normals.exr")).header().items()
+                if k.startswith("pbrdf:")} for folder in (cli, py)]
+    assert headers[0] == headers[1] and headers[0]["pbrdf:source"] == b"plate.xml"
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.inverse.normal_targets import film_channels, film_target
+    from mitsuba_pbrdf.stokes.exr import read_stokes_exr
+
+    target = film_target(read_stokes_exr(str(tmp_path / "target.exr")),
+                         film_channels(mi.load_file(plate)))
+    assert fit(plate, [target], iterations=1, spp=1).source == "plate.xml"
+
+
+def test_save_writes_all_four_files_or_none(tmp_path):
+    """save() replaces the four files together (mitsuba_pbrdf.outputs.together):
+    when one cannot be written (its path is a folder) none is, and an earlier
+    file stays as it was."""
+    from mitsuba_pbrdf.inverse.normal_result import (RECOVERY_FILES, NormalRecovery,
+                                                     recovery_paths)
+
+    flat = np.zeros((4, 4, 3))
+    flat[..., 2] = 1.0
+    result = NormalRecovery(normals=flat, loss=[1.0, 0.5], visible=np.ones((4, 4), bool),
+                            seconds=1.0, options={"observables": "stokes", "iterations": 2,
+                                                  "spp": 1})
+    written = result.save(tmp_path / "ok")
+    assert sorted(os.listdir(tmp_path / "ok")) == sorted(RECOVERY_FILES)
+    assert written == recovery_paths(tmp_path / "ok")
+    summary = (tmp_path / "ok" / "recovery.json").read_text()
+    assert '"visible_texels": 16' in summary and "angular_error_deg" not in summary
+    bad = tmp_path / "bad"
+    (bad / "recovery.json").mkdir(parents=True)
+    (bad / "normals.exr").write_bytes(b"earlier")
+    with pytest.raises(OSError, match="recovery.json"):
+        result.save(bad)
+    assert sorted(os.listdir(bad)) == ["normals.exr", "recovery.json"]
+    assert (bad / "normals.exr").read_bytes() == b"earlier"
+    elsewhere = {name: tmp_path / "mixed" / f"a_{name}" for name in RECOVERY_FILES}
+    result.save(elsewhere)
+    assert sorted(os.listdir(tmp_path / "mixed")) == sorted(f"a_{n}" for n in RECOVERY_FILES)
+    with pytest.raises(ValueError, match="normals.png, recovery.png, recovery.json"):
+        result.save({"normals.exr": tmp_path / "x.exr"})
+
+
 def test_recovery_picture_shows_truth_fit_error_and_loss(tmp_path):
     """recovery.png's figure: four titled panels (true and recovered normals,
     the error map with unseen texels grey and out of the median, the loss)."""

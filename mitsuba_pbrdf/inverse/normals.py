@@ -15,6 +15,7 @@ replaced by ``stokes_prb`` for the fit.
 
 from __future__ import annotations
 
+import os
 from typing import Callable, Optional
 
 import numpy as np
@@ -59,9 +60,11 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
     is given): :func:`~mitsuba_pbrdf.inverse.driver.learning_rates`.
     ``info["view_loss"]`` and ``info["view_gradient_norm"]``: (iterations,
     views) data loss of each view and the norm of its texel gradient.
+    ``result.save(folder)`` writes what ``pbrdf recover-normals`` writes.
     """
     import mitsuba as mi
 
+    source = os.path.basename(os.fspath(scene)) if isinstance(scene, (str, os.PathLike)) else None
     check_options(observables, parametrization, iterations, spp, smoothness, lr, lr_end, lr_decay,
                   seed, max_depth)
     rates = learning_rates(lr, iterations, lr_end, lr_decay)
@@ -86,6 +89,12 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
                    clamp=fit.clamp, callback=callback)
     out = fit.result(run)
     out.info["learning_rates"] = rates
+    out.source, out.truth = source, truth
+    out.options = {"observables": observables, "parametrization": parametrization,
+                   "iterations": int(iterations), "spp": int(spp), "smoothness": float(smoothness),
+                   "lr": float(lr), "lr_end": float(lr_end)}
+    if lr_decay is not None:
+        out.options["lr_decay"] = float(lr_decay)
     if truth is not None:
         out.angular_error = angular_error(out.normals, truth)
         out.start_error = angular_error(start_normals, truth)
