@@ -48,15 +48,7 @@ def fit_parameters(scene, keys: Sequence[str], target, components=(0, 1, 2), ini
     """
     params = mi.traverse(scene)
     keys = list(keys)
-    for k in keys:
-        if dr.width(params[k]) != 1:
-            raise ValueError(f"fit_parameters fits scalar parameters; {k!r} has "
-                             f"{dr.width(params[k])} values")
-    values = {k: float(np.asarray(params[k]).reshape(-1)[0]) for k in keys}
-    if initial:
-        values.update({k: float(v) for k, v in initial.items()})
-    if any(v <= 0 for v in values.values()):
-        raise ValueError(f"fit_parameters fits positive parameters, got {values}")
+    values = _start_values(params, keys, initial)
     bounds = bounds or {}
     loss = stokes_loss(scene, target, components)
     method = gradient_method(scene, method)
@@ -94,3 +86,18 @@ def fit_parameters(scene, keys: Sequence[str], target, components=(0, 1, 2), ini
     params.update()
     result.loss, result.final, result.seconds = run.loss, dict(values), run.seconds
     return result
+
+
+def _start_values(params, keys, initial) -> dict:
+    """{key: starting value}: *initial*'s, else the scene's; ValueError unless
+    every parameter is a positive scalar."""
+    for k in keys:
+        if dr.width(params[k]) != 1:
+            raise ValueError(f"fit_parameters fits scalar parameters; {k!r} has "
+                             f"{dr.width(params[k])} values")
+    values = {k: float(np.asarray(params[k]).reshape(-1)[0]) for k in keys}
+    if initial:
+        values.update({k: float(v) for k, v in initial.items()})
+    if any(v <= 0 for v in values.values()):
+        raise ValueError(f"fit_parameters fits positive parameters, got {values}")
+    return values
