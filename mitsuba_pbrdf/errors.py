@@ -2,7 +2,7 @@
 
 The library names what was wrong by its *parameter* (``wavelength``, ``spp``,
 ``grid``): :class:`ParameterError`. The command line, where it catches one,
-names the option instead (``--wavelength``; :func:`mitsuba_pbrdf.cli.common.run_command`).
+names the option instead (``--wavelength``; :func:`mitsuba_pbrdf.cli.errors.run_command`).
 :func:`describe_error` is the one-line text of any error, shared by the command
 line and by ``pbrdf batch`` (whose workers report failures without raising);
 both sit above this module, and it imports neither.

@@ -128,7 +128,7 @@ def hold_for_command_line() -> bool:
     """Hold SIGINT when this process is the ``pbrdf`` command line (the
     console scripts, or ``python -m mitsuba_pbrdf``), so that the package's
     import (Mitsuba's, Dr.Jit's) happens held; the command releases it
-    (:func:`mitsuba_pbrdf.cli.common.run_command`). Returns whether it holds."""
+    (:func:`mitsuba_pbrdf.cli.errors.run_command`). Returns whether it holds."""
     argv = list(getattr(sys, "orig_argv", None) or sys.argv)
     by_module = any(a == "-m" and b in ("mitsuba_pbrdf", "mitsuba_pbrdf.cli")
                     for a, b in zip(argv, argv[1:]))

@@ -13,6 +13,8 @@ The table holds Mitsuba objects (bitmaps, colours, transforms), so it is built
 for the active variant: set one first (``mitsuba_pbrdf.use_variant``).
 """
 
+from typing import List, NamedTuple, Optional
+
 import numpy as np
 
 NAN, INF = float("nan"), float("inf")
@@ -28,14 +30,19 @@ def bitmap(value, at=(3, 5), fill=0.5):
     return {"type": "bitmap", "bitmap": mi.Bitmap(texels), "filter_type": "nearest", "raw": True}
 
 
-def cases():
-    """[(extra parameters, error raised by the plugin or None for Mitsuba's
-    parser, text the last line of the message must contain)], for the active
-    variant."""
+class BadInput(NamedTuple):
+    """One bad set of pbrdf parameters and the error it must raise at load."""
+    params: dict            #: parameters added to a valid pbrdf's
+    error: Optional[type]   #: the exception the plugin raises; None: Mitsuba's parser refuses it
+    text: str               #: text the message's last line must contain
+
+
+def cases() -> List[BadInput]:
+    """The table of bad parameters (:class:`BadInput` rows) for the active variant."""
     from mitsuba_pbrdf.variant import require_variant
 
     mi = require_variant()
-    return [
+    return [BadInput(*row) for row in [
         # negative, zero (where > 0 is required), NaN, infinite
         ({"sigma": -0.1}, ValueError, "'sigma'"),
         ({"sigma": 0.0}, ValueError, "'sigma'"),
@@ -113,7 +120,7 @@ def cases():
         ({"material": "Cu", "k": 3.0}, ValueError, "'material'"),
         ({"eta": 0.2}, ValueError, "'eta' and 'k'"),
         ({"k": 3.0}, ValueError, "'eta' and 'k'"),
-    ]
+    ]]
 
 
 def load_error(params):

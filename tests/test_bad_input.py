@@ -18,9 +18,9 @@ import mitsuba as mi
 from mitsuba_pbrdf import use_variant
 from proof.bad_input import INF, NAN, bitmap, cases, load_error
 
-#: (extra parameters, error raised by the plugin or None for Mitsuba's parser,
-#:  text the last line of the message must contain): the table shared with
-#:  validation/bad_input.py, built for the suite's variant (tests/conftest.py).
+#: proof.bad_input.BadInput rows (parameters, the plugin's error or None for
+#: Mitsuba's parser, text of the message's last line): the table shared with
+#: validation/bad_input.py, built for the suite's variant (tests/conftest.py).
 BAD_INPUT = cases()
 
 
@@ -31,7 +31,7 @@ def check_message(last_line, error, message):
     assert message in last_line, last_line
 
 
-@pytest.mark.parametrize("extra,error,message", BAD_INPUT, ids=[repr(b[0])[:60] for b in BAD_INPUT])
+@pytest.mark.parametrize("extra,error,message", BAD_INPUT, ids=[repr(b.params)[:60] for b in BAD_INPUT])
 def test_bad_input_is_rejected_at_load_time_naming_the_parameter(extra, error, message):
     """Mitsuba's loader wraps a plugin's exception in a RuntimeError whose last
     line is ours: '<ErrorType>: pbrdf: ... <parameter> ...'."""

@@ -465,7 +465,7 @@ def test_library_errors_name_the_option_the_command_has():
     the parameter's name where it has none."""
     import argparse
 
-    from mitsuba_pbrdf.cli.common import option_message
+    from mitsuba_pbrdf.cli.errors import option_message
     from mitsuba_pbrdf.errors import ParameterError
 
     error = ParameterError("sigma_dd", "must be positive,\n got 0")

@@ -57,7 +57,7 @@ def test_check_render_refuses_bands_in_a_non_spectral_variant_and_with_a_wavelen
     assert error.value.parameter == "bands"
     with pytest.raises(ParameterError, match="not both"):
         check_render(SCENE, variant=VARIANT, bands=BANDS, wavelength="600")
-    assert check_render(SCENE, variant=VARIANT, bands=BANDS).bands.names[0] == "610nm"
+    assert check_render(SCENE, variant=VARIANT, bands=BANDS).mode.band_names[0] == "610nm"
     with pytest.raises(ParameterError, match="40 bands need at least 10 samples per pixel"):
         check_render(SCENE, variant=VARIANT, bands="450:650:5", spp=9)
 

@@ -78,7 +78,7 @@ def test_outputs_written_together_are_replaced_together_or_not_at_all(tmp_path):
 
 
 def test_a_sigint_before_a_command_ends_is_delivered_by_run_command(capfd):
-    from mitsuba_pbrdf.cli.common import run_command
+    from mitsuba_pbrdf.cli.errors import run_command
 
     def command(args):
         _sigint_now()      # recorded: the command line holds SIGINT until released
@@ -97,7 +97,7 @@ def test_a_keyboard_interrupt_wrapped_by_drjit_is_an_interruption(capfd):
     import drjit as dr
     import mitsuba as mi
 
-    from mitsuba_pbrdf.cli.common import run_command
+    from mitsuba_pbrdf.cli.errors import run_command
 
     def body(i):
         raise KeyboardInterrupt
@@ -115,7 +115,7 @@ def test_on_the_command_line_a_sigint_after_the_outputs_changes_nothing(tmp_path
     the command line SIGINT stays held to the end, then is ignored (SIG_IGN
     survives the interpreter's shutdown, a Python handler does not), so a
     late Ctrl-C neither reports an interruption nor kills the process."""
-    from mitsuba_pbrdf.cli.common import run_command
+    from mitsuba_pbrdf.cli.errors import run_command
 
     monkeypatch.setitem(interrupts._state, "command_line", True)
     target = write_text(tmp_path / "a.txt", "old\n")
@@ -140,7 +140,7 @@ def test_on_the_command_line_a_sigint_after_the_outputs_changes_nothing(tmp_path
 
 
 def test_on_the_command_line_an_error_or_interruption_ends_with_sigint_ignored(capfd, monkeypatch):
-    from mitsuba_pbrdf.cli.common import CliError, run_command
+    from mitsuba_pbrdf.cli.errors import CliError, run_command
 
     monkeypatch.setitem(interrupts._state, "command_line", True)
 

@@ -17,8 +17,8 @@ from mitsuba_pbrdf.rendering import render_scene
 from mitsuba_pbrdf.rendering.render import check_render
 from mitsuba_pbrdf.stokes import read_stokes_exr
 from mitsuba_pbrdf.stokes.exr import read_exr_channels
-from mitsuba_pbrdf.rendering.narrowband import (band_response, parse_wavelength, rgb_response,
-                                                scene_with_band)
+from mitsuba_pbrdf.rendering.narrowband import (parse_wavelength, passband_response,
+                                                rgb_response, scene_with_passband)
 from test_analytic_scene import LIGHT_DIR, SCENE, expected_stokes
 
 pytestmark = pytest.mark.usefixtures("restore_variant")
@@ -43,8 +43,9 @@ def params():
 
 
 def test_parse_wavelength():
-    band = parse_wavelength("632.8")
-    assert (band.centre, band.width, band.name) == (632.8, 0.0, "632.8nm")
+    passband = parse_wavelength("632.8")
+    assert (passband.centre, passband.width, passband.name) == (632.8, 0.0, "632.8nm")
+    assert parse_wavelength(passband) is passband
     assert parse_wavelength("550:10").limits == (545.0, 555.0)
     for bad, text in [("red", "expects NM or NM:WIDTH"), ("550:-1", "width >= 0"),
                       ("nan", "finite"), ("300", "within 360-830 nm"),
@@ -57,8 +58,8 @@ def test_parse_wavelength():
 
 def test_check_render_refuses_a_band_in_a_non_spectral_variant_before_loading():
     """check_render makes the render's checks once, without setting a variant:
-    a band in an RGB variant is refused by parameter name; a good request
-    carries the parsed band."""
+    a passband in an RGB variant is refused by parameter name; a good request
+    carries the parsed passband in its render mode."""
     with pytest.raises(ParameterError, match="needs a spectral variant, not "
                                              "llvm_ad_rgb_polarized") as error:
         check_render(SCENE, variant="llvm_ad_rgb_polarized", wavelength="600")
@@ -68,7 +69,7 @@ def test_check_render_refuses_a_band_in_a_non_spectral_variant_before_loading():
             check_render(SCENE, variant=VARIANT, **{name: value})
         assert error.value.parameter == name
     request = check_render(SCENE, spp=2, variant=VARIANT, wavelength="550:10")
-    assert request.band.limits == (545.0, 555.0) and request.spp == 2
+    assert request.mode.passband.limits == (545.0, 555.0) and request.spp == 2
 
 
 def test_sampled_wavelengths_weigh_the_band_evenly():
@@ -79,7 +80,7 @@ def test_sampled_wavelengths_weigh_the_band_evenly():
     0.5 nm apart leaves < 1e-4)."""
     use_variant(VARIANT)
     for text in ("632.8", "632.8:20", "450:30"):
-        r = band_response(parse_wavelength(text))
+        r = passband_response(parse_wavelength(text))
         srf = mi.load_dict({"type": "regular", "wavelength_min": float(r.wavelengths[0]),
                             "wavelength_max": float(r.wavelengths[-1]),
                             "values": ", ".join(f"{v:.9g}" for v in r.values)})
@@ -87,13 +88,13 @@ def test_sampled_wavelengths_weigh_the_band_evenly():
         lam, _ = srf.sample_spectrum(mi.SurfaceInteraction3f(),
                                      mi.UnpolarizedSpectrum(u, u, u, u))
         lam = np.array(lam)[0]
-        low, high = r.band.limits
+        low, high = r.passband.limits
         assert low - 1e-3 <= lam.min() and lam.max() <= high + 1e-3
         weight = rgb_response(lam)[r.channel] * r.scale
         assert weight.mean() == pytest.approx(1.0, abs=1e-4), text
         # and the weighted average of λ is the centre (1e-3 nm: the 1e-4 above times
         # the offsets, at most 15 nm)
-        assert np.mean(weight * (lam - r.band.centre)) == pytest.approx(0, abs=1e-3), text
+        assert np.mean(weight * (lam - r.passband.centre)) == pytest.approx(0, abs=1e-3), text
 
 
 def reference_image(lams):
@@ -128,13 +129,13 @@ def test_narrow_band_render_matches_the_reference(wavelength):
     632.8 nm reference by far more than that (checked), so the test sees the
     wavelength."""
     use_variant(VARIANT)
-    band = parse_wavelength(wavelength)
+    passband = parse_wavelength(wavelength)
     passes = np.stack([render_scene(SCENE, spp=SPP, seed=11 + i, params=params(), passes=1,
                                     variant=VARIANT, wavelength=wavelength).stokes[..., 0]
                        for i in range(PASSES)])
     mean = passes.mean(axis=0).astype(np.float64)
-    low, high = band.limits
-    lams = [band.centre] if band.width == 0 else list(
+    low, high = passband.limits
+    lams = [passband.centre] if passband.width == 0 else list(
         low + (np.arange(21) + 0.5) * (high - low) / 21)
     expected = reference_image(lams)
     s0 = expected[..., :1]
@@ -145,7 +146,7 @@ def test_narrow_band_render_matches_the_reference(wavelength):
     error = np.abs(mean - expected)
     worst = np.unravel_index(np.argmax(error / bound), error.shape)
     assert np.all(error <= bound), (worst, mean[worst], expected[worst], bound[worst])
-    if band.width == 0:
+    if passband.width == 0:
         other = render_scene(SCENE, spp=SPP, seed=11, params=params(), passes=1,
                              variant=VARIANT, wavelength="600").stokes[..., 0]
         assert (np.abs(other - expected) / bound).max() > 3
@@ -172,5 +173,5 @@ def test_scene_without_its_own_sensor_is_refused(tmp_path):
     use_variant(VARIANT)
     (tmp_path / "s.xml").write_text('<scene version="3.0.0"><include filename="x.xml"/></scene>')
     with pytest.raises(ValueError, match="has no <sensor> of its own"):
-        scene_with_band(tmp_path / "s.xml", band_response(parse_wavelength("600")))
+        scene_with_passband(tmp_path / "s.xml", passband_response(parse_wavelength("600")))
     assert os.path.exists(tmp_path / "s.xml")

@@ -17,7 +17,11 @@ Oracles and tolerances:
 * Recovery: 8 x 8 texels, 32 x 32 pixels, 30 iterations at 8 spp, Stokes
   targets at 128 spp, the default schedule (lr 0.05 down to 0.005). The
   starting (flat) map is off by a median 9.10° over the visible texels; the
-  fit brings it to 5.57° (measured; 6.32° with the former lr x 0.97^it).
+  fit brings it to 6.37° (measured, seeds of inverse.driver; 5.57° with the
+  former seed formula, 6.32° with the former lr x 0.97^it). Over seeds 0-8
+  the fit ends at 5.1-7.8° (mean 6.7°; 5.3-7.4°, mean 6.3°, with the former
+  seeds): Monte Carlo noise of about 0.8°, which takes one or two seeds in
+  nine past the margin either way; seed 0 is inside it.
   Asserted: a median at least 20 % below the start's (7.28°). Noise alone
   cannot do that: Adam driven by pure Monte Carlo noise random-walks the
   normals away from the truth (validation/sfp_accuracy.md: started AT the
@@ -49,7 +53,7 @@ def test_stokes_prb_texel_gradients_equal_path_ad_per_sample():
 
 def test_polcam_weights_reproduce_mono_mosaic():
     from mitsuba_pbrdf.camera.polcam import mono_mosaic
-    from mitsuba_pbrdf.inverse.normals import polcam_weights
+    from mitsuba_pbrdf.inverse.normal_targets import polcam_weights
     from mitsuba_pbrdf.stokes.image import from_mitsuba
 
     names = ["R", "G", "B"] + [f"S{k}.{b}" for k in range(4) for b in "RGB"]
@@ -65,10 +69,10 @@ def test_height_normals_match_numpy_twin():
     import mitsuba as mi
 
     from mitsuba_pbrdf.inverse.normal_scenes import bumpy_heights
-    from mitsuba_pbrdf.inverse.normals import _Texels, normals_from_heights
+    from mitsuba_pbrdf.inverse.normal_texels import NormalTexels, normals_from_heights
 
     heights = bumpy_heights(7)
-    texels = _Texels("height", np.zeros((7, 7, 3)), heights)
+    texels = NormalTexels("height", np.zeros((7, 7, 3)), heights)
     got = np.array(texels.normals(mi.TensorXf(heights.astype(np.float32)))).T.reshape(7, 7, 3)
     np.testing.assert_allclose(got, normals_from_heights(heights), atol=1e-5)
 
@@ -76,7 +80,7 @@ def test_height_normals_match_numpy_twin():
 def test_learning_rates_decay_to_lr_end_at_the_last_iteration():
     """The default schedule ends at lr * lr_end whatever the iteration count
     (geometric, so each step's ratio is the same); lr_decay overrides it."""
-    from mitsuba_pbrdf.inverse.normals import LR_END, learning_rates
+    from mitsuba_pbrdf.inverse.driver import LR_END, learning_rates
 
     for n in (1, 2, 40, 300):
         rates = learning_rates(0.05, n)
@@ -106,7 +110,9 @@ def _view_gradient_setup(views=2):
     import mitsuba as mi
 
     from mitsuba_pbrdf.inverse import normal_scenes as ns
-    from mitsuba_pbrdf.inverse.normals import _Texels, find_normalmap, observable_loss
+    from mitsuba_pbrdf.inverse.normal_inputs import find_normalmap
+    from mitsuba_pbrdf.inverse.normal_targets import observable_loss
+    from mitsuba_pbrdf.inverse.normal_texels import NormalTexels
 
     truth = ns.true_normals(6)
     scene = mi.load_dict(ns.plate_scene(truth, metal="Al", views=views, size=12))
@@ -118,7 +124,7 @@ def _view_gradient_setup(views=2):
     params = mi.traverse(scene)
     integrator = mi.load_dict({"type": "stokes_prb", "max_depth": 3})
     losses = [observable_loss(scene, t, "stokes", sensor=i) for i, t in enumerate(targets)]
-    texels = _Texels("normals", flat.astype(np.float32))
+    texels = NormalTexels("normals", flat.astype(np.float32))
 
     def view_loss(variable, view, smoothness=0.0):
         normals = texels.normals(variable)
@@ -142,7 +148,7 @@ def test_multi_view_gradient_is_the_sum_of_the_views_gradients():
     import drjit as dr
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse.normals import summed_gradients
+    from mitsuba_pbrdf.inverse.view_gradients import summed_gradients
 
     texels, view_loss = _view_gradient_setup()
     separate = []
@@ -330,6 +336,89 @@ def test_recover_normals_takes_the_plates_normal_map_as_truth(tmp_path, capsys):
         assert png.size == (8, 8)  # the texture: one pixel per texel
     with Image.open(out / "recovery.png") as png:
         assert png.size[0] > 1000 and png.size[1] > 300  # four readable panels
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("restore_variant")
+def test_save_writes_what_the_command_writes(tmp_path, monkeypatch):
+    """NormalRecovery.save, given the recovery the command made, writes the
+    command's four files: the same names, the same JSON, the same EXR channels
+    and header, the same PNGs byte for byte; and a recovery from a scene file
+    names that file as the command does."""
+    import json
+
+    import OpenEXR
+
+    from mitsuba_pbrdf.cli import main
+    from mitsuba_pbrdf.inverse import normals
+    from mitsuba_pbrdf.inverse.normal_result import RECOVERY_FILES
+    from mitsuba_pbrdf.inverse.normal_scenes import true_normals, write_plate_files
+    from mitsuba_pbrdf.stokes.exr import read_exr_channels
+
+    plate = write_plate_files(tmp_path, true_normals(8), size=8, spp=2)
+    variant = ["--variant", "llvm_ad_spectral_polarized"]
+    assert main(["render", plate, "-D", "spp=4", "--out", str(tmp_path / "target"), *variant]) == 0
+    made, fit = [], normals.recover_normals
+    monkeypatch.setattr(normals, "recover_normals", lambda *a, **k: made.append(fit(*a, **k))
+                        or made[-1])
+    assert main(["recover-normals", plate, "--targets", str(tmp_path / "target.exr"), "--out",
+                 str(tmp_path / "cli"), "--truth", str(tmp_path / "plate_normals.exr"),
+                 "--iterations", "2", "--spp", "1", "--no-progress", *variant]) == 0
+    (result,) = made
+    assert result.source is None  # the command passed its loaded scene, and names the file
+    result.save(tmp_path / "py", source=os.path.basename(plate))
+    cli, py = tmp_path / "cli", tmp_path / "py"
+    assert sorted(os.listdir(cli)) == sorted(os.listdir(py)) == sorted(RECOVERY_FILES)
+    assert json.loads((cli / "recovery.json").read_text()) == \
+        json.loads((py / "recovery.json").read_text())
+    for name in ("normals.png", "recovery.png"):
+        assert (cli / name).read_bytes() == (py / name).read_bytes(), name
+    channels = [read_exr_channels(folder / "normals.exr") for folder in (cli, py)]
+    assert sorted(channels[0]) == sorted(channels[1]) == ["X", "Y", "Z"]
+    for c in "XYZ":
+        np.testing.assert_array_equal(channels[0][c], channels[1][c])
+    headers = [{k: v for k, v in OpenEXR.InputFile(str(folder / "normals.exr")).header().items()
+                if k.startswith("pbrdf:")} for folder in (cli, py)]
+    assert headers[0] == headers[1] and headers[0]["pbrdf:source"] == b"plate.xml"
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.inverse.normal_targets import film_channels, film_target
+    from mitsuba_pbrdf.stokes.exr import read_stokes_exr
+
+    target = film_target(read_stokes_exr(str(tmp_path / "target.exr")),
+                         film_channels(mi.load_file(plate)))
+    assert fit(plate, [target], iterations=1, spp=1).source == "plate.xml"
+
+
+def test_save_writes_all_four_files_or_none(tmp_path):
+    """save() replaces the four files together (mitsuba_pbrdf.outputs.together):
+    when one cannot be written (its path is a folder) none is, and an earlier
+    file stays as it was."""
+    from mitsuba_pbrdf.inverse.normal_result import (RECOVERY_FILES, NormalRecovery,
+                                                     recovery_paths)
+
+    flat = np.zeros((4, 4, 3))
+    flat[..., 2] = 1.0
+    result = NormalRecovery(normals=flat, loss=[1.0, 0.5], visible=np.ones((4, 4), bool),
+                            seconds=1.0, options={"observables": "stokes", "iterations": 2,
+                                                  "spp": 1})
+    written = result.save(tmp_path / "ok")
+    assert sorted(os.listdir(tmp_path / "ok")) == sorted(RECOVERY_FILES)
+    assert written == recovery_paths(tmp_path / "ok")
+    summary = (tmp_path / "ok" / "recovery.json").read_text()
+    assert '"visible_texels": 16' in summary and "angular_error_deg" not in summary
+    bad = tmp_path / "bad"
+    (bad / "recovery.json").mkdir(parents=True)
+    (bad / "normals.exr").write_bytes(b"earlier")
+    with pytest.raises(OSError, match="recovery.json"):
+        result.save(bad)
+    assert sorted(os.listdir(bad)) == ["normals.exr", "recovery.json"]
+    assert (bad / "normals.exr").read_bytes() == b"earlier"
+    elsewhere = {name: tmp_path / "mixed" / f"a_{name}" for name in RECOVERY_FILES}
+    result.save(elsewhere)
+    assert sorted(os.listdir(tmp_path / "mixed")) == sorted(f"a_{n}" for n in RECOVERY_FILES)
+    with pytest.raises(ValueError, match="normals.png, recovery.png, recovery.json"):
+        result.save({"normals.exr": tmp_path / "x.exr"})
 
 
 def test_recovery_picture_shows_truth_fit_error_and_loss(tmp_path):

@@ -138,7 +138,7 @@ def normalmap_sphere(size, spp):
     bumps of ``inverse.normal_scenes.true_normals``)."""
     from mitsuba_pbrdf import inverse
     from mitsuba_pbrdf.inverse.normal_scenes import true_normals
-    from mitsuba_pbrdf.inverse.normals import normalmap_texture
+    from mitsuba_pbrdf.inverse.normal_texels import normalmap_texture
 
     pbrdf = {"type": "pbrdf", "eta": 2.0, "k": 4.0, "sigma": 0.12, "ks": 1.0,
              "kdd": 0.1, "sigma_dd": 0.5, "kid": 0.03}

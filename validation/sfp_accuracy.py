@@ -192,7 +192,8 @@ def run(name):
     import mitsuba as mi
 
     from mitsuba_pbrdf.inverse import normal_scenes as ns
-    from mitsuba_pbrdf.inverse.normals import observable_loss, recover_normals
+    from mitsuba_pbrdf.inverse.normal_targets import observable_loss
+    from mitsuba_pbrdf.inverse.normals import recover_normals
 
     what, overrides = EXPERIMENTS[name]
     o = dict(BASE, **overrides)

@@ -240,14 +240,10 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
     previous = read_manifest(sweep.manifest)
     names = {job.name for job in sweep.jobs}
     extra = [row for name, row in previous.items() if name not in names]
-    rows: Dict[str, Dict[str, str]] = {}
-    todo = []
-    for job in sweep.jobs:
-        if is_finished(sweep, job, previous.get(job.name)):
-            rows[job.name] = previous[job.name]
-            summary.skipped += 1
-        else:
-            todo.append(job)
+    rows = {job.name: previous[job.name] for job in sweep.jobs
+            if is_finished(sweep, job, previous.get(job.name))}
+    todo = [job for job in sweep.jobs if job.name not in rows]
+    summary.skipped = len(rows)
 
     def save():
         write_manifest(sweep, rows, extra)
@@ -266,7 +262,7 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
                       done=lambda: len(rendered), stopper=stopper) as (client, threads, explain):
             summary.workers = len(client.scheduler_info().get("workers", {}))
             run = f"{uuid.uuid4().hex[:8]}"
-            # one graph in the sweep's order: a job whose worker is lost goes first (.priority)
+            # one graph in the sweep's order: a job whose worker is lost goes first (submit_in_order)
             submitted = submit_in_order(client, run_job,
                                         [(_task(sweep, job), threads) for job in todo],
                                         [f"pbrdf-{job.name}-{run}" for job in todo])
@@ -280,15 +276,7 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
                         job = futures.pop(future)
                         if future.cancelled():  # the Slurm cap was reached: stays pending
                             continue
-                        try:
-                            result = future.result()
-                            rows[job.name] = _result_row(job, result)
-                            if result.status == "done":
-                                rendered.append(job.name)
-                        except Exception as e:  # the job's workers died, or Dask failed
-                            rows[job.name] = job_row(job, status="failed",
-                                                     error=_lost_worker_error(e))
-                        future.release()
+                        rows[job.name] = _collect(future, job, rendered)
                         bar.update(1)
                         now = time.perf_counter()
                         if now - last_save >= MANIFEST_INTERVAL_S:
@@ -303,19 +291,36 @@ def run_sweep(sweep: Sweep, workers: Optional[int] = None, scheduler: Optional[s
     finally:
         save()  # Ctrl-C or any error: what finished is recorded
         _remove_stale_temporaries(sweep)
-        ran = {job.name for job in todo}
-        for job in sweep.jobs:
-            status = rows.get(job.name, {}).get("status", "pending")
-            if job.name in ran:
-                if status == "done":
-                    summary.done += 1
-                elif status == "failed":
-                    summary.failed += 1
-                    summary.failures.append(f"{job.name}: {rows[job.name].get('error', '')}")
-                else:
-                    summary.pending += 1
+        _tally(summary, todo, rows)
         summary.seconds = time.perf_counter() - start
     return summary
+
+
+def _collect(future, job, rendered: List[str]) -> Dict[str, str]:
+    """The manifest row of *job* from its finished *future* (released); its
+    name joins *rendered* when it rendered."""
+    try:
+        result = future.result()
+        row = _result_row(job, result)
+        if result.status == "done":
+            rendered.append(job.name)
+    except Exception as e:  # the job's workers died, or Dask failed
+        row = job_row(job, status="failed", error=_lost_worker_error(e))
+    future.release()
+    return row
+
+
+def _tally(summary: SweepSummary, ran, rows: Dict[str, Dict[str, str]]):
+    """Count the jobs of this run (*ran*) by their status in *rows*."""
+    for job in ran:
+        status = rows.get(job.name, {}).get("status", "pending")
+        if status == "done":
+            summary.done += 1
+        elif status == "failed":
+            summary.failed += 1
+            summary.failures.append(f"{job.name}: {rows[job.name].get('error', '')}")
+        else:
+            summary.pending += 1
 
 
 # ------------------------------------------------------- the jobs' order

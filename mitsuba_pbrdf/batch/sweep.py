@@ -292,30 +292,17 @@ def _scene_path(path: str, folder: str, scene: str) -> str:
 def load_sweep(path) -> Sweep:
     """Read and check the sweep file *path* (see the module docstring); raises
     :class:`SweepError`, or ``FileNotFoundError`` for a missing file."""
-    from ..rendering.scene_params import (SceneParameterError, check_parameter_values,
-                                          declared_parameters, did_you_mean)
     from ..outputs import check_writable
 
     path = os.path.abspath(os.fspath(path))
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"sweep file not found: {path}")
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
-    except tomllib.TOMLDecodeError as e:
-        _fail(path, f"not a valid TOML file: {e}")
-    except UnicodeDecodeError as e:
-        _fail(path, f"not a valid TOML file: {e}")
+    data = _read_toml(path)
     folder = os.path.dirname(path)
-
     unknown = [k for k in data if k not in _KEYS]
     if unknown:
         _fail(path, f"unknown key {unknown[0]!r}; a sweep has {', '.join(_KEYS)}")
-    for key in ("scene", "out"):
+    for key, what in (("scene", "the scene file"), ("out", "the output folder")):
         if key not in data:
-            _fail(path, f"{key} is missing" + (" (the scene file, relative to the sweep file)"
-                                               if key == "scene" else
-                                               " (the output folder, relative to the sweep file)"))
+            _fail(path, f"{key} is missing ({what}, relative to the sweep file)")
     scene = _scene_path(path, folder, _string(path, "scene", data["scene"]))
     out = os.path.normpath(os.path.join(folder, os.path.expanduser(
         _string(path, "out", data["out"]))))
@@ -327,8 +314,37 @@ def load_sweep(path) -> Sweep:
     if variant is not None:
         _check_variant(path, variant)
     bands = _bands(path, data["bands"], variant) if "bands" in data else None
+    outputs = _outputs(path, data.get("outputs", ["stokes"]))
+    polcam = _polcam_options(path, data.get("polcam"), outputs)
+    if bands is not None and polcam.get("sensor") == "colour":
+        from ..camera.polcam import COLOUR_CUBE_REFUSAL
 
-    outputs = data.get("outputs", ["stokes"])
+        _fail(path, f"polcam.sensor 'colour' cannot see the cube that bands renders: "
+                    f"{COLOUR_CUBE_REFUSAL}")
+    slurm = _slurm_table(path, data.get("slurm"))
+    values = _params(path, data.get("params", {}), scene)
+    try:
+        check_writable(os.path.join(out, MANIFEST_NAME))
+    except OSError as e:
+        _fail(path, f"out: cannot write in {out}: {e.strerror}")
+    return Sweep(path=path, scene=scene, out=out, spp=spp, seed=seed, variant=variant,
+                 bands=bands, outputs=tuple(outputs), polcam=polcam, slurm=slurm,
+                 param_names=list(values), jobs=_jobs(values, seed, scene))
+
+
+def _read_toml(path: str) -> dict:
+    """The sweep file's TOML table; one line naming the file if it is not TOML."""
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"sweep file not found: {path}")
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        _fail(path, f"not a valid TOML file: {e}")
+
+
+def _outputs(path: str, outputs) -> list:
+    """The ``outputs`` list, checked: known names, once each, ``stokes`` among them."""
     if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
         _fail(path, f"outputs must be a list of names ({', '.join(OUTPUTS)}), got {outputs!r}")
     for name in outputs:
@@ -338,16 +354,16 @@ def load_sweep(path) -> Sweep:
         _fail(path, "outputs must include 'stokes' (the Stokes EXR every job writes)")
     if len(set(outputs)) != len(outputs):
         _fail(path, "outputs: a name is listed twice")
+    return outputs
 
-    polcam = _polcam_options(path, data.get("polcam"), outputs)
-    if bands is not None and polcam.get("sensor") == "colour":
-        from ..camera.polcam import COLOUR_CUBE_REFUSAL
 
-        _fail(path, f"polcam.sensor 'colour' cannot see the cube that bands renders: "
-                    f"{COLOUR_CUBE_REFUSAL}")
-    slurm = _slurm_table(path, data.get("slurm"))
+def _params(path: str, table, scene: str) -> Dict[str, list]:
+    """``{key: [value text, ...]}`` of the ``[params]`` table, checked against
+    the scene's ``$key`` parameters and bounded in job count before any job
+    is built."""
+    from ..rendering.scene_params import (SceneParameterError, check_parameter_values,
+                                          declared_parameters, did_you_mean)
 
-    table = data.get("params", {})
     if not isinstance(table, dict):
         _fail(path, f"params must be a table ([params]), got {table!r}")
     values = {key: _param_values(path, key, v) for key, v in table.items()}
@@ -368,17 +384,14 @@ def load_sweep(path) -> Sweep:
                 check_parameter_values(scene, {key: text})
             except SceneParameterError as e:
                 _fail(path, f"params.{key}: " + str(e).replace(f"-D {key} ", "", 1))
+    return values
 
-    try:
-        check_writable(os.path.join(out, MANIFEST_NAME))
-    except OSError as e:
-        _fail(path, f"out: cannot write in {out}: {e.strerror}")
 
+def _jobs(values: Dict[str, list], seed: int, scene: str) -> List["Job"]:
+    """Every combination of the parameters' values, named by the varying ones,
+    each with its seed from the sweep's."""
     keys = list(values)
     combos = [dict(zip(keys, combo)) for combo in itertools.product(*values.values())]
     varying = [key for key in keys if len(values[key]) > 1]
     names = _job_names(combos, varying, os.path.splitext(os.path.basename(scene))[0])
-    jobs = [Job(name=n, params=p, seed=job_seed(seed, p)) for n, p in zip(names, combos)]
-    return Sweep(path=path, scene=scene, out=out, spp=spp, seed=seed, variant=variant,
-                 bands=bands, outputs=tuple(outputs), polcam=polcam, slurm=slurm,
-                 param_names=keys, jobs=jobs)
+    return [Job(name=n, params=p, seed=job_seed(seed, p)) for n, p in zip(names, combos)]

@@ -37,11 +37,12 @@ tabulates the model into a ``.pbsdf`` table for ``measured_polarized``;
 (``docs/inverse-rendering.md``).
 Errors (missing file, bad scene, unknown variant, bad parameter, unwritable
 output) print one line and exit with status 2; Ctrl-C prints ``interrupted``
-and exits with status 130, leaving no partial file (:mod:`.common`).
+and exits with status 130, leaving no partial file (:mod:`.errors`).
 
 One module per subcommand (``run(args)`` and ``add_parser(subparsers)``), each a
-thin layer over functions users can call from Python; :mod:`.common` holds
-what they share.
+thin layer over functions users can call from Python; what they share is the
+error path (:mod:`.errors`), the shared arguments' checks (:mod:`.arguments`) and
+the picture options of ``render`` and ``view`` (:mod:`.pictures`).
 """
 
 from __future__ import annotations
@@ -52,10 +53,24 @@ from typing import List, Optional
 
 from . import batch, export, fit, gallery, params, plot, polcam, recover_normals, render, view
 from ..numbers import check_int_option
-from .common import PROG, CliError, run_command, version_text
+from .errors import PROG, CliError, run_command
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
 COMMANDS = (render, params, view, polcam, plot, gallery, fit, export, batch, recover_normals)
+
+
+def version_text() -> str:
+    """``pbrdf --version``: this package's version and the Mitsuba it finds
+    (read from the installed distribution, without importing Mitsuba)."""
+    from importlib import metadata
+
+    from .. import __version__
+
+    try:
+        mitsuba = f"Mitsuba {metadata.version('mitsuba')}"
+    except metadata.PackageNotFoundError:
+        mitsuba = "Mitsuba not installed"
+    return f"{PROG} {__version__} ({mitsuba}, Python {sys.version.split()[0]})"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -93,7 +108,7 @@ def _bounded_integers(func, parser, command):
 
 def main(argv: Optional[List[str]] = None) -> int:
     """Run the command line; returns the exit status: 0, 2 on error
-    (:func:`~.common.run_command`), 130 when interrupted (Ctrl-C). Usage
+    (:func:`~.errors.run_command`), 130 when interrupted (Ctrl-C). Usage
     errors found by argparse exit through ``SystemExit(2)`` as usual, with the
     subcommand's usage (also for an option no parser knows: ``render --varient``)."""
     parser = build_parser()

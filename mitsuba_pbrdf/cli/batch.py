@@ -13,7 +13,8 @@ import sys
 
 from ..interrupts import release
 from .batch_slurm import slurm_arguments, slurm_settings
-from .common import PROG, CliError, positive_int, progress_options, require_file, show_progress
+from .arguments import positive_int, progress_options, require_file, show_progress
+from .errors import PROG, CliError
 
 
 def run(args) -> int:

@@ -4,7 +4,7 @@ arguments, and the checked settings made of them and the sweep file's
 
 from __future__ import annotations
 
-from .common import CliError
+from .errors import CliError
 
 __all__ = ["slurm_arguments", "slurm_settings"]
 

@@ -10,7 +10,8 @@ import shutil
 import time
 
 from ..interrupts import release
-from .common import CliError, check_outputs, float_list, option_message
+from .arguments import check_outputs, float_list
+from .errors import CliError, option_message
 from .model_options import add_model_arguments, params_from_args
 
 

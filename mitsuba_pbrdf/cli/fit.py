@@ -15,8 +15,9 @@ from ..interrupts import release
 from ..outputs import together
 from ..outputs import atomic_path, write_json
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
-from .common import (CliError, check_outputs, float_list, one_line, positive_int,
-                     require_file)
+from ..errors import one_line
+from .arguments import check_outputs, float_list, positive_int, require_file
+from .errors import CliError
 from .fit_progress import FitProgressDisplay
 from .model_options import add_model_arguments
 

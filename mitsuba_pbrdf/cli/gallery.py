@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import os
 
-from .common import (CliError, check_outputs, chosen_variant, positive_int, progress_options,
-                     show_progress, variant_help)
+from .arguments import (check_outputs, chosen_variant, positive_int, progress_options,
+                        show_progress, variant_help)
+from .errors import CliError
 
 
 def repository_gallery() -> str:

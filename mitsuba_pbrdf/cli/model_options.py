@@ -5,7 +5,7 @@
 from __future__ import annotations
 
 from .. import schema
-from .common import CliError
+from .errors import CliError
 
 __all__ = ["add_model_arguments", "params_from_args"]
 

@@ -9,7 +9,7 @@ import os
 import sys
 import textwrap
 
-from .common import PROG, CliError
+from .errors import PROG, CliError
 
 
 def _scene(path: str) -> str:

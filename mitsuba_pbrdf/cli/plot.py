@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import math
 
+from ..errors import one_line
 from ..interrupts import release
-from .common import CliError, check_outputs, float_list, one_line
+from .arguments import check_outputs, float_list
+from .errors import CliError
 from .model_options import add_model_arguments, params_from_args
 
 

@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import os
 
-from ..errors import ParameterError
+from ..errors import ParameterError, one_line
 from ..interrupts import release
 from ..outputs import together
-from .common import (CliError, check_outputs, finite_float, one_line, option_message,
-                     require_file)
+from .arguments import check_outputs, finite_float, require_file
+from .errors import CliError, option_message
 
 
 def sensor_model(args):

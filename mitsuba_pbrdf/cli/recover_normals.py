@@ -11,23 +11,22 @@ normals in the shape's tangent frame), ``DIR/normals.png`` (the usual
 angular error map, the loss curve; :mod:`mitsuba_pbrdf.visualization.normal_recovery`)
 and ``DIR/recovery.json`` (loss per iteration, options, angular errors with
 ``--truth``, which takes ``normals.exr`` or a normal-map texture such as
-``write_plate_files``' ``plate_normals.exr``), each atomically, after checking
-every input and that the folder can take them."""
+``write_plate_files``' ``plate_normals.exr``), all four or none
+(:meth:`~mitsuba_pbrdf.inverse.normal_result.NormalRecovery.save`), after
+checking every input and that the folder can take them."""
 
 from __future__ import annotations
 
 import os
 
 from ..interrupts import release
-from ..outputs import together
-from .common import (CliError, check_outputs, chosen_variant, progress_options, require_file,
-                     show_progress, variant_help)
-
-OUTPUTS = ("normals.exr", "normals.png", "recovery.png", "recovery.json")
+from .arguments import (check_outputs, chosen_variant, progress_options, require_file,
+                        show_progress, variant_help)
+from .errors import CliError
 
 
 def _targets(paths, scene, observables):
-    from ..inverse.normals import film_channels, film_target
+    from ..inverse.normal_targets import film_channels, film_target
     from ..stokes.exr import read_exr_channels, read_stokes_exr
 
     out = []
@@ -55,9 +54,9 @@ def _truth(path):
 
 def run(args) -> int:
     """``pbrdf recover-normals``."""
-    import numpy as np
-
-    from ..inverse.normals import LR_END, check_options, find_normalmap
+    from ..inverse.driver import LR_END
+    from ..inverse.normal_inputs import check_options, find_normalmap
+    from ..inverse.normal_result import recovery_paths
     from ..registry import use_variant
     from ..rendering.progress import progress_reporter
     from ..rendering.render import load_scene, require_polarized
@@ -73,7 +72,7 @@ def run(args) -> int:
                   args.smoothness, args.lr, args.lr_end, seed=args.seed)
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"--out: {args.out} is not a folder")
-    paths = {name: os.path.join(args.out, name) for name in OUTPUTS}
+    paths = recovery_paths(args.out)
     check_outputs(*[("--out", p) for p in paths.values()])
     variant = chosen_variant(args)
     require_polarized(variant)
@@ -101,41 +100,13 @@ def run(args) -> int:
                                  truth=truth, seed=args.seed,
                                  callback=lambda it, loss: bar.update(1))
 
-    normals = result.normals.astype(np.float32)
-    with together():  # the four outputs, or none (mitsuba_pbrdf.outputs)
-        summary = _write(paths, args, result, normals, truth)
+    result.save(paths, source=os.path.basename(args.scene))  # the four outputs, or none
     print(f"wrote {', '.join(paths.values())}")
-    errors = summary.get("angular_error_deg") or {}
+    errors = result.error_stats()
     print(f"loss {result.loss[0]:.4g} -> {result.loss[-1]:.4g} in {result.seconds:.1f} s"
           + (f"; angular error median {errors['median']:.2f} deg "
-             f"(start {summary['start_error_deg']['median']:.2f})" if errors else ""))
+             f"(start {result.error_stats('start_error')['median']:.2f})" if errors else ""))
     return 0
-
-
-def _write(paths, args, result, normals, truth):
-    from ..visualization.normal_recovery import save_recovery_png
-    from ..outputs import write_json
-    from ..visualization.png import write_pixels_png
-    from ..stokes.exr import write_exr
-
-    write_exr(paths["normals.exr"], {c: normals[..., i] for i, c in enumerate("XYZ")},
-              {"source": os.path.basename(args.scene), "frame": "tangent (x = dp_du, z = n)"})
-    write_pixels_png(paths["normals.png"], (normals + 1.0) / 2.0)  # the texture, one pixel a texel
-    save_recovery_png(paths["recovery.png"], normals, result.loss, truth=truth,
-                      error=result.angular_error, visible=result.visible,
-                      title=f"recover-normals {os.path.basename(args.scene)}: "
-                            f"{args.observables}, {args.iterations} iterations x {args.spp} spp")
-    summary = {"observables": args.observables, "parametrization": args.parametrization,
-               "iterations": args.iterations, "spp": args.spp, "smoothness": args.smoothness,
-               "lr": args.lr, "lr_end": args.lr_end, "seconds": result.seconds, "loss": result.loss,
-               "visible_texels": int(result.visible.sum())}
-    if truth is not None:
-        summary["angular_error_deg"] = result.error_stats()
-        summary["start_error_deg"] = result.error_stats("start_error")
-    if result.roughness is not None:
-        summary["roughness"] = result.roughness.tolist()
-    write_json(paths["recovery.json"], summary)
-    return summary
 
 
 def add_parser(subparsers):

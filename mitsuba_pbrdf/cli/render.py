@@ -12,11 +12,12 @@ import os
 import sys
 from typing import Optional
 
-from .common import (PROG, CliError, check_outputs, chosen_variant, parse_defines,
-                     picture_kwargs, picture_options, progress_options, report_quality,
-                     show_progress, variant_help)
-from .unused_options import warn_unused_picture_options
 from ..outputs import together
+from .arguments import (check_outputs, chosen_variant, parse_defines, progress_options,
+                        show_progress, variant_help)
+from .errors import PROG, CliError
+from .pictures import (picture_kwargs, picture_options, report_quality,
+                       warn_unused_picture_options)
 
 
 def _out_stem(out: Optional[str], scene_path: str) -> str:
@@ -59,11 +60,9 @@ def run(args) -> int:
     # the library's checks, once (errors name the parameter; run_command names the option)
     request = check_render(scene, spp=args.spp, variant=chosen_variant(args), params=params,
                            passes=args.passes, wavelength=args.wavelength, bands=args.bands)
-    band, variant = request.band, request.variant
-    bands = ([band.name] if band is not None else request.bands.names
-             if request.bands is not None else ["R", "G", "B"])  # what the render writes
-    if picture["band"] not in (None, *bands):
-        raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(bands)}")
+    written = request.mode.band_names  # the Stokes bands the render writes
+    if picture["band"] not in (None, *written):
+        raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(written)}")
     stem = _out_stem(args.out, scene)
     exr_path, png_path = stem + ".exr", stem + ".png"
     check_outputs(("--out", exr_path), ("--out", png_path))
@@ -82,10 +81,10 @@ def run(args) -> int:
 
     name = os.path.splitext(os.path.basename(scene))[0]
     passes = int(image.metadata.get("passes", 1))
-    image.metadata["title"] = (f"{name}: {variant}, {image.metadata['spp']} spp"
+    mode = request.mode.describe()
+    image.metadata["title"] = (f"{name}: {request.variant}, {image.metadata['spp']} spp"
                                + (f" in {passes} passes" if passes > 1 else "")
-                               + (f", {band.describe()}" if band is not None else "")
-                               + (f", {request.bands.describe()}" if request.bands else ""))
+                               + (f", {mode}" if mode else ""))
     with together():  # both outputs or neither (mitsuba_pbrdf.interrupts)
         exr = write_stokes_exr(exr_path, image)
         png = save_overview_png(png_path, image, quality=quality, **picture)

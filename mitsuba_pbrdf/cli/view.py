@@ -18,11 +18,13 @@ from __future__ import annotations
 import os
 import sys
 
-from .common import (PROG, CliError, check_outputs, one_line, picture_kwargs, picture_options,
-                     report_quality, require_file)
-from .unused_options import warn_unused_picture_options
+from ..errors import one_line
 from ..interrupts import release
 from ..outputs import together
+from .arguments import check_outputs, require_file
+from .errors import PROG, CliError
+from .pictures import (picture_kwargs, picture_options, report_quality,
+                       warn_unused_picture_options)
 
 
 def run(args) -> int:

@@ -93,8 +93,8 @@ def nested_objects(props, kinds):
             if props.type(key) == mi.Properties.Type.Object and isinstance(props[key], kinds)}
 
 
-def transform(props, name="to_world"):
-    """The ``to_world`` transform as a 4 x 4 list of rows (identity if absent)."""
+def transform(props, name):
+    """The transform *name* (``"to_world"``) as a 4 x 4 list of rows (identity if absent)."""
     if name not in props:
         return [[1.0 if i == j else 0.0 for j in range(4)] for i in range(4)]
     matrix = props[name].matrix

@@ -105,7 +105,7 @@ def _configure(props):
     angle = math.radians(read.number(props, _NAME, "angle", 0.0))
     degree = read.number(props, _NAME, "degree", 1.0, 0.0, 1.0)
     transmittance = read.number(props, _NAME, "transmittance", 1.0, 0.0, 1.0)
-    m = read.transform(props)
+    m = read.transform(props, "to_world")
     local = (math.cos(angle), math.sin(angle), 0.0)
     axis = read.unit_vector(_NAME, "to_world",
                             [sum(m[i][j] * local[j] for j in range(3)) for i in range(3)])

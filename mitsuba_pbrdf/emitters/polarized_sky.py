@@ -19,16 +19,20 @@
        its gradient: its own misses the moving sun disk).
      - (required)
      - |exposed|, |differentiable| (JIT variants); read-only with a date
-   * - ``year``, ``month``, ``day``, ``hour``, ``minute``, ``second``,
-       ``latitude``, ``longitude``, ``timezone``
-     - integer (the date), float
-     - Instead of ``sun_direction``: the date, local time, place (degrees,
-       north and east positive) and time zone (hours from UTC) that Mitsuba
-       3.9.1's ``sunsky`` takes; handed to the internal ``sunsky``, whose sun
-       (+X south, +Y west in its frame, measured) the pattern follows. Only
-       with the ``sunsky`` intensity; the sun must be above the horizon.
-     - ``sunsky``'s for those not given: 2010-07-10 15:00:00, 35.6894,
-       139.6917, 9
+   * - ``year``, ``month``, ``day``
+     - integer
+     - Instead of ``sun_direction``, with the time and place below: the date
+       that Mitsuba 3.9.1's ``sunsky`` takes.
+     - ``sunsky``'s: 2010-07-10
+     - ``intensity.*`` (not differentiable)
+   * - ``hour``, ``minute``, ``second``, ``latitude``, ``longitude``, ``timezone``
+     - float
+     - The local time, place (degrees, north and east positive) and time zone
+       (hours from UTC) that ``sunsky`` takes; with the date, handed to the
+       internal ``sunsky``, whose sun (+X south, +Y west in its frame,
+       measured) the pattern follows. Only with the ``sunsky`` intensity; the
+       sun must be above the horizon.
+     - ``sunsky``'s: 15:00:00, 35.6894, 139.6917, 9
      - ``intensity.*`` (not differentiable)
    * - ``model``
      - string
@@ -265,7 +269,7 @@ def _configure(props):
     if model != "berry" and "neutral_point_separation" in props:
         raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
                          "model 'berry' only")
-    to_world = read.transform(props)
+    to_world = read.transform(props, "to_world")
     up = read.unit_vector(_NAME, "to_world", [to_world[i][2] for i in range(3)])
     horizontal = read.unit_vector(_NAME, "to_world", [to_world[i][0] for i in range(3)])
     when = _sun_position(props)

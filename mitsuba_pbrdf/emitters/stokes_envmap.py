@@ -126,7 +126,7 @@ def _configure(props):
     config = {"type": "envmap", "bitmap": mi.Bitmap(s0), "scale": scale}
     if "to_world" in props:
         config["to_world"] = props["to_world"]
-    m = np.array(read.transform(props), np.float64)[:3, :3]
+    m = np.array(read.transform(props, "to_world"), np.float64)[:3, :3]
     return {"filename": filename, "inner": mi.load_dict(config),
             "to_local": [[float(c) for c in row] for row in np.linalg.inv(m)],
             "to_world_rows": [[float(c) for c in row] for row in m],

@@ -61,7 +61,7 @@ import numpy as np
 from ..rendering.passes import derivative_seed, pass_seeds, plan_passes
 
 __all__ = ["METHODS", "render", "reverse_passes", "GradientStats", "gradient_method",
-           "loss_and_gradient", "jacobian", "fisher_information"]
+           "resolve_passes", "loss_and_gradient", "jacobian", "fisher_information"]
 
 #: Gradient methods of :func:`loss_and_gradient` (see the module docstring).
 METHODS = ("auto", "prb", "reverse", "forward")
@@ -145,6 +145,20 @@ def gradient_method(scene, method="auto"):
     return method
 
 
+def resolve_passes(scene, method, passes, spp, max_depth=None, memory_budget=4 * 1024**3):
+    """What ``passes`` means for :func:`loss_and_gradient` with *method* (as
+    :func:`gradient_method` returns it): ``"auto"`` is :func:`reverse_passes`
+    in reverse mode (which needs *max_depth*), else 1; a count or None as given
+    (:func:`~mitsuba_pbrdf.rendering.passes.plan_passes` reads it)."""
+    if passes != "auto":
+        return passes
+    if method != "reverse":
+        return 1
+    if max_depth is None:
+        raise ValueError("passes='auto' needs the integrator's max_depth")
+    return reverse_passes(scene, spp, max_depth, memory_budget)
+
+
 def _is_replay(integrator):
     from ..integrators import integrator_class
 
@@ -180,13 +194,7 @@ def loss_and_gradient(scene, params, keys: Sequence[str], loss: Callable, spp=16
     """
     method = gradient_method(scene, method)
     keys = list(keys)
-    if passes == "auto":
-        if method != "reverse":
-            passes = 1
-        elif max_depth is None:
-            raise ValueError("passes='auto' needs the integrator's max_depth")
-        else:
-            passes = reverse_passes(scene, spp, max_depth, memory_budget)
+    passes = resolve_passes(scene, method, passes, spp, max_depth, memory_budget)
     integrator, sensor = scene.integrator(), scene.sensors()[0]
     plan = _passes(seed, spp, passes)
     dr.sync_thread()

@@ -1,11 +1,19 @@
-"""The inputs of :func:`mitsuba_pbrdf.inverse.normals.recover_normals` that
-the fit cannot survive, refused before it starts, each by its public
-parameter's name (:class:`~mitsuba_pbrdf.errors.ParameterError`):
+"""The inputs of :func:`mitsuba_pbrdf.inverse.normals.recover_normals`,
+refused before the fit starts, each by its public parameter's name
+(:class:`~mitsuba_pbrdf.errors.ParameterError`):
 
+* the options (:func:`check_options`, which the command line calls before
+  loading anything): ``observables``, ``parametrization``, ``iterations``,
+  ``spp``, ``smoothness``, ``lr``, ``lr_end``, ``lr_decay``, and
 * ``seed``: an integer in ``[0, 2^32)`` (Mitsuba's sampler seeds are 32-bit;
-  the iterations' seeds are derived from it modulo 2^32: :func:`render_seed`);
+  the iterations' seeds are derived from it modulo 2^32:
+  :func:`mitsuba_pbrdf.inverse.driver.iteration_seeds`);
 * ``max_depth``: -1 (no limit) or at least 2: with 1 a path sees only the
   emitters, with 0 nothing, and no texel would get a gradient;
+* ``scene``: a file, a dict or a loaded scene (:func:`as_scene`) with exactly
+  one ``polarized_normalmap`` over a raw RGB bitmap of at least 2 x 2
+  (:func:`find_normalmap`, :func:`check_normal_map`); ``fit_roughness``
+  needs the wrapped ``pbrdf``'s ``sigma`` to be a bitmap (:func:`roughness_key`);
 * ``targets``: numeric arrays, finite, not zero everywhere (the loss divides
   by the target's mean square), with usable pixels under the rule of every
   reader of Stokes data (:func:`mitsuba_pbrdf.stokes.quality.require_usable`:
@@ -17,15 +25,46 @@ parameter's name (:class:`~mitsuba_pbrdf.errors.ParameterError`):
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from ..errors import ParameterError
+from .driver import LR_END
+from .normal_targets import OBSERVABLES
+from .normal_texels import PARAMETRIZATIONS
 
-__all__ = ["SEED_LIMIT", "check_seed", "check_max_depth", "check_targets", "check_normal_field",
-           "render_seed"]
+__all__ = ["SEED_LIMIT", "check_options", "check_seed", "check_max_depth", "as_scene",
+           "find_normalmap", "check_normal_map", "roughness_key", "check_targets",
+           "check_normal_field"]
 
 #: Seeds are 32-bit (Mitsuba's samplers).
 SEED_LIMIT = 1 << 32
+
+
+def check_options(observables, parametrization, iterations, spp, smoothness, lr, lr_end=LR_END,
+                  lr_decay=None, seed=0, max_depth=3):
+    """ParameterError naming the first bad option of
+    :func:`~mitsuba_pbrdf.inverse.normals.recover_normals` (checked before
+    any scene is loaded; the command line calls it first)."""
+    if observables not in OBSERVABLES:
+        raise ParameterError("observables", f"must be one of {', '.join(OBSERVABLES)}, "
+                                            f"got {observables!r}")
+    if parametrization not in PARAMETRIZATIONS:
+        raise ParameterError("parametrization", f"must be one of {', '.join(PARAMETRIZATIONS)}, "
+                                                f"got {parametrization!r}")
+    for name, value in (("iterations", iterations), ("spp", spp)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ParameterError(name, f"must be an integer >= 1, got {value!r}")
+    for name, value in (("smoothness", smoothness), ("lr", lr)):
+        if not (np.isfinite(value) and value >= 0) or (name == "lr" and value == 0):
+            raise ParameterError(name, f"must be a finite number {'> 0' if name == 'lr' else '>= 0'}"
+                                       f", got {value!r}")
+    for name, value in (("lr_end", lr_end), ("lr_decay", lr_decay)):
+        if value is not None and not (np.isfinite(value) and 0 < value <= 1):
+            raise ParameterError(name, f"must be a number in (0, 1], got {value!r}")
+    check_seed(seed)
+    check_max_depth(max_depth)
 
 
 def check_seed(seed) -> int:
@@ -35,11 +74,6 @@ def check_seed(seed) -> int:
     return int(seed)
 
 
-def render_seed(seed: int, iteration: int, view: int) -> int:
-    """The sampler seed of one iteration's render of one view (32-bit)."""
-    return (int(seed) + 7919 * int(iteration) + 31 * int(view)) % SEED_LIMIT
-
-
 def check_max_depth(max_depth) -> int:
     if isinstance(max_depth, bool) or not isinstance(max_depth, (int, np.integer)) \
             or not (int(max_depth) == -1 or int(max_depth) >= 2):
@@ -47,6 +81,68 @@ def check_max_depth(max_depth) -> int:
                                           f"only the emitters, 0 nothing: no texel would get a "
                                           f"gradient), got {max_depth!r}")
     return int(max_depth)
+
+
+def as_scene(scene):
+    """*scene* loaded: a ``mi.Scene`` as it is, a dict (``mi.load_dict``) or
+    an XML file name (``mi.load_file``); ParameterError ``scene`` otherwise."""
+    import mitsuba as mi
+
+    if isinstance(scene, mi.Scene):
+        return scene
+    if isinstance(scene, dict):
+        return mi.load_dict(scene)
+    if isinstance(scene, (str, os.PathLike)):
+        if not os.path.isfile(scene):
+            raise ParameterError("scene", f"no such file: {scene}")
+        return mi.load_file(os.fspath(scene))
+    raise ParameterError("scene", f"must be a file name, a dict or a mitsuba Scene, "
+                                  f"got {type(scene).__name__}")
+
+
+def find_normalmap(scene):
+    """``(key, bsdf)``: the ``mi.traverse`` key of the one ``polarized_normalmap``'s
+    texels (``<...>.normalmap.data``) and that BSDF. ParameterError ``scene``
+    when there is none, or more than one."""
+    import mitsuba as mi
+
+    found = []
+    for shape in scene.shapes():
+        bsdf = shape.bsdf()
+        if type(bsdf).__name__ == "PolarizedNormalMap" and all(bsdf is not b for b in found):
+            found.append(bsdf)
+    if len(found) != 1:
+        raise ParameterError("scene", f"needs exactly one shape whose BSDF is a "
+                                      f"polarized_normalmap, found {len(found)}")
+    bsdf = found[0]
+    params = mi.traverse(scene)
+    keys = [k for k in params.keys()
+            if k.endswith("normalmap.data") and params.properties[k][2] is bsdf.normalmap]
+    if len(keys) != 1:
+        raise ParameterError("scene", "the polarized_normalmap's 'normalmap' must be a bitmap "
+                                      "texture (raw = true)")
+    return keys[0], bsdf
+
+
+def check_normal_map(texels) -> tuple:
+    """The shape (H, W, 3) of the normal map's texel tensor; ParameterError
+    ``scene`` unless it is an RGB bitmap of at least 2 x 2."""
+    shape = tuple(texels.shape)
+    if len(shape) != 3 or shape[2] != 3 or min(shape[:2]) < 2:
+        raise ParameterError("scene", f"the normal map must be an RGB bitmap of at least 2 x 2, "
+                                      f"got shape {shape}")
+    return shape
+
+
+def roughness_key(params, normalmap_key: str) -> str:
+    """The ``mi.traverse`` key of the texels of the ``sigma`` of the ``pbrdf``
+    that the normal map *normalmap_key* wraps; ParameterError
+    ``fit_roughness`` unless that ``sigma`` is a bitmap."""
+    key = normalmap_key[: -len("normalmap.data")] + "nested_bsdf.sigma.data"
+    if key not in params.keys():
+        raise ParameterError("fit_roughness", "needs the wrapped pbrdf's sigma to be a "
+                                              "bitmap texture")
+    return key
 
 
 def _array(value, name: str, what: str) -> np.ndarray:

@@ -5,7 +5,7 @@ validation/shape_from_polarization.py, the tests and examples.
 
 Units: the plate is the square [-1, 1]^2 at z = 0 (scene units), its
 tangent frame on the world axes (x = dp_du, z = normal); heights of
-:func:`bumpy_heights` are in texel widths (see :mod:`.normals`).
+:func:`bumpy_heights` are in texel widths (see :mod:`.normal_texels`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import os
 
 import numpy as np
 
-from .normals import normalmap_texture, normals_from_heights
+from .normal_texels import normalmap_texture, normals_from_heights
 
 #: Camera azimuths (degrees, around +z) of the views; view 0 first.
 VIEW_AZIMUTHS = (-90.0, 30.0, 150.0)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 from typing import Dict, Sequence
 
@@ -11,7 +10,9 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .gradients import loss_and_gradient
+from ..rendering.passes import plan_passes
+from .driver import learning_rates, run_adam
+from .gradients import gradient_method, loss_and_gradient, resolve_passes
 from .losses import stokes_loss
 
 __all__ = ["OptimizationResult", "fit_parameters"]
@@ -36,16 +37,60 @@ def fit_parameters(scene, keys: Sequence[str], target, components=(0, 1, 2), ini
     """Fit the positive scalar scene parameters ``keys`` so that the scene
     renders ``target`` (loss :func:`stokes_loss` on ``components``) with
     ``mi.ad.Adam`` on their logarithms (one learning rate ``lr`` = relative
-    step for all; ``lr_decay`` multiplies it every iteration), a fresh seed
-    every iteration.
+    step for all; ``lr_decay`` multiplies it every iteration), fresh seeds
+    every iteration (:mod:`.driver`).
 
     ``initial``: {key: starting value} (default: the scene's current values).
     ``bounds``: {key: (low, high)} clamps after each step. ``callback(it,
-    loss, values)`` is called every iteration. Leaves the fitted values in the
-    scene and returns an :class:`OptimizationResult`.
+    loss, values)`` is called every iteration, with the values the loss was
+    rendered with. Leaves the fitted values in the scene and returns an
+    :class:`OptimizationResult`.
     """
     params = mi.traverse(scene)
     keys = list(keys)
+    values = _start_values(params, keys, initial)
+    bounds = bounds or {}
+    loss = stokes_loss(scene, target, components)
+    method = gradient_method(scene, method)
+    passes = resolve_passes(scene, method, passes, spp, max_depth)
+    result = OptimizationResult(keys, dict(values), dict(values))
+
+    def gradient(opt, it, seeds):  # seeds: the passes' of this iteration
+        for k in keys:
+            params[k] = mi.Float(values[k])
+        params.update()
+        value, grads, stats = loss_and_gradient(scene, params, keys, loss, spp=spp,
+                                                seed=seeds[0], method=method, passes=passes,
+                                                max_depth=max_depth)
+        result.peak_drjit_bytes = max(result.peak_drjit_bytes, stats.drjit_peak_bytes)
+        result.trajectory.append(dict(values))
+        for k in keys:  # d loss / d log(x) = x d loss / dx
+            dr.set_grad(opt[k], mi.Float(grads[k][0] * values[k]))
+        return value
+
+    def clamp(opt):
+        for k in keys:
+            low, high = bounds.get(k, (1e-4, 1e4))
+            values[k] = min(max(math.exp(float(np.asarray(opt[k]).reshape(-1)[0])), low), high)
+            opt[k] = mi.Float(math.log(values[k]))
+
+    def progress(it, value):
+        if callback is not None:
+            callback(it, value, dict(result.trajectory[it]))
+
+    run = run_adam({k: mi.Float(math.log(values[k])) for k in keys}, gradient,
+                   learning_rates(lr, int(iterations), lr_decay=lr_decay), seed=seed,
+                   renders=len(plan_passes(spp, passes)), clamp=clamp, callback=progress)
+    for k in keys:
+        params[k] = mi.Float(values[k])
+    params.update()
+    result.loss, result.final, result.seconds = run.loss, dict(values), run.seconds
+    return result
+
+
+def _start_values(params, keys, initial) -> dict:
+    """{key: starting value}: *initial*'s, else the scene's; ValueError unless
+    every parameter is a positive scalar."""
     for k in keys:
         if dr.width(params[k]) != 1:
             raise ValueError(f"fit_parameters fits scalar parameters; {k!r} has "
@@ -55,41 +100,4 @@ def fit_parameters(scene, keys: Sequence[str], target, components=(0, 1, 2), ini
         values.update({k: float(v) for k, v in initial.items()})
     if any(v <= 0 for v in values.values()):
         raise ValueError(f"fit_parameters fits positive parameters, got {values}")
-    bounds = bounds or {}
-    loss = stokes_loss(scene, target, components)
-    opt = mi.ad.Adam(lr=lr)
-    for k in keys:
-        opt[k] = mi.Float(math.log(values[k]))
-    result = OptimizationResult(keys, dict(values), dict(values))
-    t0 = time.perf_counter()
-    peak = 0
-    for it in range(int(iterations)):
-        for k in keys:
-            params[k] = mi.Float(values[k])
-        params.update()
-        value, grads, stats = loss_and_gradient(scene, params, keys, loss, spp=spp,
-                                                seed=seed + it * 7919, method=method,
-                                                passes=passes, max_depth=max_depth)
-        peak = max(peak, stats.drjit_peak_bytes)
-        result.loss.append(value)
-        result.trajectory.append(dict(values))
-        if callback is not None:
-            callback(it, value, dict(values))
-        for k in keys:  # d loss / d log(x) = x d loss / dx
-            dr.set_grad(opt[k], mi.Float(grads[k][0] * values[k]))
-        opt.step()
-        for k in keys:
-            v = math.exp(float(np.asarray(opt[k]).reshape(-1)[0]))
-            low, high = bounds.get(k, (1e-4, 1e4))
-            v = min(max(v, low), high)
-            opt[k] = mi.Float(math.log(v))
-            values[k] = v
-        if lr_decay != 1.0:
-            opt.set_learning_rate(lr * lr_decay ** (it + 1))
-    for k in keys:
-        params[k] = mi.Float(values[k])
-    params.update()
-    result.final = dict(values)
-    result.seconds = time.perf_counter() - t0
-    result.peak_drjit_bytes = peak
-    return result
+    return values

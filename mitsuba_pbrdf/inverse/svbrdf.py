@@ -15,8 +15,6 @@ a polarized variant with ``stokes_prb`` registered must be set.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 #: Texels along each side of the fitted maps.
@@ -84,7 +82,9 @@ def render_views(scene, spp, seed):
 
 def recover(components=(0, 1, 2), iterations=60, lr=0.02, lr_decay=0.97, size=64, spp=16,
             target_spp=128, seed=0, log=print):
-    """Fit the two maps to targets rendered with :func:`true_maps`.
+    """Fit the two maps to targets rendered with :func:`true_maps` (Adam,
+    :func:`~mitsuba_pbrdf.inverse.driver.run_adam`: learning rate
+    ``lr * lr_decay**it``, fresh seeds every iteration and view).
 
     Returns a dict: ``truth``, ``start`` and ``recovered`` maps ({name:
     array}), ``loss`` (per iteration, sum over views), ``visible`` (texels
@@ -92,6 +92,7 @@ def recover(components=(0, 1, 2), iterations=60, lr=0.02, lr_decay=0.97, size=64
     import drjit as dr
     import mitsuba as mi
 
+    from .driver import learning_rates, run_adam
     from .losses import stokes_loss
 
     truth = dict(zip(("sigma", "kdd"), true_maps()))
@@ -102,34 +103,34 @@ def recover(components=(0, 1, 2), iterations=60, lr=0.02, lr_decay=0.97, size=64
     params = mi.traverse(scene)
     keys = {name: f"object.bsdf.{name}.data" for name in truth}
     start = {name: np.full_like(truth[name], START[name]) for name in truth}
-    opt = mi.ad.Adam(lr=lr)
-    for name, key in keys.items():
-        opt[key] = mi.TensorXf(start[name][..., None])
-    params.update(opt)
+    touched = {name: np.zeros(truth[name].shape, bool) for name in truth}
 
-    history, touched = [], {name: np.zeros(truth[name].shape, bool) for name in truth}
-    t0 = time.perf_counter()
-    for it in range(iterations):
+    def gradient(opt, it, seeds):  # the views' gradients add up on the texels
+        params.update(opt)
         total = 0.0
         for view, loss in enumerate(losses):
-            image = mi.render(scene, params, sensor=view, spp=spp, seed=seed + 7919 * it + view)
-            value = loss(image)
+            value = loss(mi.render(scene, params, sensor=view, spp=spp, seed=seeds[view]))
             dr.backward(value)
             total += float(value[0])
         for name, key in keys.items():
             touched[name] |= np.array(dr.grad(opt[key]))[..., 0] != 0
-        opt.step()
+        return total
+
+    def clamp(opt):
         for name, key in keys.items():
-            low, high = BOUNDS[name]
-            opt[key] = dr.clip(opt[key], low, high)
-        params.update(opt)
-        opt.set_learning_rate(lr * lr_decay ** (it + 1))
-        history.append(total)
+            opt[key] = dr.clip(opt[key], *BOUNDS[name])
+
+    def progress(it, total):
         if log and (it % 10 == 0 or it == iterations - 1):
             log(f"  iteration {it:3d}: loss {total:.5f}")
+
+    run = run_adam({key: mi.TensorXf(start[name][..., None]) for name, key in keys.items()},
+                   gradient, learning_rates(lr, iterations, lr_decay=lr_decay), seed=seed,
+                   renders=len(losses), clamp=clamp, callback=progress)
+    params.update(run.optimizer)
     recovered = {name: np.array(params[key])[..., 0].copy() for name, key in keys.items()}
-    return {"truth": truth, "start": start, "recovered": recovered, "loss": history,
-            "visible": touched, "seconds": time.perf_counter() - t0}
+    return {"truth": truth, "start": start, "recovered": recovered, "loss": run.loss,
+            "visible": touched, "seconds": run.seconds}
 
 
 def map_errors(result):

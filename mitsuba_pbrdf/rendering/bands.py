@@ -1,17 +1,19 @@
-"""The wavelength bands of a Stokes cube (``pbrdf render --bands``): parsing
-and checking the band list, in nm.
+"""The passbands of a Stokes cube (``pbrdf render --bands``): parsing and
+checking the list (:class:`PassbandList`), in nm. Each passband becomes one
+band of the cube's Stokes image.
 
-Syntax (the list syntax of ``pbrdf export``'s bands, with bands instead of
+Syntax (the list syntax of ``pbrdf export``'s bands, with passbands instead of
 single wavelengths): comma-separated items, each
 
-* ``START:STOP:STEP``: contiguous bands STEP nm wide from START to STOP
+* ``START:STOP:STEP``: contiguous passbands STEP nm wide from START to STOP
   (``450:650:20`` is 10 bands, 450-470 ... 630-650; STOP - START must be a
   whole number of steps), or
-* ``LOW:HIGH``: one band from LOW to HIGH nm (``532:533``).
+* ``LOW:HIGH``: one passband from LOW to HIGH nm (``532:533``).
 
-Bands must be increasing, must not overlap (they may touch), must lie within
-360-830 nm (Mitsuba's CIE tables) and number at most :data:`MAX_BANDS`. Each
-band is named after its centre, ``f"{centre:g}nm"`` (``460nm``, ``532.5nm``).
+Passbands must be increasing, must not overlap (they may touch), must lie
+within 360-830 nm (Mitsuba's CIE tables) and number at most :data:`MAX_BANDS`.
+The image band of each is named after its centre, ``f"{centre:g}nm"``
+(``460nm``, ``532.5nm``).
 """
 
 from __future__ import annotations
@@ -25,18 +27,18 @@ from ..errors import ParameterError
 from ..numbers import range_count
 from .narrowband import CIE_RANGE
 
-__all__ = ["SpectralBands", "parse_bands", "require_spectral_bands", "MAX_BANDS"]
+__all__ = ["PassbandList", "parse_bands", "require_spectral_bands", "MAX_BANDS"]
 
-#: Most bands in one cube (each band is 4 float32 planes of the image in memory
+#: Most passbands in one cube (each is a band of 4 float32 planes of the image in memory
 #: and in the EXR; 64 bands of 5 nm cover the visible range).
 MAX_BANDS = 64
-#: Narrowest band, nm (float32 wavelengths resolve ~1e-4 nm at 800 nm).
+#: Narrowest passband, nm (float32 wavelengths resolve ~1e-4 nm at 800 nm).
 MIN_WIDTH = 0.01
 
 
 @dataclass(frozen=True)
-class SpectralBands:
-    """Non-overlapping increasing bands: ``edges`` is a tuple of (low, high) in nm."""
+class PassbandList:
+    """Non-overlapping increasing passbands: ``edges`` is a tuple of (low, high) in nm."""
 
     edges: tuple
 
@@ -58,16 +60,16 @@ class SpectralBands:
 
     @property
     def names(self) -> list:
-        """Band names, e.g. ``460nm`` (no trailing ``.0``)."""
+        """The names of the image's bands, e.g. ``460nm`` (no trailing ``.0``)."""
         return [f"{c:g}nm" for c in self.centres]
 
     @property
     def total_width(self) -> float:
-        """Length (nm) of the union of the bands."""
+        """Length (nm) of the union of the passbands."""
         return float(self.widths.sum())
 
     def header(self) -> str:
-        """The band edges for a file header: ``450-470,470-490,...`` (nm)."""
+        """The passbands' edges for a file header: ``450-470,470-490,...`` (nm)."""
         return ",".join(f"{lo:g}-{hi:g}" for lo, hi in self.edges)
 
     def describe(self) -> str:
@@ -110,12 +112,12 @@ def _item_edges(item: str, whole: str) -> list:
     return [(start + i * step, start + (i + 1) * step) for i in range(n)]
 
 
-def parse_bands(text) -> SpectralBands:
-    """The bands of *text* (see the module docstring), or a SpectralBands
+def parse_bands(text) -> PassbandList:
+    """The passbands of *text* (see the module docstring), or a PassbandList
     unchanged; :class:`~mitsuba_pbrdf.errors.ParameterError` naming ``bands``
     for anything else: bad syntax, a reversed or empty band, overlapping or
     decreasing bands, a band outside 360-830 nm, more than 64 bands."""
-    if isinstance(text, SpectralBands):
+    if isinstance(text, PassbandList):
         return text
     whole = str(text)
     items = [item.strip() for item in whole.split(",")]
@@ -137,7 +139,7 @@ def parse_bands(text) -> SpectralBands:
         if low < CIE_RANGE[0] or high > CIE_RANGE[1]:
             raise ParameterError("bands", f"the band {low:g}-{high:g} nm must lie within "
                                  f"{CIE_RANGE[0]:g}-{CIE_RANGE[1]:g} nm (Mitsuba's colour tables)")
-    return SpectralBands(tuple(edges))
+    return PassbandList(tuple(edges))
 
 
 def require_spectral_bands(variant: str):

@@ -1,5 +1,6 @@
-"""Stokes cubes (``pbrdf render --bands``): S0..S3 in many narrow wavelength
-bands from one render, one scene load and one set of kernels.
+"""Stokes cubes (``pbrdf render --bands``): S0..S3 in many narrow passbands
+(:class:`~.bands.PassbandList`), one band of the image each, from one render,
+one scene load and one set of kernels.
 
 Mitsuba's ``stokes`` integrator writes R, G, B only (and its ``specfilm``
 does not work inside ``stokes``), so the cube has its own render loop, in
@@ -51,7 +52,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..stokes.image import StokesImage
-from .bands import SpectralBands
+from .bands import PassbandList
 from .scene_loading import load_scene_text
 
 __all__ = ["scene_without_stokes", "load_cube_scene", "band_counts", "check_cube_spp",
@@ -100,9 +101,9 @@ def band_counts(n_bands: int, total_spp: int) -> np.ndarray:
     return np.bincount(np.arange(4 * total_spp) % n_bands, minlength=n_bands)
 
 
-def check_cube_spp(bands: SpectralBands, total_spp: int):
-    """:class:`ParameterError` (``bands``) unless every band gets a wavelength."""
-    n = len(bands.edges)
+def check_cube_spp(passbands: PassbandList, total_spp: int):
+    """:class:`ParameterError` (``bands``) unless every passband gets a wavelength."""
+    n = len(passbands.edges)
     if 4 * int(total_spp) < n:
         raise ParameterError("bands", f"{n} bands need at least {-(-n // 4)} samples per pixel "
                              f"(4 wavelengths each), got {total_spp}")
@@ -118,7 +119,7 @@ def _footprint(rfilter):
     return [(dx, dy) for dy in range(-r, r + 1) for dx in range(-r, r + 1)]
 
 
-def cube_pass(scene, bands: SpectralBands, spp: int, seed: int, first: int,
+def cube_pass(scene, passbands: PassbandList, spp: int, seed: int, first: int,
               total_spp: int) -> np.ndarray:
     """One pass of *spp* samples per pixel, the pixel's samples *first* ..
     *first* + spp - 1 of *total_spp*: its filter-weighted sums, float64 array
@@ -133,9 +134,9 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int, first: int,
     sensor = scene.sensors()[0]
     film = sensor.film()
     width, height = (int(v) for v in film.crop_size())
-    n_bands = len(bands.edges)
-    lows = mi.Float(bands.lows.astype(np.float32))
-    widths = mi.Float(bands.widths.astype(np.float32))
+    n_bands = len(passbands.edges)
+    lows = mi.Float(passbands.lows.astype(np.float32))
+    widths = mi.Float(passbands.widths.astype(np.float32))
     counts = band_counts(n_bands, total_spp)
     lane_scale = mi.Float((total_spp / counts).astype(np.float32))
 
@@ -191,15 +192,15 @@ def cube_pass(scene, bands: SpectralBands, spp: int, seed: int, first: int,
                           axis=2)
 
 
-def cube_image(stokes: np.ndarray, bands: SpectralBands, metadata=None) -> StokesImage:
-    """The cube as a :class:`StokesImage`: one band per wavelength band,
-    named after its centre, the band edges in ``metadata['band_edges_nm']``.
+def cube_image(stokes: np.ndarray, passbands: PassbandList, metadata=None) -> StokesImage:
+    """The cube as a :class:`StokesImage`: one band per passband, named after
+    its centre, the passbands' edges in ``metadata['band_edges_nm']``.
     *stokes* is the cube (H, W, 4, n_bands), or the sum of :func:`cube_pass`'s
     arrays (H, W, 4 n_bands + 1), divided here by its filter weights."""
-    n = len(bands.edges)
+    n = len(passbands.edges)
     if stokes.ndim == 3:
         weights = stokes[..., -1:]
         safe = np.where(weights > 0, weights, 1.0)
         stokes = (stokes[..., :-1] / safe).reshape(stokes.shape[0], stokes.shape[1], 4, n)
-    metadata = dict(metadata or {}, band_edges_nm=bands.header(), spectral_cube="1")
-    return StokesImage(stokes.astype(np.float32), bands.names, None, metadata)
+    metadata = dict(metadata or {}, band_edges_nm=passbands.header(), spectral_cube="1")
+    return StokesImage(stokes.astype(np.float32), passbands.names, None, metadata)

@@ -1,6 +1,7 @@
 """Narrow-band Stokes images (``pbrdf render --wavelength NM[:WIDTH]``): the
-Stokes image at one wavelength (a laser line) or averaged over a band (a
-bandpass filter), from Mitsuba's ``stokes`` integrator in a spectral variant.
+Stokes image at one wavelength (a laser line) or averaged over a passband (a
+bandpass filter: :class:`Passband`), from Mitsuba's ``stokes`` integrator in a
+spectral variant.
 
 Why it needs care: the ``stokes`` integrator writes each Stokes component as
 
@@ -10,20 +11,20 @@ Why it needs care: the ``stokes`` integrator writes each Stokes component as
 whatever the sensor samples (it divides by ``pdf_rgb_spectrum``, the pdf
 Mitsuba samples wavelengths with by default, and converts to sRGB). This
 module gives the sensor a spectral response (``srf``) that Mitsuba samples the
-wavelengths from: zero outside the band [λ0 - W/2, λ0 + W/2], and inside it
+wavelengths from: zero outside the passband [λ0 - W/2, λ0 + W/2], and inside it
 proportional to 1 / |K_c(λ)| for the colour channel c with the largest
-response (R at 632.8 nm), tabulated at :func:`band_response`'s points (spacing
+response (R at 632.8 nm), tabulated at :func:`passband_response`'s points (spacing
 at most 0.5 nm; K_c is smooth on that scale) and interpolated linearly, as
 Mitsuba's ``regular`` spectrum does. With that sampling pdf p(λ) = srf(λ) / Z,
 
-    E[S_i.c] = ∫ p K_c S_i dλ = sign(K_c) / Z ∫_band S_i dλ,
+    E[S_i.c] = ∫ p K_c S_i dλ = sign(K_c) / Z ∫_passband S_i dλ,
 
-so the band average of S_i is ``sign(K_c) Z / W * S_i.c`` (:func:`band_image`);
-for a line (W = 0, rendered as a band of :data:`LINE_WIDTH`) it is
+so the passband average of S_i is ``sign(K_c) Z / W * S_i.c`` (:func:`passband_image`);
+for a line (W = 0, rendered as a passband :data:`LINE_WIDTH` wide) it is
 ``S_i.c / K_c(λ0)``. K_c is computed with Mitsuba's own ``pdf_rgb_spectrum`` and
 ``spectrum_to_srgb``. ``docs/polarization-camera.md`` explains it for users.
 
-The result is a :class:`StokesImage` with one band named ``<λ0>nm`` (e.g.
+The result is a :class:`StokesImage` with one (image) band named ``<λ0>nm`` (e.g.
 ``632.8nm``) and no colour preview; ``pbrdf polcam`` reads it as a monochrome
 camera behind that filter.
 """
@@ -41,10 +42,10 @@ from ..errors import ParameterError
 from ..stokes.image import StokesImage
 from .scene_loading import load_scene_text
 
-__all__ = ["WavelengthBand", "parse_wavelength", "require_spectral", "band_response", "BandResponse",
-           "scene_with_band", "band_image", "LINE_WIDTH"]
+__all__ = ["Passband", "parse_wavelength", "require_spectral", "passband_response",
+           "PassbandResponse", "scene_with_passband", "passband_image", "LINE_WIDTH"]
 
-#: Width (nm) of the band a laser line (no WIDTH) is rendered with; the
+#: Width (nm) of the passband a laser line (no WIDTH) is rendered with; the
 #: materials' spectra do not change over it.
 LINE_WIDTH = 0.01
 #: Mitsuba's CIE 1931 tables cover 360-830 nm.
@@ -54,20 +55,21 @@ SPACING = 0.5
 
 
 @dataclass(frozen=True)
-class WavelengthBand:
-    """A wavelength band: *centre* and full *width* in nm (0: a line)."""
+class Passband:
+    """A passband of wavelengths: *centre* and full *width* in nm (0: a
+    line). Rendered, it is one band of the Stokes image, :attr:`name`."""
 
     centre: float
     width: float = 0.0
 
     @property
     def name(self) -> str:
-        """The Stokes band's name, e.g. ``632.8nm``."""
+        """The name of the Stokes image's band, e.g. ``632.8nm``."""
         return f"{self.centre:g}nm"
 
     @property
     def limits(self):
-        """(low, high) in nm of the band that is rendered."""
+        """(low, high) in nm of the passband that is rendered."""
         half = max(self.width, LINE_WIDTH) / 2
         return self.centre - half, self.centre + half
 
@@ -76,33 +78,37 @@ class WavelengthBand:
                                         else " (line)")
 
 
-def parse_wavelength(text: str) -> WavelengthBand:
-    """``NM`` or ``NM:WIDTH`` (nm) as a :class:`WavelengthBand`;
-    :class:`~mitsuba_pbrdf.errors.ParameterError` naming ``wavelength`` for
-    anything else or a band outside 360-830 nm."""
+def parse_wavelength(text) -> Passband:
+    """``NM`` or ``NM:WIDTH`` (nm) as a :class:`Passband`, or a Passband
+    unchanged; :class:`~mitsuba_pbrdf.errors.ParameterError` naming
+    ``wavelength`` for anything else or a passband outside 360-830 nm."""
+    if isinstance(text, Passband):
+        return text
     centre, _, width = str(text).partition(":")
     try:
-        band = WavelengthBand(float(centre), float(width) if width.strip() else 0.0)
+        passband = Passband(float(centre), float(width) if width.strip() else 0.0)
     except ValueError:
         raise ParameterError("wavelength", "expects NM or NM:WIDTH in nanometres (e.g. 632.8 "
                              f"or 550:10), got {text!r}") from None
-    if not (math.isfinite(band.centre) and math.isfinite(band.width)) or band.width < 0:
+    if not (math.isfinite(passband.centre) and math.isfinite(passband.width)) \
+            or passband.width < 0:
         raise ParameterError("wavelength", "the wavelength and width must be finite and the "
                              f"width >= 0, got {text!r}")
-    low, high = band.limits
+    low, high = passband.limits
     if low < CIE_RANGE[0] or high > CIE_RANGE[1]:
         raise ParameterError("wavelength", f"the band {low:g}-{high:g} nm must lie within "
                              f"{CIE_RANGE[0]:g}-{CIE_RANGE[1]:g} nm (Mitsuba's colour tables)")
-    return band
+    return passband
 
 
 @dataclass
-class BandResponse:
-    """The sensor response of a band: the colour channel the band is read from
-    (0, 1, 2 for R, G, B), the tabulated response (``wavelengths``, ``values``)
-    and the factor taking that channel to the band-averaged Stokes vector."""
+class PassbandResponse:
+    """The sensor response of a passband: the colour channel of the ``stokes``
+    integrator it is read from (0, 1, 2 for R, G, B), the tabulated response
+    (``wavelengths``, ``values``) and the factor taking that channel to the
+    passband-averaged Stokes vector."""
 
-    band: WavelengthBand
+    passband: Passband
     channel: int
     wavelengths: np.ndarray
     values: np.ndarray
@@ -111,7 +117,7 @@ class BandResponse:
 
 def require_spectral(variant: str):
     """:class:`~mitsuba_pbrdf.errors.ParameterError` (``wavelength``) unless
-    *variant* is spectral: only those render a wavelength band."""
+    *variant* is spectral: only those render a passband."""
     if "_spectral" not in variant:
         raise ParameterError("wavelength", f"needs a spectral variant, not {variant}")
 
@@ -128,9 +134,9 @@ def rgb_response(wavelengths) -> np.ndarray:
     return np.array(mi.spectrum_to_srgb(mi.UnpolarizedSpectrum(1.0) / pdf, w), dtype=np.float64)
 
 
-def band_response(band: WavelengthBand) -> BandResponse:
-    """The tabulated sensor response of *band* (see the module docstring)."""
-    low, high = band.limits
+def passband_response(passband: Passband) -> PassbandResponse:
+    """The tabulated sensor response of *passband* (see the module docstring)."""
+    low, high = passband.limits
     n = max(3, int(math.ceil((high - low) / SPACING)) + 1)
     lam = np.linspace(low, high, n)
     k = rgb_response(lam)
@@ -144,11 +150,11 @@ def band_response(band: WavelengthBand) -> BandResponse:
     # the integral of the linear interpolation Mitsuba samples from (trapezoid rule)
     z = float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(lam)))
     scale = float(np.sign(k[channel, 0])) * z / (high - low)
-    return BandResponse(band, channel, lam, values / values.max(), scale)
+    return PassbandResponse(passband, channel, lam, values / values.max(), scale)
 
 
-def scene_with_band(scene_path, response: BandResponse) -> str:
-    """The scene file's XML with the band's response as its sensor's ``srf``
+def scene_with_passband(scene_path, response: PassbandResponse) -> str:
+    """The scene file's XML with the passband's response as its sensor's ``srf``
     (a ``regular`` spectrum). ``ValueError`` if the file has no ``<sensor>``
     (one in an included file is not supported), or one with an ``srf`` or a
     spectral film of its own."""
@@ -176,19 +182,19 @@ def scene_with_band(scene_path, response: BandResponse) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
-def load_band_scene(scene_path, params, response: BandResponse):
-    """``mi.load_string`` of :func:`scene_with_band`, resolving the scene's
+def load_passband_scene(scene_path, params, response: PassbandResponse):
+    """``mi.load_string`` of :func:`scene_with_passband`, resolving the scene's
     relative paths (includes, textures) from its folder, as ``mi.load_file``
     does. Raises what :func:`~mitsuba_pbrdf.rendering.render.load_scene` raises."""
-    return load_scene_text(scene_with_band(scene_path, response), scene_path, params)
+    return load_scene_text(scene_with_passband(scene_path, response), scene_path, params)
 
 
-def band_image(image: StokesImage, response: BandResponse) -> StokesImage:
-    """The band's Stokes image (one band, :attr:`WavelengthBand.name`) from
-    the R, G, B Stokes image of a render with the band's response."""
+def passband_image(image: StokesImage, response: PassbandResponse) -> StokesImage:
+    """The passband's Stokes image (one band, :attr:`Passband.name`) from
+    the R, G, B Stokes image of a render with the passband's response."""
     channel = image.bands.index("RGB"[response.channel])
     stokes = image.stokes[..., channel:channel + 1] * np.float32(response.scale)
-    band = response.band
-    metadata = dict(image.metadata, wavelength_nm=f"{band.centre:g}",
-                    band_width_nm=f"{band.width:g}", band_channel="RGB"[response.channel])
-    return StokesImage(stokes, [band.name], None, metadata)
+    passband = response.passband
+    metadata = dict(image.metadata, wavelength_nm=f"{passband.centre:g}",
+                    band_width_nm=f"{passband.width:g}", band_channel="RGB"[response.channel])
+    return StokesImage(stokes, [passband.name], None, metadata)

@@ -18,6 +18,8 @@ pass's samples as one wavefront), and split reverse-mode differentiation
   (sizes differ by at most one sample);
 * :func:`pass_seeds`: the first pass uses the caller's seed, the others steps
   of the 32-bit golden ratio, so one pass is exactly ``mi.render(seed=seed)``;
+  the renders of an optimization are numbered as the passes of one long
+  render (:mod:`mitsuba_pbrdf.inverse.driver`), so none shares a seed;
 * :func:`derivative_seed`: the seed ``mi.render`` gives the derivative
   (adjoint) render of a pass, ``sample_tea_32(seed, 1)[0]``, so that the
   gradient of a non-linear loss is unbiased.
@@ -85,11 +87,13 @@ def plan_passes(spp: int, passes: Optional[int] = None, pixels: int = 0,
     return [base + 1] * extra + [base] * (passes - extra)
 
 
-def pass_seeds(seed: int, n: int) -> list:
+def pass_seeds(seed: int, n: int, first: int = 0) -> list:
     """Sampler seeds of *n* passes: *seed* for the first, then steps of the
     32-bit golden ratio (all distinct, and distinct from the seeds of nearby
-    base seeds' first passes)."""
-    return [(int(seed) + k * 0x9E3779B9) & 0xFFFFFFFF for k in range(n)]
+    base seeds' first passes). *first*: the seeds of passes *first* to
+    ``first + n - 1`` of the same sequence (an optimizer's iterations take
+    consecutive blocks of it: :func:`mitsuba_pbrdf.inverse.driver.iteration_seeds`)."""
+    return [(int(seed) + k * 0x9E3779B9) & 0xFFFFFFFF for k in range(int(first), int(first) + n)]
 
 
 def derivative_seed(seed: int) -> int:

@@ -15,12 +15,14 @@ to their sample counts. Between passes a progress bar advances
 
 Before anything renders, :func:`check_render` checks what needs no scene
 loaded, once: the variant must be polarized (:func:`require_polarized`), the
-``params`` must suit what the scene does with them, a wavelength band needs a
+``params`` must suit what the scene does with them, a passband or a cube needs a
 spectral variant; after loading, the film and sampler must be usable
 (:mod:`mitsuba_pbrdf.rendering.scene_params`). Each failure is a one-line
 ``ValueError`` naming the parameter. A caller that checks early (``pbrdf
 render``, before it checks its output files) renders the checked request with
-:func:`render_request`.
+:func:`render_request`. The request carries its render mode
+(:mod:`mitsuba_pbrdf.rendering.modes`: the scene's R, G, B, one passband, or a
+Stokes cube), which loads the scene, renders each pass and assembles the image.
 
 The default variant is ``cuda_ad_spectral_polarized`` when a CUDA GPU is
 usable, else ``llvm_ad_spectral_polarized``
@@ -37,26 +39,22 @@ from __future__ import annotations
 import logging
 import os
 import time
-from dataclasses import asdict, dataclass
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field
 from typing import Mapping, Optional
-
-import numpy as np
 
 from ..errors import ParameterError
 from ..interrupts import release as release_interrupts
 from ..registry import use_variant
 from ..bsdfs import warn_unpolarized_wrappers
 from ..variant import default_variant
-from .bands import SpectralBands, parse_bands, require_spectral_bands
 from ..numbers import MAX_SPP
-from .cube import check_cube_spp, cube_image, cube_pass, load_cube_scene
-from .scene_loading import SceneLoadError, interrupted, scene_load_errors
-from .narrowband import (WavelengthBand, band_image, band_response, load_band_scene,
-                         parse_wavelength, require_spectral)
+from .modes import RenderMode, RgbMode, render_mode
+from .scene_loading import SceneLoadError, interrupted, load_scene
 from .passes import pass_seeds, plan_passes, samples_per_pass
 from .progress import progress_reporter
 from .scene_params import check_loaded_scene, check_parameter_values
-from ..stokes.image import StokesImage, from_mitsuba
+from ..stokes.image import StokesImage
 
 __all__ = [
     "RenderTimings",
@@ -127,21 +125,6 @@ class RenderTimings:
         return s
 
 
-def load_scene(scene_path, params: Optional[Mapping[str, object]] = None):
-    """``mi.load_file(scene_path, **params)`` (the variant must be set).
-    *params* override the scene's ``<default name="key" .../>`` values; Mitsuba
-    rejects keys the scene does not use. Raises ``FileNotFoundError`` or
-    :class:`SceneLoadError` (with Mitsuba's message, e.g. the XML parse error)."""
-    import mitsuba as mi
-
-    scene_path = os.fspath(scene_path)
-    if not os.path.isfile(scene_path):
-        raise FileNotFoundError(f"{scene_path}: no such file")
-    kwargs = {str(k): str(v) for k, v in (params or {}).items()}
-    with scene_load_errors():
-        return mi.load_file(scene_path, **kwargs)
-
-
 def _kernel_stats(history):
     compile_ms = run_ms = 0.0
     kernels = cached = 0
@@ -163,18 +146,17 @@ def render_scene(scene_path, spp: Optional[int] = None, **options) -> StokesImag
 @dataclass(frozen=True)
 class RenderRequest:
     """A render whose inputs :func:`check_render` has checked: the scene file,
-    the variant (polarized; spectral for a band), the samples per pixel (None:
-    the scene's), the number of passes (None: automatic), the ``$key``
-    parameters, the wavelength band (None: R, G, B) and the bands of a Stokes
-    cube (None: no cube)."""
+    the variant (polarized; spectral for a passband or a cube), the samples per
+    pixel (None: the scene's), the number of passes (None: automatic), the
+    ``$key`` parameters and the render mode (:mod:`.modes`: the scene's R, G,
+    B; one passband; a Stokes cube)."""
 
     scene_path: str
     variant: str
     spp: Optional[int] = None
     passes: Optional[int] = None
     params: Optional[Mapping[str, object]] = None
-    band: Optional[WavelengthBand] = None
-    bands: Optional[SpectralBands] = None
+    mode: RenderMode = field(default_factory=RgbMode)
 
 
 def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] = None,
@@ -183,13 +165,13 @@ def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] =
     """Every check of a render that needs no loaded scene, once: ``spp`` and
     ``passes`` at least 1, the variant polarized (:func:`require_polarized`),
     ``params`` suited to what the scene does with them
-    (:func:`~mitsuba_pbrdf.rendering.scene_params.check_parameter_values`),
-    ``wavelength`` a band (:func:`~mitsuba_pbrdf.rendering.narrowband.parse_wavelength`)
-    and the variant spectral for it, ``bands`` a list of bands
-    (:func:`~mitsuba_pbrdf.rendering.bands.parse_bands`, spectral variants
-    only, not with ``wavelength``). Raises a ``ValueError`` naming the
-    parameter (:class:`~mitsuba_pbrdf.errors.ParameterError` for ``spp``,
-    ``passes``, ``wavelength``, ``bands``). Sets no variant and loads nothing."""
+    (:func:`~mitsuba_pbrdf.rendering.scene_params.check_parameter_values`), and
+    the render mode of ``wavelength`` and ``bands``
+    (:func:`~mitsuba_pbrdf.rendering.modes.render_mode`: a passband, or a
+    list of passbands with enough ``spp``; spectral variants only, not both).
+    Raises a ``ValueError`` naming the parameter
+    (:class:`~mitsuba_pbrdf.errors.ParameterError` for ``spp``, ``passes``,
+    ``wavelength``, ``bands``). Sets no variant and loads nothing."""
     for name, value in (("spp", spp), ("passes", passes)):
         if value is not None and int(value) < 1:
             raise ParameterError(name, f"must be at least 1, got {value}")
@@ -199,22 +181,11 @@ def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] =
         variant = default_variant()
     require_polarized(variant)
     check_parameter_values(scene_path, params)
-    band = None
-    if wavelength is not None:
-        band = wavelength if isinstance(wavelength, WavelengthBand) else \
-            parse_wavelength(wavelength)
-        require_spectral(variant)
-    cube = None
-    if bands is not None:
-        if band is not None:
-            raise ParameterError("bands", "renders a Stokes cube; give wavelength (one band) or "
-                                 "bands, not both")
-        cube = parse_bands(bands)
-        require_spectral_bands(variant)
-        if spp is not None:
-            check_cube_spp(cube, int(spp))
+    mode = render_mode(variant, wavelength, bands)
+    if spp is not None:
+        mode.check_spp(int(spp))
     return RenderRequest(os.fspath(scene_path), variant, None if spp is None else int(spp),
-                         None if passes is None else int(passes), params, band, cube)
+                         None if passes is None else int(passes), params, mode)
 
 
 def render_scene_timed(
@@ -254,16 +225,16 @@ def render_scene_timed(
         ``"bar"`` (a ``tqdm`` bar), ``"lines"`` (lines for logs) or ``"auto"``
         (:func:`~mitsuba_pbrdf.rendering.progress.progress_reporter`).
     wavelength
-        None (R, G, B Stokes bands), or a narrow band: ``"632.8"``, ``"550:10"``
-        (centre and width in nm) or a :class:`~.narrowband.WavelengthBand`; the
+        None (R, G, B Stokes bands), or a passband: ``"632.8"``, ``"550:10"``
+        (centre and width in nm) or a :class:`~.narrowband.Passband`; the
         image then has one Stokes band at that wavelength
         (:mod:`mitsuba_pbrdf.rendering.narrowband`; spectral variants only).
     bands
-        None, or the bands of a Stokes cube: ``"450:650:20"``,
+        None, or the passbands of a Stokes cube: ``"450:650:20"``,
         ``"450:470,532:533"`` (:mod:`mitsuba_pbrdf.rendering.bands`) or a
-        :class:`~.bands.SpectralBands`; the image then has one Stokes band per
-        band, named after its centre (``460nm``), each the band average of the
-        Stokes vector, from one render (:mod:`mitsuba_pbrdf.rendering.cube`;
+        :class:`~.bands.PassbandList`; the image then has one Stokes band per
+        passband, named after its centre (``460nm``), each the passband average
+        of the Stokes vector, from one render (:mod:`mitsuba_pbrdf.rendering.cube`;
         spectral variants only).
 
     The returned image's ``metadata`` holds the scene, variant, spp, passes,
@@ -278,95 +249,88 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
     """Render a request that :func:`check_render` made (its checks are not run
     again); ``seed`` and ``progress`` as in :func:`render_scene_timed`. Returns
     ``(image, timings)``."""
-    import drjit as dr
-
-    import mitsuba as mi
-
-    scene_path, spp, variant, params = (request.scene_path, request.spp, request.variant,
-                                        request.params)
-    use_variant(variant)
-    response = None if request.band is None else band_response(request.band)
-
+    mode = request.mode
+    use_variant(request.variant)
     t0 = time.perf_counter()
-    if response is None and request.bands is None:
-        scene = load_scene(scene_path, params)
-    else:
-        if not os.path.isfile(os.fspath(scene_path)):
-            raise FileNotFoundError(f"{os.fspath(scene_path)}: no such file")
-        scene = (load_band_scene(scene_path, params, response) if response is not None
-                 else load_cube_scene(scene_path, params))
+    scene = mode.load(request.scene_path, request.params)
     t1 = time.perf_counter()
-    check_loaded_scene(scene, scene_path, params, spp)
+    check_loaded_scene(scene, request.scene_path, request.params, request.spp)
     warn_unpolarized_wrappers(scene)
 
     sensor = scene.sensors()[0]
-    total_spp = int(spp if spp is not None else sensor.sampler().sample_count())
-    if request.bands is not None:
-        check_cube_spp(request.bands, total_spp)
+    total_spp = request.spp
+    if total_spp is None:  # the scene's (check_render checked a given spp)
+        total_spp = int(sensor.sampler().sample_count())
+        mode.check_spp(total_spp)
     size = sensor.film().crop_size()
-    backend = "cuda" if variant.startswith("cuda") else "llvm"
+    backend = "cuda" if request.variant.startswith("cuda") else "llvm"
     plan = plan_passes(total_spp, request.passes, pixels=int(size[0]) * int(size[1]),
                        budget=samples_per_pass(backend))
-    seeds = pass_seeds(seed, len(plan))
 
     release_interrupts()  # loaded: Ctrl-C from here on stops between passes
-    history_was_on = dr.flag(dr.JitFlag.KernelHistory)
-    dr.set_flag(dr.JitFlag.KernelHistory, True)
-    dr.kernel_history()  # clear what earlier work left there
-    name = os.path.basename(os.fspath(scene_path))
-    try:
-        t2 = time.perf_counter()
-        history = []
-        accumulated, first = None, 0
-        with progress_reporter(total_spp, f"rendering {name} ({len(plan)} passes)", progress,
-                               steps=len(plan)) as bar:
-            for pass_spp, pass_seed in zip(plan, seeds):
-                try:
-                    if request.bands is not None:
-                        array = cube_pass(scene, request.bands, pass_spp, pass_seed, first,
-                                          total_spp)
-                    else:
-                        tensor = mi.render(scene, spp=pass_spp, seed=pass_seed)
-                        # reading the result back runs the kernels
-                        array = np.array(tensor, dtype=np.float64) * (pass_spp / total_spp)
-                    first += pass_spp
-                except RuntimeError as e:
-                    if interrupted(e):
-                        raise KeyboardInterrupt from e
-                    raise
-                accumulated = array if accumulated is None else accumulated + array
-                history += dr.kernel_history()
-                bar.update(pass_spp)
-        if request.bands is not None:
-            image = cube_image(accumulated, request.bands)
-        else:
-            image = from_mitsuba(accumulated.astype(np.float32), sensor.film())
-        if response is not None:
-            image = band_image(image, response)
-        t3 = time.perf_counter()
-    finally:
-        dr.set_flag(dr.JitFlag.KernelHistory, history_was_on)
+    t2 = time.perf_counter()
+    label = f"rendering {os.path.basename(request.scene_path)} ({len(plan)} passes)"
+    with progress_reporter(total_spp, label, progress, steps=len(plan)) as bar, \
+            _kernel_history() as history:
+        total = _render_passes(scene, mode, plan, pass_seeds(seed, len(plan)), total_spp,
+                               bar, history)
+    image = mode.assemble(total, sensor.film())
+    t3 = time.perf_counter()
 
     compile_s, run_s, kernels, cached = _kernel_stats(history)
-    timings = RenderTimings(
-        load=t1 - t0, render=t3 - t2, jit_compile=compile_s, kernel_run=run_s,
-        kernels=kernels, kernels_cached=cached,
-    )
-    log.info("%s: %s", scene_path, timings.summary())
-
-    image.metadata.update(
-        {
-            "scene": os.fspath(scene_path),
-            "variant": variant,
-            "spp": str(total_spp),
-            "passes": str(len(plan)),
-            "seed": str(seed),
-            "mitsuba_version": mi.__version__,
-        }
-    )
-    if params:
-        image.metadata["params"] = " ".join(f"{k}={v}" for k, v in params.items())
-    image.metadata.update({f"time_{k}_s": f"{v:.4g}" for k, v in asdict(timings).items()
-                           if not k.startswith("kernels")})
-    image.metadata.update({"kernels": str(kernels), "kernels_cached": str(cached)})
+    timings = RenderTimings(load=t1 - t0, render=t3 - t2, jit_compile=compile_s,
+                            kernel_run=run_s, kernels=kernels, kernels_cached=cached)
+    log.info("%s: %s", request.scene_path, timings.summary())
+    _record(image.metadata, request, total_spp, len(plan), seed, timings)
     return image, timings
+
+
+@contextmanager
+def _kernel_history():
+    """Dr.Jit's kernel history on and cleared for the block, which extends the
+    yielded list with it; the flag as it was after."""
+    import drjit as dr
+
+    was_on = dr.flag(dr.JitFlag.KernelHistory)
+    dr.set_flag(dr.JitFlag.KernelHistory, True)
+    dr.kernel_history()  # clear what earlier work left there
+    try:
+        yield []
+    finally:
+        dr.set_flag(dr.JitFlag.KernelHistory, was_on)
+
+
+def _render_passes(scene, mode: RenderMode, plan, seeds, total_spp: int, bar, history):
+    """The sum of the *mode*'s passes (*plan*: each pass's spp), the kernels of
+    each appended to *history*; a Ctrl-C that Mitsuba wrapped is ``KeyboardInterrupt``."""
+    import drjit as dr
+
+    total, first = None, 0
+    for spp, seed in zip(plan, seeds):
+        try:
+            array = mode.render_pass(scene, spp, seed, first, total_spp)
+        except RuntimeError as e:
+            if interrupted(e):
+                raise KeyboardInterrupt from e
+            raise
+        first += spp
+        total = array if total is None else total + array
+        history += dr.kernel_history()
+        bar.update(spp)
+    return total
+
+
+def _record(metadata: dict, request: RenderRequest, total_spp: int, passes: int, seed: int,
+            timings: RenderTimings):
+    """The render's inputs and timings into the image's *metadata*."""
+    import mitsuba as mi
+
+    metadata.update({"scene": request.scene_path, "variant": request.variant,
+                     "spp": str(total_spp), "passes": str(passes), "seed": str(seed),
+                     "mitsuba_version": mi.__version__})
+    if request.params:
+        metadata["params"] = " ".join(f"{k}={v}" for k, v in request.params.items())
+    metadata.update({f"time_{k}_s": f"{v:.4g}" for k, v in asdict(timings).items()
+                     if not k.startswith("kernels")})
+    metadata.update({"kernels": str(timings.kernels),
+                     "kernels_cached": str(timings.kernels_cached)})

@@ -1,7 +1,7 @@
-"""Loading scenes: Mitsuba's loader errors and Ctrl-C in the package's terms,
-shared by the scene loaders (:mod:`.render`, :mod:`.narrowband`,
-:mod:`.cube`) and the pass loop, and :func:`load_scene_text`, a scene file's
-XML loaded after rewriting it (a sensor response for a narrow band, the
+"""Loading scenes: :func:`load_scene` (a scene file as it is), Mitsuba's loader
+errors and Ctrl-C in the package's terms, shared by the scene loaders (of the
+render modes, :mod:`.modes`, :mod:`.narrowband`, :mod:`.cube`) and the pass
+loop, and :func:`load_scene_text`, a scene file's XML loaded after rewriting it (a sensor response for a narrow band, the
 ``stokes`` integrator taken out for a Stokes cube) as ``mi.load_file`` would
 load the file itself.
 
@@ -16,10 +16,12 @@ from __future__ import annotations
 import os
 import re
 from contextlib import contextmanager
+from typing import Mapping, Optional
 
 from ..interrupts import held, interrupted
 
-__all__ = ["SceneLoadError", "interrupted", "condense", "scene_load_errors", "load_scene_text"]
+__all__ = ["SceneLoadError", "interrupted", "condense", "scene_load_errors", "load_scene",
+           "load_scene_text"]
 
 
 class SceneLoadError(RuntimeError):
@@ -46,6 +48,27 @@ def scene_load_errors():
             if interrupted(e):
                 raise KeyboardInterrupt from e
             raise SceneLoadError(condense(str(e))) from e
+
+
+def load_scene(scene_path, params: Optional[Mapping[str, object]] = None):
+    """``mi.load_file(scene_path, **params)`` (the variant must be set).
+    *params* override the scene's ``<default name="key" .../>`` values; Mitsuba
+    rejects keys the scene does not use. Raises ``FileNotFoundError`` or
+    :class:`SceneLoadError` (with Mitsuba's message, e.g. the XML parse error)."""
+    import mitsuba as mi
+
+    scene_path = require_scene_file(scene_path)
+    kwargs = {str(k): str(v) for k, v in (params or {}).items()}
+    with scene_load_errors():
+        return mi.load_file(scene_path, **kwargs)
+
+
+def require_scene_file(scene_path) -> str:
+    """*scene_path* as a string; ``FileNotFoundError`` unless it is a file."""
+    scene_path = os.fspath(scene_path)
+    if not os.path.isfile(scene_path):
+        raise FileNotFoundError(f"{scene_path}: no such file")
+    return scene_path
 
 
 def load_scene_text(text: str, scene_path, params=None):

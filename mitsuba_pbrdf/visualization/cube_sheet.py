@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..stokes.image import StokesImage
+from .defaults import PICTURE_DEFAULTS
 from .png import save_png
 
 __all__ = ["Region", "SHEET_OPTIONS", "DOLP_SCALES", "shared_dolp_limit", "parse_region",
@@ -179,8 +180,9 @@ def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
     """A matplotlib Figure: one row per band with S0, DoLP and AoLP (each
     with its colour bar; S0 in grey with the band's own exposure), and with
     *region* its Stokes spectrum on top, the region outlined in each S0 panel.
-    *options* (:data:`SHEET_OPTIONS`): ``dolp_max`` (default ``"auto"``),
-    ``min_dolp``, ``dolp_cmap``; TypeError for any other. With ``dolp_max``
+    *options* (:data:`SHEET_OPTIONS`): ``dolp_max``, ``min_dolp``, ``dolp_cmap``
+    (defaults: :data:`~.defaults.PICTURE_DEFAULTS`, ``dolp_max="auto"``);
+    TypeError for any other. With ``dolp_max``
     ``"auto"``, *dolp_scale* ``"shared"`` (default) gives every band one DoLP
     scale (:func:`shared_dolp_limit`), so a weakly polarized band looks weak;
     ``"per-band"`` scales each band to its own data."""
@@ -209,7 +211,8 @@ def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
     if region is not None:
         _spectrum_axes(fig.add_subplot(grid[0, :]), image, region)
     qualities = [assess(image, band) for band in image.bands]
-    dolp_max = options.get("dolp_max", "auto")
+    options = {**PICTURE_DEFAULTS, **options}
+    dolp_max = options["dolp_max"]
     automatic = isinstance(dolp_max, str) and dolp_max.strip().lower() == "auto"
     if automatic and dolp_scale == "shared":
         dolp_max = shared_dolp_limit(image, qualities)
@@ -219,9 +222,9 @@ def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
         axes = [fig.add_subplot(grid[row + top, c]) for c in range(3)]
         # short titles: three panels of a row share panel_width x 3 inches
         plot_intensity(axes[0], image, band=band, quality=quality, title=f"S0 [{band}]")
-        _finish(axes[1], draw_dolp(axes[1], image, options.get("dolp_cmap", "viridis"),
+        _finish(axes[1], draw_dolp(axes[1], image, options["dolp_cmap"],
                                    dolp_max, band=band, quality=quality), f"DoLP [{band}]")
-        _finish(axes[2], draw_aolp(axes[2], image, options.get("min_dolp", 0.01), band=band,
+        _finish(axes[2], draw_aolp(axes[2], image, options["min_dolp"], band=band,
                                    quality=quality), f"AoLP [{band}]")
         if region is not None:
             axes[0].add_patch(Rectangle((region.x - 0.5, region.y - 0.5), region.width,

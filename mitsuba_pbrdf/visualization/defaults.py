@@ -2,7 +2,7 @@
 (:func:`~mitsuba_pbrdf.visualization.panels.overview_figure`,
 :func:`~mitsuba_pbrdf.visualization.panels.save_overview_png`) and the command line
 (``pbrdf render`` and ``view`` take their option defaults from it,
-:func:`mitsuba_pbrdf.cli.common.picture_options`), so a script's first picture
+:func:`mitsuba_pbrdf.cli.pictures.picture_options`), so a script's first picture
 looks like the command's: DoLP and DoCP scaled to the data (``"auto"``).
 
 The ``draw_*``/``plot_*`` panel functions keep their own defaults, for figures

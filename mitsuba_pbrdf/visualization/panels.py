@@ -430,7 +430,7 @@ def overview_figure(
         image.band(band)  # KeyError naming the bands, before drawing anything
     if options.get("quality") is None:
         options["quality"] = assess(image, band)
-    scale = options.pop("stokes_scale", "shared")
+    scale = options.pop("stokes_scale")
     if scale not in ("shared", "separate"):
         raise ValueError(f"stokes_scale must be 'shared' or 'separate', got {scale!r}")
     components = [int(p[1]) for p in panels if p in ("s1", "s2", "s3")]

@@ -1,23 +1,9 @@
-"""The pieces of :func:`~mitsuba_pbrdf.inverse.normals.recover_normals`'s
-Adam loop: the learning-rate schedule (:func:`learning_rates`) and the
-gradient of a loss summed over views (:func:`summed_gradients`)."""
+"""The gradient of :func:`~mitsuba_pbrdf.inverse.normals.recover_normals`'s
+loss summed over views (:func:`summed_gradients`)."""
 
 from __future__ import annotations
 
 import numpy as np
-
-#: Learning rate at the last iteration as a fraction of the first (the default schedule).
-LR_END = 0.1
-
-
-def learning_rates(lr, iterations, lr_end=LR_END, lr_decay=None) -> np.ndarray:
-    """The learning rate of every iteration: ``lr * lr_decay**it`` when
-    *lr_decay* is given, else a geometric decay from *lr* at the first
-    iteration to ``lr * lr_end`` at the last, whatever the number of
-    iterations (so a longer fit does not freeze early)."""
-    if lr_decay is None:
-        lr_decay = lr_end ** (1.0 / max(iterations - 1, 1))
-    return lr * lr_decay ** np.arange(iterations, dtype=np.float64)
 
 
 def summed_gradients(view_losses, variables):

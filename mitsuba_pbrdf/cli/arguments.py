@@ -1,0 +1,135 @@
+"""Arguments that several ``pbrdf`` subcommands share, checked after parsing:
+files (:func:`require_file`), counts (:func:`positive_int`), numbers
+(:func:`finite_float`, :func:`float_list`), ``-D key=value``
+(:func:`parse_defines`), the outputs (:func:`check_outputs`), and the
+``--variant`` and ``--progress`` options. Each raises :class:`~.errors.CliError`
+with a message that opens with the option (``--starts must be at least 1, got 0``).
+
+They are checks after parsing rather than argparse ``type=`` callables on
+purpose: argparse would report ``argument --starts: ...`` after a usage line,
+and before the command's own checks in the order it wants them (the scene
+file first, the outputs last)."""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Optional
+
+from ..errors import describe_error
+from .errors import CliError
+
+__all__ = ["parse_defines", "require_file", "positive_int", "float_list", "finite_float",
+           "check_outputs", "show_progress", "progress_options", "chosen_variant",
+           "variant_help"]
+
+
+def parse_defines(items) -> dict:
+    """``-D key=value`` items as a dict (values as strings)."""
+    params = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise CliError(f"-D expects key=value, got {item!r}")
+        params[key.strip()] = value
+    return params
+
+
+def require_file(path: str, what: str):
+    """A :class:`CliError` unless *path* is an existing file."""
+    if not path:
+        raise CliError(f"{what} not found: '' (an empty path)")
+    if not os.path.exists(path):
+        raise CliError(f"{what} not found: {path}")
+    if not os.path.isfile(path):
+        raise CliError(f"{what} is not a file: {path}")
+
+
+def positive_int(name: str, value: Optional[int]):
+    """A :class:`CliError` unless *value* is None or at least 1."""
+    if value is not None and value < 1:
+        raise CliError(f"{name} must be at least 1, got {value}")
+
+
+def float_list(text: str, what: str) -> list:
+    """Comma-separated numbers."""
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise CliError(f"{what} expects comma-separated numbers, got {text!r}") from None
+    if not values:
+        raise CliError(f"{what} expects at least one number")
+    return values
+
+
+def show_progress(args):
+    """The ``progress`` argument of the rendering functions: ``"bar"`` with
+    ``--progress``, ``"off"`` with ``--no-progress``, else ``"auto"`` (a bar
+    when stderr is a terminal, a line every few seconds of long work otherwise;
+    :mod:`mitsuba_pbrdf.rendering.progress`)."""
+    if args.progress is None:
+        return "auto"
+    return "bar" if args.progress else "off"
+
+
+def finite_float(name: str, value: Optional[float], low: Optional[float] = None,
+                 high: Optional[float] = None, low_open: bool = False):
+    """A :class:`CliError` unless *value* is None or a finite number in range."""
+    if value is None:
+        return
+    bad = not math.isfinite(value) or (low is not None and (value <= low if low_open
+                                                            else value < low)) \
+        or (high is not None and value > high)
+    if bad:
+        rng = ""
+        if low is not None and high is not None:
+            rng = f" in {'(' if low_open else '['}{low:g}, {high:g}]"
+        elif low is not None:
+            rng = f" {'>' if low_open else '>='} {low:g}"
+        raise CliError(f"{name} must be a finite number{rng}, got {value:g}")
+
+
+def check_outputs(*outputs, create_folders: bool = True):
+    """Before any long work: each output can be written
+    (:func:`mitsuba_pbrdf.outputs.check_writable`). *outputs* are paths or
+    ``(option, path)`` pairs (the option then opens the message); None is
+    skipped. With ``create_folders=False`` the output's folder must exist.
+    Raises :class:`CliError`."""
+    from ..outputs import check_writable
+
+    for item in outputs:
+        option, path = item if isinstance(item, tuple) else (None, item)
+        if path is None:
+            continue
+        prefix = f"{option}: " if option else ""
+        folder = os.path.dirname(os.path.abspath(path))
+        if not create_folders and not os.path.isdir(folder):
+            raise CliError(f"{prefix}folder {folder} does not exist")
+        try:
+            check_writable(path)
+        except OSError as e:
+            raise CliError(prefix + describe_error(e)) from None
+
+
+def chosen_variant(args) -> str:
+    """``--variant``, else the default (CUDA if usable, else LLVM)."""
+    from ..variant import default_variant
+
+    return args.variant or default_variant()
+
+
+def variant_help() -> str:
+    from ..variant import DEFAULT_VARIANT, GPU_VARIANT
+
+    return (f"Mitsuba variant (default: {GPU_VARIANT} if a CUDA GPU is usable, "
+            f"else {DEFAULT_VARIANT})")
+
+
+def progress_options(parser):
+    """``--progress`` / ``--no-progress``."""
+    g = parser.add_mutually_exclusive_group()
+    g.add_argument("--progress", dest="progress", action="store_true", default=None,
+                   help="show the progress bar even when stderr is not a terminal (default: a "
+                        "bar on a terminal, else a line every 10 s of long renders)")
+    g.add_argument("--no-progress", dest="progress", action="store_false",
+                   help="never show progress")
