@@ -120,6 +120,29 @@ def test_run_gallery_writes_small_pngs(tmp_path):
         run_gallery(out=tmp_path, only=["nope"])
 
 
+def test_the_sky_item_sets_the_polarized_sky_beside_sunsky(tmp_path):
+    """sky.png at a small size: for each sun elevation, where the sky is seen
+    directly (the top rows), the same intensity under both skies (the same
+    seed, the same camera rays) and a polarization only under polarized_sky,
+    within its dolp_max (0.8)."""
+    from mitsuba_pbrdf.stokes import dolp, luminance_stokes, read_stokes_exr
+
+    paths = run_gallery(out=tmp_path / "gallery", exr_dir=tmp_path / "exr", spp=2, scale=0.15,
+                        variant="llvm_ad_spectral_polarized", only=["sky"], log=lambda *a: None)
+    assert os.path.getsize(paths["sky"]) < 200_000
+    assert matplotlib.image.imread(paths["sky"]).shape[1] > 600
+    for elevation in gallery.SUN_ELEVATIONS:
+        polarized, plain = (read_stokes_exr(tmp_path / "exr" / f"sky_{sky}_{elevation:g}.exr")
+                            for sky in ("polarized_sky", "sunsky"))
+        assert polarized.stokes.shape == (27, 36, 4, 3)
+        top = slice(0, 4)
+        np.testing.assert_allclose(polarized.stokes[top, :, 0], plain.stokes[top, :, 0],
+                                   rtol=1e-6)
+        degree = dolp(luminance_stokes(polarized), axis=-1)[top]
+        assert 0.2 < degree.min() and degree.max() <= 0.8 + 1e-5
+        assert np.all(plain.stokes[top, :, 1:] == 0)
+
+
 def test_find_scenes(tmp_path, monkeypatch):
     assert gallery.find_scenes(SCENES).samefile(SCENES)
     monkeypatch.chdir(tmp_path)

@@ -297,6 +297,36 @@ def test_sampling_is_the_intensitys_and_carries_the_polarization():
     assert scene.environment() is emitter
 
 
+@pytest.mark.parametrize("emitter", [
+    {"type": "polarized_sky", "sun_direction": [0.0, 0.6, 0.8]},
+    {"type": "polarized_sky", "sun_direction": [0.0, 0.6, 0.8], "radiance": 1.0},
+    {"type": "polarized_emitter", "lamp": {"type": "constant"}},
+], ids=["sunsky", "radiance", "polarized_emitter"])
+def test_shadow_rays_reach_occluders_beyond_the_unit_sphere(emitter):
+    """Mitsuba 3.9.1 never calls a Python emitter's set_scene, so the
+    wrapped infinite emitter keeps a unit bounding sphere and put its
+    sampled point 2 units away: a roof 5 units up did not shadow. Now the
+    point is wrapped.FAR away and the roof shadows every sample."""
+    from mitsuba_pbrdf.emitters.wrapped import FAR
+
+    roof = {"type": "rectangle", "to_world": mi.ScalarTransform4f().translate([0, 0, 5])
+            .scale(1000).rotate([1, 0, 0], 180)}
+    n = 256
+    it = dr.zeros(mi.SurfaceInteraction3f, n)
+    it.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
+    it.n = mi.Normal3f(0, 0, 1)
+    rng = np.random.default_rng(2)
+    sample = mi.Point2f(*rng.random((2, n)).astype(np.float32))
+    open_sky = mi.load_dict({"type": "scene", "sky": emitter})
+    roofed = mi.load_dict({"type": "scene", "sky": emitter, "roof": roof})
+    ds, weight = open_sky.sample_emitter_direction(it, sample, True)
+    up = np.array(ds.d.z) > 0.05
+    assert np.allclose(np.array(ds.dist), FAR) and up.sum() > 20
+    assert np.all(np.array(weight[0, 0])[:, up] > 0)
+    _, shadowed = roofed.sample_emitter_direction(it, sample, True)
+    assert np.all(np.array(shadowed[0, 0])[:, up] == 0)
+
+
 def test_a_constant_radiance_replaces_the_sunsky_intensity():
     emitter = mi.load_dict(sky(radiance=2.5))
     d = pl.unit(np.array([[0.3, 0.2, 0.9], [0.0, 0.9, -0.2]]))
@@ -312,7 +342,8 @@ def test_dolp_max_is_exposed_and_differentiable():
     params = mi.traverse(emitter)
     nondifferentiable = int(mi.ParamFlags.NonDifferentiable)
     assert "dolp_max" in params and not params.flags("dolp_max") & nondifferentiable
-    assert params.flags("sun_direction") & nondifferentiable
+    # sun_direction too (the pattern's; test_polarized_light_gradients.py)
+    assert not params.flags("sun_direction") & nondifferentiable
     dr.enable_grad(params["dolp_max"])
     params.update()
     d = pl.unit(np.array([[0.3, -0.5, 0.6]]))
@@ -340,6 +371,62 @@ def test_changing_the_sun_direction_moves_pattern_and_intensity():
     d = pl.unit(np.array([[0.3, 0.2, 0.9], [-0.5, 0.4, 0.3]]))
     for a, b in zip(eval_sky(emitter, d)[:3], eval_sky(fresh, d)[:3]):
         assert np.allclose(a, b, rtol=1e-6)
+
+
+# ---------------------------------------------------------------- date, time and place
+
+#: noon (UTC, longitude 0) of the June solstice at 48° N
+SOLSTICE = dict(year=2024, month=6, day=21, hour=12.0, minute=0.0, second=0.0,
+                latitude=48.0, longitude=0.0, timezone=0.0)
+
+
+def sunsky_sun(**when):
+    params = mi.traverse(mi.load_dict(dict({"type": "sunsky"}, **when)))
+    return pl.unit(np.array(params["sun_direction"], np.float64).ravel())
+
+
+def test_a_date_time_and_place_put_the_pattern_where_sunsky_puts_the_sun():
+    """Mitsuba 3.9.1's sunsky takes year ... timezone instead of a sun
+    direction; polarized_sky hands them on and polarizes around the sun
+    sunsky computes. The astronomy, checked on its own: at noon of the June
+    solstice the sun stands 90° - latitude + 23.44° high (65.44° at 48° N;
+    the equation of time moves noon by 1.7 min, 0.01° of elevation). In
+    sunsky's local frame the noon sun of the northern hemisphere is at +X and
+    the morning sun at -Y (measured: +X south, +Y west)."""
+    emitter = mi.load_dict(dict({"type": "polarized_sky", "dolp_max": DOLP_MAX}, **SOLSTICE))
+    sun = sunsky_sun(**SOLSTICE)
+    assert np.abs(np.array(emitter.sun) - sun).max() < 1e-6
+    assert abs(np.degrees(np.arcsin(sun[2])) - (90.0 - 48.0 + 23.44)) < 0.05
+    assert sun[0] > 0.4 and abs(sun[1]) < 0.01
+    d = pl.unit(np.array([[0.3, 0.2, 0.9], [-0.5, 0.4, 0.3], [0.1, -0.9, 0.2]]))
+    q, u, s0, x, y = eval_sky(emitter, d)
+    degree, e = pl.rayleigh(d, sun, DOLP_MAX)
+    eq, eu = pl.linear_stokes(degree, e, x, y)
+    assert np.abs(q - eq).max() < TOL and np.abs(u - eu).max() < TOL
+    # the same intensity as sunsky's at that date, time and place
+    plain = mi.load_dict(dict({"type": "sunsky"}, **SOLSTICE))
+    si = dr.zeros(mi.SurfaceInteraction3f, len(d))
+    si.wi = mi.Vector3f(*(-d.T))
+    si.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)   # eval_sky's
+    assert np.allclose(s0, np.array(plain.eval(si)[0, 0][0]), rtol=1e-6)
+
+
+def test_a_new_hour_moves_the_sun_and_the_pattern_follows():
+    emitter = mi.load_dict(dict({"type": "polarized_sky"}, **SOLSTICE))
+    params = mi.traverse(emitter)
+    assert params.flags("sun_direction") & int(mi.ParamFlags.ReadOnly)
+    params["intensity.hour"] = mi.Float(9.0)
+    params.update()
+    morning = sunsky_sun(**dict(SOLSTICE, hour=9.0))
+    assert morning[1] < -0.6                      # the morning sun, at -Y
+    assert np.abs(np.array(emitter.sun) - morning).max() < 1e-6
+    assert np.abs(np.array(params["sun_direction"]).ravel() - morning).max() < 1e-6
+    fresh = mi.load_dict({"type": "polarized_sky", "sun_direction": morning.tolist()})
+    d = pl.unit(np.array([[0.3, 0.2, 0.9], [-0.5, 0.4, 0.3]]))
+    for a, b in zip(eval_sky(emitter, d)[:3], eval_sky(fresh, d)[:3]):
+        assert np.allclose(a, b, rtol=1e-5, atol=1e-6)
+    with pytest.raises(Exception, match="Read-Only"):
+        params["sun_direction"] = mi.Vector3f(0.0, 0.0, 1.0)
 
 
 # ---------------------------------------------------------------- hostile input
@@ -385,6 +472,16 @@ HOSTILE = [
     ({"sun_direction": S, "radiance": 1.0, "env": {"type": "constant"}}, ValueError,
      "at most one intensity"),
     ({"sun_direction": S, "dolpmax": 0.5}, None, '"dolpmax"'),
+    ({"sun_direction": S, "hour": 12.0}, ValueError,
+     "give 'sun_direction' or a date, time and place (year, month, day, hour, minute"),
+    ({"hour": 12.0, "month": 13}, ValueError, "'month' must be in [1, 12]"),
+    ({"hour": 12.0, "year": 2024.5}, ValueError, "'year' must be a whole number, got 2024.5"),
+    ({"hour": 12.0, "latitude": 95.0}, ValueError, "'latitude' must be in [-90, 90]"),
+    ({"hour": NAN}, ValueError, "'hour' must be finite"),
+    ({"hour": 12.0, "radiance": 1.0}, ValueError,
+     "'hour' belongs to the sunsky intensity, which 'radiance' replaces"),
+    ({"hour": 23.0, "month": 6, "day": 21, "latitude": 48.0, "longitude": 0.0,
+      "timezone": 0.0}, ValueError, "put the sun 17.2° below the horizon"),
 ]
 
 

@@ -64,7 +64,8 @@ def add_parser(subparsers):
     g = subparsers.add_parser("gallery", help="render scenes/gallery and draw README's pictures",
                               description="Render the gallery scenes (metals, roughness, polarizer at "
                                           "0/45/90/135 degrees, a polarization camera's images "
-                                          "and sensor frames), the Stokes sheet of "
+                                          "and sensor frames, brushed aluminium, metals under "
+                                          "a polarized sky), the Stokes sheet of "
                                           "scenes/default.xml and the pBRDF plot into PNGs.")
     g.add_argument("--out", default=None, metavar="DIR",
                    help="folder of the PNGs (default: out/gallery)")
@@ -76,8 +77,8 @@ def add_parser(subparsers):
     g.add_argument("--scenes", default=None, metavar="DIR",
                    help="folder of the gallery scenes (default: the packaged scenes/gallery)")
     g.add_argument("--only", default=None, metavar="ITEM,...",
-                   help="materials, roughness, polarizer, polcam, normalmap, sheet, plot, brushed "
-                        "(default: all)")
+                   help="materials, roughness, polarizer, polcam, normalmap, sheet, plot, brushed, "
+                        "sky (default: all)")
     g.add_argument("--spp", type=int, default=None, help="samples per pixel (default: each scene's)")
     g.add_argument("--scale", type=float, default=1.0,
                    help="image size factor (default: 1, i.e. 240x180 panels)")

@@ -138,6 +138,64 @@ def nonnegative_texture(plugin, name, texture):
                          f"whole spectral range), found {values.min():g}")
 
 
+def nonnegative_texels(plugin, name, texture):
+    """Raise if a spatially varying ``texture`` is negative, NaN or infinite.
+    A bitmap whose texels are stored as values (every bitmap outside
+    spectral variants; one-channel bitmaps in them) is checked texel by
+    texel, naming the first bad one (column, row). Other textures are
+    evaluated on a 512 x 256 grid of texture coordinates (64 x 32 in scalar
+    variants), at 8 wavelengths spanning 360-830 nm in spectral variants,
+    naming the first bad (u, v). A spectral variant's three-channel bitmap
+    stores spectral-upsampling coefficients: Mitsuba's conversion has
+    already mapped its NaN and negative texels to valid spectra, so only
+    what the texture returns can be checked there."""
+    import drjit as dr
+    import numpy as np
+
+    stored = mi.traverse(texture)
+    if "data" in stored:
+        data = np.array(stored["data"], np.float64)
+        if data.ndim == 3 and (not mi.is_spectral or data.shape[2] == 1):
+            for what, bad in (("NaN or infinite values", ~np.isfinite(data)),
+                              ("negative values", data < 0)):
+                texels = np.argwhere(bad.any(-1))
+                if texels.size:
+                    row, column = texels[0]
+                    raise ValueError(f"{plugin}: parameter '{name}' has {len(texels)} "
+                                     f"texel(s) with {what} (first at column {column}, row "
+                                     f"{row}); it must be >= 0 everywhere")
+            return
+    width, height = (64, 32) if mi.variant().startswith("scalar") else (512, 256)
+    j, i = np.meshgrid(np.arange(height), np.arange(width), indexing="ij")
+    u, v = ((i + 0.5) / width).ravel(), ((j + 0.5) / height).ravel()
+    sets = np.linspace(360.0, 830.0, 8).reshape(2, 4) if mi.is_spectral else [None]
+    columns = []      # per wavelength set: (points, channels)
+    for lam in sets:
+        if mi.variant().startswith("scalar"):      # one lane per call (load time only)
+            rows = []
+            for k in range(u.size):
+                si = dr.zeros(mi.SurfaceInteraction3f)
+                si.uv = mi.Point2f(u[k], v[k])
+                if lam is not None:
+                    si.wavelengths = mi.UnpolarizedSpectrum(*lam)
+                rows.append(np.array(texture.eval(si), np.float64).ravel())
+            columns.append(np.array(rows))
+        else:
+            si = dr.zeros(mi.SurfaceInteraction3f, u.size)
+            si.uv = mi.Point2f(mi.Float(u), mi.Float(v))
+            if lam is not None:
+                si.wavelengths = mi.UnpolarizedSpectrum(*[float(x) for x in lam])
+            columns.append(np.array(texture.eval(si), np.float64).reshape(-1, u.size).T)
+    values = np.concatenate(columns, -1)
+    for what, bad in (("NaN or infinite", ~np.isfinite(values)), ("negative", values < 0)):
+        points = np.flatnonzero(bad.any(-1))
+        if points.size:
+            raise ValueError(f"{plugin}: parameter '{name}' is {what} at {points.size} of "
+                             f"{u.size} texture coordinates (first at (u, v) = "
+                             f"({u[points[0]]:.4g}, {v[points[0]]:.4g})); it must be >= 0 "
+                             "everywhere")
+
+
 def nonnegative_values(plugin, name, values):
     """Raise if any of ``values`` is negative, NaN or infinite."""
     if not all(math.isfinite(v) for v in values):

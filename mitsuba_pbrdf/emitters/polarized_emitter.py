@@ -86,7 +86,7 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from . import params as read
+from . import params as read, wrapped
 from ..mueller import basis, emitted, intensity, linear_ratios
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
@@ -110,7 +110,7 @@ def _configure(props):
     axis = read.unit_vector(_NAME, "to_world",
                             [sum(m[i][j] * local[j] for j in range(3)) for i in range(3)])
     surface = bool(lamp.flags() & mi.EmitterFlags.Surface)
-    return {"lamp": lamp, "axis": axis, "degree": degree, "transmittance": transmittance,
+    return {"inner": lamp, "axis": axis, "degree": degree, "transmittance": transmittance,
             "surface": surface, "angle_deg": math.degrees(angle)}
 
 
@@ -123,11 +123,11 @@ class PolarizedEmitter(mi.Emitter):
         super().__init__(props)
         for key, value in config.items():
             setattr(self, key, value)
-        self.m_flags = self.lamp.flags()
-        self.m_needs_sample_2 = self.lamp.needs_sample_2()
-        self.m_needs_sample_3 = self.lamp.needs_sample_3()
+        self.m_flags = self.inner.flags()
+        self.m_needs_sample_2 = self.inner.needs_sample_2()
+        self.m_needs_sample_3 = self.inner.needs_sample_3()
 
-    def _filtered(self, value, w):
+    def light(self, value, w, wavelengths=None):
         """The lamp's ``value`` for light propagating along ``w`` (world),
         through the polarizer."""
         if not mi.is_polarized:
@@ -139,49 +139,32 @@ class PolarizedEmitter(mi.Emitter):
 
     def eval(self, si, active=True):
         w = si.to_world(si.wi) if self.surface else si.wi
-        return self._filtered(self.lamp.eval(si, active), w)
+        return self.light(self.inner.eval(si, active), w)
 
-    def eval_direction(self, it, ds, active=True):
-        return self._filtered(self.lamp.eval_direction(it, ds, active), -ds.d)
-
-    def sample_direction(self, it, sample, active=True):
-        ds, weight = self.lamp.sample_direction(it, sample, active)
-        ds.emitter = mi.EmitterPtr(self)
-        return ds, self._filtered(weight, -ds.d)
-
-    def pdf_direction(self, it, ds, active=True):
-        return self.lamp.pdf_direction(it, ds, active)
-
-    def sample_ray(self, time, sample1, sample2, sample3, active=True):
-        ray, weight = self.lamp.sample_ray(time, sample1, sample2, sample3, active)
-        return ray, self._filtered(weight, ray.d)
-
-    def sample_position(self, time, sample, active=True):
-        return self.lamp.sample_position(time, sample, active)
+    eval_direction = wrapped.eval_direction
+    sample_direction = wrapped.sample_direction
+    pdf_direction = wrapped.pdf_direction
+    sample_ray = wrapped.sample_ray
+    sample_position = wrapped.sample_position
+    bbox = wrapped.bbox
 
     def pdf_position(self, ps, active=True):
-        return self.lamp.pdf_position(ps, active)
+        return self.inner.pdf_position(ps, active)
 
     def sample_wavelengths(self, si, sample, active=True):
-        wavelengths, weight = self.lamp.sample_wavelengths(si, sample, active)
+        wavelengths, weight = self.inner.sample_wavelengths(si, sample, active)
         return wavelengths, weight * self.transmittance
 
     def set_shape(self, shape):
         super().set_shape(shape)
-        self.lamp.set_shape(shape)
-
-    def set_scene(self, scene):
-        self.lamp.set_scene(scene)
-
-    def bbox(self):
-        return self.lamp.bbox()
+        self.inner.set_shape(shape)
 
     def is_environment(self):
-        return self.lamp.is_environment()
+        return self.inner.is_environment()
 
     def traverse(self, callback):
-        callback.put("emitter", self.lamp, mi.ParamFlags.Differentiable)
+        callback.put("emitter", self.inner, mi.ParamFlags.Differentiable)
 
     def to_string(self):
         return (f"PolarizedEmitter[\n  angle = {self.angle_deg:g},\n  degree = {self.degree:g},\n"
-                f"  transmittance = {self.transmittance:g},\n  lamp = {self.lamp.class_name()}\n]")
+                f"  transmittance = {self.transmittance:g},\n  lamp = {self.inner.class_name()}\n]")

@@ -13,9 +13,27 @@
      - Direction towards the sun, in world space, as Mitsuba's ``sunsky``
        takes it (its local frame has +Z up; ``to_world`` turns it). Must not
        be zero; with the ``sunsky`` intensity the sun must be above the
-       horizon.
+       horizon. Required unless a date, time and place are given.
+       Differentiable: the polarization pattern's derivative, with the
+       intensity held (a ``sunsky`` intensity gets the new direction without
+       its gradient: its own misses the moving sun disk).
      - (required)
-     - |exposed|
+     - |exposed|, |differentiable| (JIT variants); read-only with a date
+   * - ``year``, ``month``, ``day``
+     - integer
+     - Instead of ``sun_direction``, with the time and place below: the date
+       that Mitsuba 3.9.1's ``sunsky`` takes.
+     - ``sunsky``'s: 2010-07-10
+     - ``intensity.*`` (not differentiable)
+   * - ``hour``, ``minute``, ``second``, ``latitude``, ``longitude``, ``timezone``
+     - float
+     - The local time, place (degrees, north and east positive) and time zone
+       (hours from UTC) that ``sunsky`` takes; with the date, handed to the
+       internal ``sunsky``, whose sun (+X south, +Y west in its frame,
+       measured) the pattern follows. Only with the ``sunsky`` intensity; the
+       sun must be above the horizon.
+     - ``sunsky``'s: 15:00:00, 35.6894, 139.6917, 9
+     - ``intensity.*`` (not differentiable)
    * - ``model``
      - string
      - ``rayleigh``: single scattering, DoLP = ``dolp_max`` sin²γ/(1 + cos²γ)
@@ -44,14 +62,20 @@
      - The intensity's ``sunsky`` parameters (Hosek-Wilkie sky and sun),
        handed to an internal ``sunsky`` at the same sun direction; turbidity
        in [1, 10], albedo in [0, 1].
-     - ``sunsky``'s: 3, 0.3, 1, 1, 0.5338
+     - ``sunsky``'s: 3, 0.3, 1, 1, 0.5358
      - ``intensity.*``
    * - ``radiance``
-     - spectrum
-     - A constant sky radiance replacing the ``sunsky`` intensity (an
-       internal ``constant`` emitter: uniform sampling, no sun).
+     - spectrum or texture
+     - A sky radiance replacing the ``sunsky`` intensity, sampled uniformly
+       over the sphere, no sun. A spectrum: an internal ``constant``
+       emitter. A spatially varying texture (a ``bitmap``...): looked up by
+       direction at texture coordinates (u, v) = (azimuth from local +Y
+       towards +X / 2 pi, zenith angle from local +Z / pi), the lat-long
+       layout of Mitsuba's ``envmap`` turned +Y to +Z
+       (``<rotate x="1" angle="90"/>``). Refused at load time if negative,
+       NaN or infinite (``params.nonnegative_texels``).
      - --
-     - ``intensity.*``
+     - ``intensity.*`` (a spectrum), ``radiance.*`` (a texture)
    * - (nested emitter)
      - emitter
      - An infinite emitter (``envmap``, ``constant``, ``sunsky``...) whose
@@ -86,6 +110,16 @@ XML::
         <float name="turbidity" value="3"/>
     </emitter>
 
+    <emitter type="polarized_sky">   <!-- the sun of 21 June 2024, 09:30 in Paris -->
+        <integer name="year" value="2024"/>
+        <integer name="month" value="6"/>
+        <integer name="day" value="21"/>
+        <float name="hour" value="9.5"/>
+        <float name="latitude" value="48.86"/>
+        <float name="longitude" value="2.35"/>
+        <float name="timezone" value="2"/>
+    </emitter>
+
 This module defines the class for the Mitsuba variant active when it is
 imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
 """
@@ -97,7 +131,7 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from . import params as read
+from . import params as read, wrapped
 from .sky_models import MODELS, berry, neutral_points, rayleigh
 from ..mueller import emitted, intensity
 
@@ -108,15 +142,61 @@ _NAME = "polarized_sky"
 #: Parameters handed to the internal ``sunsky``, with their bounds.
 SUNSKY_PARAMETERS = {"turbidity": (1.0, 10.0), "sun_scale": (0.0, None),
                      "sky_scale": (0.0, None), "sun_aperture": (1e-3, 179.9)}
-#: sunsky's default sun aperture (degrees).
-SUN_APERTURE = 0.5338
+#: The date, time and place that Mitsuba 3.9.1's ``sunsky`` takes instead of a
+#: sun direction (its defaults: Tokyo, 2010-07-10 15:00), with their bounds;
+#: ``year``, ``month`` and ``day`` are integers.
+SUN_POSITION = {"year": (None, None), "month": (1, 12), "day": (1, 31), "hour": (0.0, 24.0),
+                "minute": (0.0, 60.0), "second": (0.0, 60.0), "latitude": (-90.0, 90.0),
+                "longitude": (-180.0, 180.0), "timezone": (-12.0, 14.0)}
+_INTEGERS = ("year", "month", "day")
+#: sunsky's default sun aperture in Mitsuba 3.9.1 (degrees; its SUN_HALF_APERTURE).
+SUN_APERTURE = 0.5358
 
 
-def _intensity_emitter(props, up, sun):
-    """``(emitter, kind, sun_half_aperture or None)``: the emitter giving the
-    sky's intensity and sampling, built from *props* (checked)."""
+def _sun_position(props):
+    """``{key: value}`` of the date, time and place keys given, checked."""
+    when = {}
+    for key, (low, high) in SUN_POSITION.items():
+        if key in props:
+            value = read.number(props, _NAME, key, low=low, high=high)
+            if key in _INTEGERS:
+                if value != int(value):
+                    raise ValueError(f"{_NAME}: parameter '{key}' must be a whole number, "
+                                     f"got {value:g}")
+                value = int(value)
+            when[key] = value
+    return when
+
+
+def _texture(props):
+    """``radiance`` as a texture, checked: ``(texture, spatially varying)``."""
+    if props.type("radiance") == mi.Properties.Type.Color:   # <rgb>: as written
+        read.nonnegative_values(_NAME, "radiance", [float(c) for c in props["radiance"]])
+    try:
+        texture = props.get_unbounded_texture("radiance")
+    except RuntimeError as error:
+        raise ValueError(f"{_NAME}: parameter 'radiance' is invalid: "
+                         f"{read.mitsuba_reason(error)}") from None
+    varying = texture.is_spatially_varying()
+    if varying:
+        read.nonnegative_texels(_NAME, "radiance", texture)
+    else:
+        read.nonnegative_texture(_NAME, "radiance", texture)
+    return texture, varying
+
+
+def _elevation(sun, up):
+    """The sun's elevation above the horizon, degrees."""
+    return math.degrees(math.asin(max(-1.0, min(1.0, sum(a * b for a, b in zip(sun, up))))))
+
+
+def _intensity_emitter(props, up, sun, when):
+    """``(emitter, kind, sun_half_aperture or None, texture or None, sun)``:
+    the emitter giving the sky's intensity and sampling, built from *props*
+    (checked), and the sun (a unit tuple: the given one, or where ``sunsky``
+    puts it at the given date, time and place)."""
     nested = read.nested_objects(props, mi.Emitter)
-    sunsky_keys = [k for k in (*SUNSKY_PARAMETERS, "albedo") if k in props]
+    sunsky_keys = [k for k in (*SUNSKY_PARAMETERS, "albedo", *when) if k in props]
     given = [what for what, present in (("a nested emitter", bool(nested)),
                                         ("'radiance'", "radiance" in props)) if present]
     if len(nested) > 1 or len(given) > 1:
@@ -131,27 +211,24 @@ def _intensity_emitter(props, up, sun):
         if not emitter.is_environment():
             raise ValueError(f"{_NAME}: the nested emitter must be an infinite emitter "
                              f"(envmap, constant, sunsky), got {emitter.class_name()}")
-        return emitter, "nested", None
+        return emitter, "nested", None, None, sun
     if "radiance" in props:
-        if props.type("radiance") == mi.Properties.Type.Color:   # <rgb>: as written
-            read.nonnegative_values(_NAME, "radiance", [float(c) for c in props["radiance"]])
-        try:
-            radiance = props.get_unbounded_texture("radiance")
-        except RuntimeError as error:
-            raise ValueError(f"{_NAME}: parameter 'radiance' is invalid: "
-                             f"{read.mitsuba_reason(error)}") from None
-        read.nonnegative_texture(_NAME, "radiance", radiance)
-        return mi.load_dict({"type": "constant", "radiance": radiance}), "constant", None
+        texture, varying = _texture(props)
+        if varying:   # unit radiance, uniform sampling; the texture scales it by direction
+            unit = {"type": "constant", "radiance": {"type": "uniform", "value": 1.0}}
+            return mi.load_dict(unit), "texture", None, texture, sun
+        return mi.load_dict({"type": "constant", "radiance": texture}), "constant", None, \
+            None, sun
 
     if not (mi.is_rgb or mi.is_spectral):
         raise ValueError(f"{_NAME}: the default sunsky intensity needs an RGB or spectral "
                          f"variant, not {mi.variant()!r}; give 'radiance' or a nested emitter")
-    elevation = math.degrees(math.asin(max(-1.0, min(1.0, sum(a * b for a, b in zip(sun, up))))))
-    if elevation <= 0.0:
-        raise ValueError(f"{_NAME}: parameter 'sun_direction' puts the sun {-elevation:.3g}° "
-                         "below the horizon, where sunsky's sky is black; raise it or give "
-                         "'radiance'")
-    config = {"type": "sunsky", "sun_direction": mi.ScalarVector3f(sun)}
+    if not when and _elevation(sun, up) <= 0.0:
+        raise ValueError(f"{_NAME}: parameter 'sun_direction' puts the sun "
+                         f"{-_elevation(sun, up):.3g}° below the horizon, where sunsky's sky "
+                         "is black; raise it or give 'radiance'")
+    config = dict({"type": "sunsky"}, **when) if when else \
+        {"type": "sunsky", "sun_direction": mi.ScalarVector3f(sun)}
     for key, (low, high) in SUNSKY_PARAMETERS.items():
         if key in props:
             config[key] = read.number(props, _NAME, key, low=low, high=high)
@@ -167,8 +244,15 @@ def _intensity_emitter(props, up, sun):
     except RuntimeError as error:
         raise ValueError(f"{_NAME}: the sunsky intensity refused its parameters: "
                          f"{read.mitsuba_reason(error)}") from None
+    if when:
+        sun = read.unit_vector(_NAME, "sun_direction",
+                               _floats(mi.traverse(emitter)["sun_direction"]))
+        if _elevation(sun, up) <= 0.0:
+            raise ValueError(f"{_NAME}: the date, time and place ({', '.join(when)}) put the "
+                             f"sun {-_elevation(sun, up):.3g}° below the horizon, where "
+                             "sunsky's sky is black")
     half = math.radians(config.get("sun_aperture", SUN_APERTURE)) / 2.0
-    return emitter, "sunsky", half if config.get("sun_scale", 1.0) > 0 else None
+    return emitter, "sunsky", half if config.get("sun_scale", 1.0) > 0 else None, None, sun
 
 
 def _floats(value):
@@ -188,11 +272,31 @@ def _configure(props):
     to_world = read.transform(props, "to_world")
     up = read.unit_vector(_NAME, "to_world", [to_world[i][2] for i in range(3)])
     horizontal = read.unit_vector(_NAME, "to_world", [to_world[i][0] for i in range(3)])
-    sun = read.direction(props, _NAME, "sun_direction")
-    emitter, kind, half_aperture = _intensity_emitter(props, up, sun)
+    when = _sun_position(props)
+    if when and "sun_direction" in props:
+        raise ValueError(f"{_NAME}: give 'sun_direction' or a date, time and place "
+                         f"({', '.join(SUN_POSITION)}), not both")
+    if not when and "sun_direction" not in props:
+        raise ValueError(f"{_NAME}: parameter 'sun_direction' is required (a direction, "
+                         "e.g. <vector name=\"sun_direction\" x=\"0\" y=\"0.5\" z=\"1\"/>), "
+                         "or a date, time and place for the sunsky intensity "
+                         f"({', '.join(SUN_POSITION)})")
+    sun = None if when else read.direction(props, _NAME, "sun_direction")
+    emitter, kind, half_aperture, texture, sun = _intensity_emitter(props, up, sun, when)
     return {"model": model, "dolp_max": mi.Float(dolp_max), "separation": separation,
-            "up": up, "horizontal": horizontal, "sun": sun, "intensity": emitter,
-            "kind": kind, "sun_half_aperture": half_aperture}
+            "up": up, "horizontal": horizontal, "to_local": _inverse_rows(to_world),
+            "sun": sun, "when": when, "inner": emitter, "kind": kind,
+            "sun_half_aperture": half_aperture, "texture": texture}
+
+
+def _inverse_rows(to_world):
+    """The rows of the inverse of ``to_world``'s 3 x 3 part (plain Python)."""
+    m = [row[:3] for row in to_world[:3]]
+    cof = [[m[(j + 1) % 3][(i + 1) % 3] * m[(j + 2) % 3][(i + 2) % 3]
+            - m[(j + 1) % 3][(i + 2) % 3] * m[(j + 2) % 3][(i + 1) % 3] for j in range(3)]
+           for i in range(3)]
+    det = sum(m[0][k] * cof[k][0] for k in range(3))
+    return [[c / det for c in row] for row in cof]
 
 
 class PolarizedSky(mi.Emitter):
@@ -207,70 +311,75 @@ class PolarizedSky(mi.Emitter):
         super().__init__(props)
         for key, value in config.items():
             setattr(self, key, value)
-        self._set_sun(config["sun"])
+        self.sun_direction = mi.Vector3f(self.sun)
+        self._set_sun_disk()
+        self._set_pattern()
         self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
 
-    def _set_sun(self, sun):
-        """The sun's direction and the neutral points (plain Python, float64)."""
-        self.sun = sun
-        self.sun_direction = mi.Vector3f(sun)
-        self.babinet, self.brewster = neutral_points(sun, self.up, self.separation,
-                                                     self.horizontal)
+    def _set_sun_disk(self):
+        """Where the intensity's sun is (``self.sun``): its disk is unpolarized."""
+        self.sun_disk = mi.Vector3f(self.sun)
+        dr.make_opaque(self.sun_disk)
+
+    def _set_pattern(self):
+        """The pattern's sun and neutral points from ``sun_direction``, in
+        Dr.Jit: differentiable with respect to it."""
+        sun = dr.normalize(self.sun_direction)
+        self.pattern_sun = sun
+        if self.model == "berry":
+            self.babinet, self.brewster = neutral_points(
+                sun, mi.Vector3f(self.up), self.separation, mi.Vector3f(self.horizontal))
+            dr.make_opaque(self.babinet, self.brewster)
+        dr.make_opaque(self.pattern_sun)
 
     # -------------------------------------------------------------- polarization
 
     def _ratios(self, w):
         """``(q, u)`` of the light propagating along ``w`` (world, unit)."""
         if self.model == "rayleigh":
-            q, u = rayleigh(w, mi.Vector3f(self.sun), self.dolp_max)
+            q, u = rayleigh(w, self.pattern_sun, self.dolp_max)
         else:
-            q, u = berry(w, mi.Vector3f(self.babinet), mi.Vector3f(self.brewster),
-                         self.dolp_max)
+            q, u = berry(w, self.babinet, self.brewster, self.dolp_max)
         if self.sun_half_aperture is not None:   # the sun disk is unpolarized
-            in_sun = -dr.dot(w, mi.Vector3f(self.sun)) >= math.cos(self.sun_half_aperture)
+            in_sun = -dr.dot(w, self.sun_disk) >= math.cos(self.sun_half_aperture)
             q, u = dr.select(in_sun, 0.0, q), dr.select(in_sun, 0.0, u)
         return q, u
 
-    def _polarized(self, value, w):
-        """The intensity emitter's ``value`` for light propagating along ``w``,
-        polarized (unchanged in unpolarized variants)."""
+    def _mapped(self, w, wavelengths):
+        """The ``radiance`` texture seen along ``-w``: (u, v) = (azimuth from
+        local +Y towards +X / 2 pi, zenith angle from local +Z / pi)."""
+        d = mi.Vector3f(*(-dr.fma(r[0], w.x, dr.fma(r[1], w.y, r[2] * w.z)) for r in self.to_local))
+        d = dr.normalize(d)
+        u = dr.atan2(d.x, d.y) * (0.5 / math.pi)
+        si = dr.zeros(mi.SurfaceInteraction3f)
+        si.uv = mi.Point2f(u - dr.floor(u), dr.safe_acos(d.z) * (1.0 / math.pi))
+        si.wavelengths = wavelengths
+        return self.texture.eval(si)
+
+    def light(self, value, w, wavelengths):
+        """The intensity emitter's ``value`` for light propagating along ``w``
+        (times the ``radiance`` texture there), polarized in polarized variants."""
+        radiance = intensity(value)
+        if self.texture is not None:
+            radiance = radiance * self._mapped(w, wavelengths)
         if not mi.is_polarized:
-            return value
+            return radiance
         q, u = self._ratios(w)
-        return emitted(intensity(value), q, u)
+        return emitted(radiance, q, u)
 
     # -------------------------------------------------------------- Emitter API
 
-    def eval(self, si, active=True):
-        return self._polarized(self.intensity.eval(si, active), si.wi)
-
-    def eval_direction(self, it, ds, active=True):
-        return self._polarized(self.intensity.eval_direction(it, ds, active), -ds.d)
-
-    def sample_direction(self, it, sample, active=True):
-        ds, weight = self.intensity.sample_direction(it, sample, active)
-        ds.emitter = mi.EmitterPtr(self)
-        return ds, self._polarized(weight, -ds.d)
-
-    def pdf_direction(self, it, ds, active=True):
-        return self.intensity.pdf_direction(it, ds, active)
-
-    def sample_ray(self, time, sample1, sample2, sample3, active=True):
-        ray, weight = self.intensity.sample_ray(time, sample1, sample2, sample3, active)
-        return ray, self._polarized(weight, ray.d)
+    eval = wrapped.eval
+    eval_direction = wrapped.eval_direction
+    sample_direction = wrapped.sample_direction
+    pdf_direction = wrapped.pdf_direction
+    sample_ray = wrapped.sample_ray
+    sample_position = wrapped.sample_position
+    bbox = wrapped.bbox
 
     def sample_wavelengths(self, si, sample, active=True):
-        wavelengths, weight = self.intensity.sample_wavelengths(si, sample, active)
-        return wavelengths, self._polarized(weight, si.wi)
-
-    def sample_position(self, time, sample, active=True):
-        return self.intensity.sample_position(time, sample, active)
-
-    def set_scene(self, scene):
-        self.intensity.set_scene(scene)
-
-    def bbox(self):
-        return self.intensity.bbox()
+        wavelengths, weight = self.inner.sample_wavelengths(si, sample, active)
+        return wavelengths, self.light(weight, si.wi, wavelengths)
 
     def is_environment(self):
         return True
@@ -278,10 +387,16 @@ class PolarizedSky(mi.Emitter):
     # -------------------------------------------------------------- parameters
 
     def traverse(self, callback):
-        if not isinstance(self.dolp_max, float):   # scalar variants: a plain float
+        differentiable = dr.is_diff_v(mi.Float)
+        if differentiable:   # scalar variants: plain floats
             callback.put("dolp_max", self.dolp_max, mi.ParamFlags.Differentiable)
-        callback.put("sun_direction", self.sun_direction, mi.ParamFlags.NonDifferentiable)
-        callback.put("intensity", self.intensity, mi.ParamFlags.Differentiable)
+        callback.put("sun_direction", self.sun_direction,
+                     mi.ParamFlags.ReadOnly if self.when else
+                     mi.ParamFlags.Differentiable if differentiable else
+                     mi.ParamFlags.NonDifferentiable)
+        callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)
+        if self.texture is not None:
+            callback.put("radiance", self.texture, mi.ParamFlags.Differentiable)
 
     def parameters_changed(self, keys):
         if not keys or "dolp_max" in keys:
@@ -289,23 +404,35 @@ class PolarizedSky(mi.Emitter):
             if len(value) != 1 or not (0.0 <= value[0] <= 1.0):
                 raise ValueError(f"{_NAME}: parameter 'dolp_max' must be in [0, 1], got "
                                  f"{value if len(value) != 1 else value[0]}")
-        sun = self.sun
-        if self.kind == "sunsky" and any(k == "intensity" or k.startswith("intensity.")
-                                         for k in keys):
-            # the nested sunsky's own sun_direction was changed: follow it
-            sun = read.unit_vector(_NAME, "sun_direction", _floats(
-                mi.traverse(self.intensity)["sun_direction"]))
         if not keys or "sun_direction" in keys:
+            # a new sun: checked, handed to the sunsky intensity without its
+            # gradient (the intensity is held; docs/polarized-light.md)
             sun = read.unit_vector(_NAME, "sun_direction", _floats(self.sun_direction))
-            if sun != self.sun and self.kind == "sunsky":
-                params = mi.traverse(self.intensity)
-                params["sun_direction"] = mi.Vector3f(sun)
-                params.update()
-        if sun != self.sun:
-            self._set_sun(sun)
+            if self.kind == "sunsky":
+                if _elevation(sun, self.up) <= 0.0:
+                    raise ValueError(f"{_NAME}: parameter 'sun_direction' puts the sun "
+                                     f"{-_elevation(sun, self.up):.3g}° below the horizon, "
+                                     "where sunsky's sky is black")
+                if sun != self.sun:
+                    params = mi.traverse(self.inner)
+                    params["sun_direction"] = mi.Vector3f(sun)
+                    params.update()
+            self.sun = sun
+            self._set_sun_disk()
+        elif self.kind == "sunsky" and any(k == "intensity" or k.startswith("intensity.")
+                                           for k in keys):
+            # the sunsky's own sun moved (its sun_direction, or its date and
+            # time): the pattern follows, in place (mi.traverse holds the vector)
+            self.sun = read.unit_vector(_NAME, "sun_direction", _floats(
+                mi.traverse(self.inner)["sun_direction"]))
+            for i in range(3):
+                self.sun_direction[i] = mi.Float(self.sun[i])
+            self._set_sun_disk()
+        self._set_pattern()
 
     def to_string(self):
         extra = (f",\n  neutral_point_separation = {self.separation}"
                  if self.model == "berry" else "")
-        return (f"PolarizedSky[\n  model = {self.model!r},\n  sun_direction = {self.sun},\n"
+        when = (f",\n  date, time and place = {self.when}" if self.when else "")
+        return (f"PolarizedSky[\n  model = {self.model!r},\n  sun_direction = {self.sun}{when},\n"
                 f"  dolp_max = {self.dolp_max}{extra},\n  intensity = {self.kind}\n]")

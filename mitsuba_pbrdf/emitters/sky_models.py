@@ -80,21 +80,14 @@ def berry(w, babinet, brewster, dolp_max):
     return scale * re, scale * im
 
 
-def neutral_points(sun, zenith, separation_deg, horizontal=(1.0, 0.0, 0.0)):
-    """``(babinet, brewster)``: unit vectors (tuples) ``separation_deg / 2``
-    above and below the sun on its vertical circle (the great circle through
-    the zenith and the sun). ``horizontal`` fixes that circle where the sun is
-    at the zenith or the nadir. Plain Python, float64."""
-    s_dot_z = sum(a * b for a, b in zip(sun, zenith))
-    down = [s_dot_z * a - b for a, b in zip(sun, zenith)]   # increasing zenith angle
-    length = math.sqrt(sum(c * c for c in down))
-    if length < 1e-9:
-        h_dot_s = sum(a * b for a, b in zip(horizontal, sun))
-        down = [a - h_dot_s * b for a, b in zip(horizontal, sun)]
-        length = math.sqrt(sum(c * c for c in down))
-    down = [c / length for c in down]
+def neutral_points(sun, zenith, separation_deg, horizontal):
+    """``(babinet, brewster)``: unit vectors ``separation_deg / 2`` above and
+    below ``sun`` (unit) on its vertical circle, the great circle through the
+    zenith and the sun. ``horizontal`` fixes that circle where the sun is at
+    the zenith or the nadir. Dr.Jit vectors, differentiable in ``sun``."""
+    down = dr.fma(dr.dot(sun, zenith), sun, -zenith)       # increasing zenith angle
+    edge = horizontal - dr.dot(horizontal, sun) * sun
+    down = dr.normalize(dr.select(dr.squared_norm(down) > 1e-12, down, edge))
     half = math.radians(separation_deg) / 2.0
     c, s = math.cos(half), math.sin(half)
-    babinet = tuple(c * a - s * b for a, b in zip(sun, down))
-    brewster = tuple(c * a + s * b for a, b in zip(sun, down))
-    return babinet, brewster
+    return c * sun - s * down, c * sun + s * down

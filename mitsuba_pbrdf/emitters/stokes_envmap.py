@@ -74,7 +74,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from . import params as read
+from . import params as read, wrapped
 from ..mueller import basis, emitted, intensity
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
@@ -127,7 +127,7 @@ def _configure(props):
     if "to_world" in props:
         config["to_world"] = props["to_world"]
     m = np.array(read.transform(props, "to_world"), np.float64)[:3, :3]
-    return {"filename": filename, "intensity": mi.load_dict(config),
+    return {"filename": filename, "inner": mi.load_dict(config),
             "to_local": [[float(c) for c in row] for row in np.linalg.inv(m)],
             "to_world_rows": [[float(c) for c in row] for row in m],
             "height": stokes.shape[0], "width": stokes.shape[1],
@@ -191,7 +191,9 @@ class StokesEnvmap(mi.Emitter):
         cos2, sin2 = c * c - s * s, 2.0 * c * s
         return cos2 * q - sin2 * u, sin2 * q + cos2 * u, v
 
-    def _polarized(self, value, w):
+    def light(self, value, w, wavelengths=None):
+        """The ``envmap``'s ``value`` for light propagating along ``w``,
+        polarized (unchanged in unpolarized variants)."""
         if not mi.is_polarized:
             return value
         q, u, v = self._ratios(w)
@@ -199,42 +201,23 @@ class StokesEnvmap(mi.Emitter):
 
     # -------------------------------------------------------------- Emitter API
 
-    def eval(self, si, active=True):
-        return self._polarized(self.intensity.eval(si, active), si.wi)
-
-    def eval_direction(self, it, ds, active=True):
-        return self._polarized(self.intensity.eval_direction(it, ds, active), -ds.d)
-
-    def sample_direction(self, it, sample, active=True):
-        ds, weight = self.intensity.sample_direction(it, sample, active)
-        ds.emitter = mi.EmitterPtr(self)
-        return ds, self._polarized(weight, -ds.d)
-
-    def pdf_direction(self, it, ds, active=True):
-        return self.intensity.pdf_direction(it, ds, active)
-
-    def sample_ray(self, time, sample1, sample2, sample3, active=True):
-        ray, weight = self.intensity.sample_ray(time, sample1, sample2, sample3, active)
-        return ray, self._polarized(weight, ray.d)
+    eval = wrapped.eval
+    eval_direction = wrapped.eval_direction
+    sample_direction = wrapped.sample_direction
+    pdf_direction = wrapped.pdf_direction
+    sample_ray = wrapped.sample_ray
+    sample_position = wrapped.sample_position
+    bbox = wrapped.bbox
 
     def sample_wavelengths(self, si, sample, active=True):
-        wavelengths, weight = self.intensity.sample_wavelengths(si, sample, active)
-        return wavelengths, weight
-
-    def sample_position(self, time, sample, active=True):
-        return self.intensity.sample_position(time, sample, active)
-
-    def set_scene(self, scene):
-        self.intensity.set_scene(scene)
-
-    def bbox(self):
-        return self.intensity.bbox()
+        # envmap draws wavelengths from a texture coordinate, not a direction
+        return self.inner.sample_wavelengths(si, sample, active)
 
     def is_environment(self):
         return True
 
     def traverse(self, callback):
-        callback.put("intensity", self.intensity, mi.ParamFlags.Differentiable)
+        callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)
 
     def to_string(self):
         return (f"StokesEnvmap[\n  filename = {self.filename!r},\n"

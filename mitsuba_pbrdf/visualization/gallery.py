@@ -27,6 +27,10 @@ Pictures (PNG, palette-quantized to stay small enough to commit):
 * ``brushed.png``: brushed aluminium (``scenes/gallery/brushed.xml``): a
   lathe-turned disc and an axially brushed cylinder, isotropic beside
   anisotropic (Beckmann and GGX); intensity, DoLP and AoLP.
+* ``sky.png``: a copper sphere and a brushed aluminium tube outdoors
+  (``scenes/gallery/sky.xml``) under ``polarized_sky`` and under Mitsuba's
+  unpolarized ``sunsky`` of the same intensity, the sun at each of
+  :data:`SUN_ELEVATIONS`; intensity, DoLP and AoLP (docs/polarized-light.md).
 
 The pictures and the Stokes EXRs go to ``out/gallery/`` (not committed). Each render is also
 one command of its own, e.g. ``pbrdf render scenes/gallery/sphere.xml -D
@@ -69,6 +73,9 @@ __all__ = [
     "render_pbrdf_plot",
     "render_brushed",
     "BRUSHED",
+    "SUN_ELEVATIONS",
+    "render_sky",
+    "sun_direction",
     "run_gallery",
     "studio_envmap",
     "write_studio_envmap",
@@ -88,13 +95,20 @@ BRUSHED = (
     ("brushed, σu = 0.3, σv = 0.03", dict(sigma_u=0.3, sigma_v=0.03)),
     ("brushed, GGX", dict(sigma_u=0.3, sigma_v=0.03, distribution="ggx")),
 )
+#: Sun elevations of ``sky.png`` (degrees), and its azimuth: 120 degrees from
+#: sky.xml's viewing direction (+Y), behind the camera on the left.
+SUN_ELEVATIONS = (15.0, 35.0, 60.0)
+SUN_AZIMUTH = 210.0
+#: The skies of ``sky.png``: sky.xml's ``sky`` and the column label.
+SKIES = (("polarized_sky", "polarized_sky"), ("sunsky", "sunsky (unpolarized)"))
 #: Polarizer angles of ``polarizer.png`` (degrees, counter-clockwise in the picture).
 POLARIZER_ANGLES = (0, 45, 90, 135)
 #: Everything ``run_gallery`` makes, in order.
 GALLERY_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet", "plot",
-                 "brushed")
+                 "brushed", "sky")
 #: The items that render scenes (the others need neither scenes nor a variant).
-RENDERED_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet", "brushed")
+RENDERED_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet", "brushed",
+                  "sky")
 
 #: Colour quantization of committed PNGs (see pictures.panels.save_png).
 _PNG_COLOURS = 256
@@ -371,6 +385,31 @@ def render_brushed(settings: _Settings) -> str:
     return save_png(fig, settings.out / "brushed.png", dpi=100, colors=_PNG_COLOURS)
 
 
+def sun_direction(elevation: float, azimuth: float = SUN_AZIMUTH) -> tuple:
+    """The direction towards the sun, +Z up, azimuth from +X towards +Y
+    (degrees): sky.xml's ``sun_x``, ``sun_y``, ``sun_z``."""
+    e, a = np.radians(elevation), np.radians(azimuth)
+    return (float(np.cos(e) * np.cos(a)), float(np.cos(e) * np.sin(a)), float(np.sin(e)))
+
+
+def render_sky(settings: _Settings) -> str:
+    """``sky.png``: sky.xml under each of :data:`SKIES` at each of
+    :data:`SUN_ELEVATIONS` (the same seed: the same paths where the skies'
+    intensities agree)."""
+    columns = []
+    for elevation in SUN_ELEVATIONS:
+        sun = dict(zip(("sun_x", "sun_y", "sun_z"), sun_direction(elevation)))
+        for sky, label in SKIES:
+            image = _render(settings, "sky.xml", f"sky_{sky}_{elevation:g}", sky=sky, **sun)
+            columns.append((f"sun {elevation:g}°: {label}", image))
+    fig = montage_figure(columns, dolp_max=0.8, panel_width=2.3,
+                         title="Copper and brushed aluminium under a polarized clear sky and under "
+                         "Mitsuba's unpolarized sunsky of the same intensity\n"
+                         f"scenes/gallery/sky.xml, sun {SUN_AZIMUTH - 90:g}° of azimuth from the "
+                         f"view, {_subtitle(columns[0][1])}")
+    return save_png(fig, settings.out / "sky.png", dpi=100, colors=_PNG_COLOURS)
+
+
 def render_polarizer_images(settings: _Settings, **params):
     """The four filtered renders and the clear one. With the same seed they
     trace the same paths (the filter changes no direction, Russian roulette is
@@ -482,5 +521,7 @@ def run_gallery(out="out/gallery", scenes_dir=None, exr_dir="out/gallery", spp=N
             result[item] = render_pbrdf_plot(settings)
         elif item == "brushed":
             result[item] = render_brushed(settings)
+        elif item == "sky":
+            result[item] = render_sky(settings)
         log(f"wrote {result[item]} ({os.path.getsize(result[item]) // 1024} KiB)")
     return result

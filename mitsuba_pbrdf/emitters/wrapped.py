@@ -1,0 +1,73 @@
+"""The ``mi.Emitter`` methods the three polarized emitters share. Each wraps
+one emitter, ``self.inner`` (``polarized_sky``'s intensity,
+``stokes_envmap``'s ``envmap``, ``polarized_emitter``'s lamp), keeps its
+radiance, sampling and pdf, and changes only what it returns through
+``self.light(value, w, wavelengths)``: ``value`` the inner emitter's
+radiance or sample weight, ``w`` the world-space direction the light
+propagates in (the Stokes basis of :func:`mitsuba_pbrdf.mueller.basis`).
+
+Plain functions, named in each class body (``sample_direction =
+wrapped.sample_direction``): nanobind refuses a Python mix-in base beside
+``mi.Emitter`` ("invalid number of bases"). ``mi.*`` is looked up when
+called, so one module serves every variant.
+
+**No** ``set_scene``: Mitsuba 3.9.1 never calls a Python emitter's
+``set_scene`` (measured: an override that prints is never reached), so an
+inner infinite emitter (``sunsky``, ``constant``, ``envmap``) keeps the unit
+bounding sphere it starts with. Its ``sample_direction`` then puts the
+sampled point 2 units away (``ds.p``), and the shadow ray that
+``Scene.sample_emitter_direction`` traces to that point misses every
+occluder farther away: light leaked through the ground of a scene 20 units
+wide (``tests/test_sky_radiance_texture.py``). :func:`sample_direction` puts
+the point :data:`FAR` away instead. ``sample_ray`` (light tracing) still
+starts its rays on that unit sphere (docs/polarized-light.md).
+"""
+
+from __future__ import annotations
+
+import drjit as dr
+import mitsuba as mi
+
+#: How far (scene units) an infinite emitter's direction sample puts its
+#: point: shadow rays test occluders up to that distance. Float32 rounding of
+#: a point that far moves the direction of the shadow ray by about 1e-7 rad.
+FAR = 1e7
+
+
+def eval(self, si, active=True):
+    """An infinite emitter seen along ``-si.wi``: its light propagates along
+    ``si.wi`` (world space)."""
+    return self.light(self.inner.eval(si, active), si.wi, si.wavelengths)
+
+
+def eval_direction(self, it, ds, active=True):
+    return self.light(self.inner.eval_direction(it, ds, active), -ds.d, it.wavelengths)
+
+
+def sample_direction(self, it, sample, active=True):
+    """The inner emitter's sample, named as this emitter's (an adjoint pass
+    that re-evaluates ``ds.emitter`` then sees the polarization); an infinite
+    one's point :data:`FAR` away (module docstring)."""
+    ds, weight = self.inner.sample_direction(it, sample, active)
+    ds.emitter = mi.EmitterPtr(self)
+    if self.inner.is_environment():
+        ds.p = dr.fma(ds.d, FAR, it.p)
+        ds.dist = FAR
+    return ds, self.light(weight, -ds.d, it.wavelengths)
+
+
+def pdf_direction(self, it, ds, active=True):
+    return self.inner.pdf_direction(it, ds, active)
+
+
+def sample_ray(self, time, sample1, sample2, sample3, active=True):
+    ray, weight = self.inner.sample_ray(time, sample1, sample2, sample3, active)
+    return ray, self.light(weight, ray.d, ray.wavelengths)
+
+
+def sample_position(self, time, sample, active=True):
+    return self.inner.sample_position(time, sample, active)
+
+
+def bbox(self):
+    return self.inner.bbox()
