@@ -6,7 +6,7 @@ runs), with plain Python tasks instead of renders so that it takes seconds.
 
 Two workers: job 0 and job 1 start together, one on each; job 0 waits until
 job 1 has started, then ends its worker process (the nanny starts a new
-one) while job 1 runs on for a second. The next job to start, on the new
+one) while job 1 runs on until the scheduler has removed the lost worker. The next job to start, on the new
 worker or on job 1's once it is free, is the one Dask chose first among
 those waiting: it must be job 0 again, not job 2. Submitted one by one with
 ``client.submit`` (as before: one priority for all, checked in 3 runs) the
@@ -29,20 +29,36 @@ JOBS = 12
 
 def start_and_maybe_die(index: int, folder: str) -> None:
     """Append *index* to ``starts.txt`` in *folder* (this job started). Job 0
-    ends its worker process on its first try once job 1 has started; job 1
-    takes a second, the others 50 ms."""
+    ends its worker process on its first try once job 1 has started, after
+    writing the worker's address to ``died``; job 1 runs until the scheduler
+    has removed that worker (so job 0 is waiting again when job 1's worker is
+    free: a fixed second was too short on a loaded machine, where the starts
+    were 0 1 2 0 ...), the others take 50 ms."""
+    from distributed import get_client, get_worker
+
     with open(os.path.join(folder, "starts.txt"), "a") as f:
         f.write(f"{index}\n")
     open(os.path.join(folder, f"started-{index}"), "w").close()
     marker = os.path.join(folder, "died")
+    deadline = time.monotonic() + 60
     if index == 0 and not os.path.exists(marker):
-        deadline = time.monotonic() + 30
         while not os.path.exists(os.path.join(folder, "started-1")):
             assert time.monotonic() < deadline, "job 1 never started"
             time.sleep(0.01)
-        open(marker, "w").close()
+        with open(marker + ".tmp", "w") as f:
+            f.write(get_worker().address)
+        os.replace(marker + ".tmp", marker)
         os._exit(1)
-    time.sleep(1.0 if index == 1 else 0.05)
+    if index == 1:
+        while not os.path.exists(marker):
+            assert time.monotonic() < deadline, "job 0 never ended its worker"
+            time.sleep(0.01)
+        lost = open(marker).read()
+        client = get_client()
+        while lost in client.scheduler_info()["workers"]:
+            assert time.monotonic() < deadline, "the scheduler never removed the lost worker"
+            time.sleep(0.05)
+    time.sleep(0.05)
 
 
 @pytest.mark.slow
