@@ -11,6 +11,8 @@ import os
 
 import mitsuba as mi
 
+from ..plugin_objects import create
+
 
 def ior_directory():
     """Folder holding Mitsuba's tabulated conductor spectra."""
@@ -41,17 +43,15 @@ def complex_ior_textures(material):
 def _spectrum_texture(filename):
     wavelengths, values = _cover_spectral_range(*mi.spectrum_from_file(filename))
     if mi.is_spectral:
-        return mi.load_dict({
-            "type": "irregular",
-            "wavelengths": ", ".join(f"{w:.9g}" for w in wavelengths),
-            "values": ", ".join(f"{v:.9g}" for v in values),
-        })
+        return create("irregular",
+                      wavelengths=", ".join(f"{w:.9g}" for w in wavelengths),
+                      values=", ".join(f"{v:.9g}" for v in values))
     # Non-spectral variants: the same projection as Mitsuba's ior_from_file.
     r, g, b = mi.spectrum_list_to_srgb(wavelengths, values, bounded=False)
     if mi.is_monochromatic:
         luminance = 0.212671 * r + 0.715160 * g + 0.072169 * b  # Mitsuba's luminance()
-        return mi.load_dict({"type": "uniform", "value": luminance})
-    return mi.load_dict({"type": "srgb", "color": [r, g, b], "unbounded": True})
+        return create("uniform", value=float(luminance))
+    return create("srgb", color=mi.ScalarColor3f(r, g, b), unbounded=True)
 
 
 def _cover_spectral_range(wavelengths, values):

@@ -134,6 +134,7 @@ import mitsuba as mi
 from . import params as read, wrapped
 from .sky_models import MODELS, berry, neutral_points, rayleigh
 from ..mueller import emitted, intensity
+from ..plugin_objects import create
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
 VARIANT = mi.variant()
@@ -215,10 +216,9 @@ def _intensity_emitter(props, up, sun, when):
     if "radiance" in props:
         texture, varying = _texture(props)
         if varying:   # unit radiance, uniform sampling; the texture scales it by direction
-            unit = {"type": "constant", "radiance": {"type": "uniform", "value": 1.0}}
-            return mi.load_dict(unit), "texture", None, texture, sun
-        return mi.load_dict({"type": "constant", "radiance": texture}), "constant", None, \
-            None, sun
+            unit = create("constant", radiance=create("uniform", value=1.0))
+            return unit, "texture", None, texture, sun
+        return create("constant", radiance=texture), "constant", None, None, sun
 
     if not (mi.is_rgb or mi.is_spectral):
         raise ValueError(f"{_NAME}: the default sunsky intensity needs an RGB or spectral "
@@ -227,8 +227,7 @@ def _intensity_emitter(props, up, sun, when):
         raise ValueError(f"{_NAME}: parameter 'sun_direction' puts the sun "
                          f"{-_elevation(sun, up):.3g}° below the horizon, where sunsky's sky "
                          "is black; raise it or give 'radiance'")
-    config = dict({"type": "sunsky"}, **when) if when else \
-        {"type": "sunsky", "sun_direction": mi.ScalarVector3f(sun)}
+    config = dict(when) if when else {"sun_direction": mi.ScalarVector3f(sun)}
     for key, (low, high) in SUNSKY_PARAMETERS.items():
         if key in props:
             config[key] = read.number(props, _NAME, key, low=low, high=high)
@@ -240,7 +239,7 @@ def _intensity_emitter(props, up, sun, when):
     if "to_world" in props:
         config["to_world"] = props["to_world"]
     try:
-        emitter = mi.load_dict(config)
+        emitter = create("sunsky", **config)
     except RuntimeError as error:
         raise ValueError(f"{_NAME}: the sunsky intensity refused its parameters: "
                          f"{read.mitsuba_reason(error)}") from None

@@ -76,6 +76,7 @@ import numpy as np
 
 from . import params as read, wrapped
 from ..mueller import basis, emitted, intensity
+from ..plugin_objects import create
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
 VARIANT = mi.variant()
@@ -123,11 +124,11 @@ def _configure(props):
         raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
     scale = read.number(props, _NAME, "scale", 1.0, low=0.0)
     s0, stokes = load_stokes_map(path)
-    config = {"type": "envmap", "bitmap": mi.Bitmap(s0), "scale": scale}
+    config = {"bitmap": mi.Bitmap(s0), "scale": scale}
     if "to_world" in props:
         config["to_world"] = props["to_world"]
     m = np.array(read.transform(props, "to_world"), np.float64)[:3, :3]
-    return {"filename": filename, "inner": mi.load_dict(config),
+    return {"filename": filename, "inner": create("envmap", **config),
             "to_local": [[float(c) for c in row] for row in np.linalg.inv(m)],
             "to_world_rows": [[float(c) for c in row] for row in m],
             "height": stokes.shape[0], "width": stokes.shape[1],
