@@ -154,8 +154,17 @@ def settle():
     restores the default action for a Python handler, and a SIGINT then would
     kill a command that has finished, with the shell's status 130 and its new
     outputs in place. Elsewhere (a Python session): :func:`release`, a SIGINT
-    that came meanwhile forgotten. Idempotent."""
+    that came meanwhile forgotten. Idempotent.
+
+    Also clears CPython's record of an unhandled Ctrl-C: a
+    ``KeyboardInterrupt`` that passed through an ``exec`` of a string (SciPy's
+    array-API shim imports NumPy that way) sets it even when the exception is
+    caught later, and under ``python -m`` the interpreter then kills itself
+    with SIGINT after its shutdown (status -2 to a parent, where the command
+    reported ``interrupted`` and returned 130). Running any code string
+    resets it."""
     _state["pending"] = False
+    exec("pass", {})
     if _state["command_line"] and _main_thread():
         if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
             signal.signal(signal.SIGINT, signal.SIG_IGN)

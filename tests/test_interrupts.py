@@ -21,7 +21,9 @@ with the seed that drew them.
 import os
 import random
 import signal
+import subprocess
 import sys
+import textwrap
 
 import numpy as np
 import pytest
@@ -162,6 +164,29 @@ def test_on_the_command_line_an_error_or_interruption_ends_with_sigint_ignored(c
         signal.signal(signal.SIGINT, signal.default_int_handler)
     err = capfd.readouterr().err.splitlines()
     assert err == ["pbrdf render: error: --spp: must be positive", "pbrdf render: interrupted"]
+
+
+def test_a_ctrl_c_through_an_exec_still_exits_130_under_python_m(tmp_path):
+    """A KeyboardInterrupt that passed through ``exec`` of a string (as SciPy's
+    array-API shim imports NumPy: a Ctrl-C while ``pbrdf fit`` imported
+    scipy.optimize) left CPython's unhandled-Ctrl-C flag set although
+    run_command caught it, and under ``python -m`` the interpreter killed
+    itself with SIGINT after its shutdown: a parent saw -2 (5 runs of 30 of
+    ``pbrdf fit`` interrupted at 0.2-0.8 s), not the 130 it reported."""
+    (tmp_path / "probe.py").write_text(textwrap.dedent("""
+        import sys
+        from mitsuba_pbrdf.cli.errors import run_command
+
+        def command(args):
+            exec("raise KeyboardInterrupt")
+
+        sys.exit(run_command(command, None, "fit"))
+    """))
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-m", "probe"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 130, (done.returncode, done.stderr)
+    assert done.stderr.strip().splitlines()[-1] == "pbrdf fit: interrupted"
 
 
 @pytest.mark.parametrize("orig_argv, argv0, holds", [
