@@ -40,6 +40,30 @@ def default_variant():
     yield
 
 
+@pytest.fixture(autouse=True)
+def sigint_left_as_found():
+    """Every test leaves SIGINT's handler and the package's hold state
+    (:mod:`mitsuba_pbrdf.interrupts`) as it found them: a test that left
+    SIGINT ignored or held would make every later Ctrl-C test of the run
+    fail, far from its cause. A leak is put right and reported as this
+    test's error."""
+    import signal
+
+    from mitsuba_pbrdf import interrupts
+
+    def state():
+        return (signal.getsignal(signal.SIGINT),
+                {k: interrupts._state[k] for k in ("held", "pending", "command_line")})
+
+    before = state()
+    yield
+    after = state()
+    if after != before:
+        signal.signal(signal.SIGINT, before[0])
+        interrupts._state.update(before[1])
+        pytest.fail(f"the test left SIGINT's handler or hold state changed: {before} -> {after}")
+
+
 @pytest.fixture
 def variant(request):
     use_variant(request.param)

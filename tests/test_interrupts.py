@@ -199,6 +199,7 @@ def test_a_ctrl_c_through_an_exec_still_exits_130_under_python_m(tmp_path):
 def test_the_command_line_holds_from_the_package_import(monkeypatch, orig_argv, argv0, holds):
     monkeypatch.setattr(sys, "orig_argv", orig_argv, raising=False)
     monkeypatch.setattr(sys, "argv", [argv0])
+    monkeypatch.setitem(interrupts._state, "command_line", False)   # put back after
     try:
         assert interrupts.hold_for_command_line() is holds
     finally:
