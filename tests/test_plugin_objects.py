@@ -174,3 +174,21 @@ def test_a_nested_object_matches_the_parsers():
 def test_a_refused_parameter_is_mitsubas_error():
     with pytest.raises(RuntimeError, match="sun_aperture|aperture"):
         create("sunsky", sun_aperture=-1.0)
+
+
+def test_no_bsdf_or_emitter_module_calls_the_parser():
+    """A future plugin keeps the rule: no module of ``bsdfs/`` or ``emitters/``
+    (the plugins' constructors and what they call) calls ``load_dict``,
+    ``load_string`` or ``load_file``."""
+    import ast
+
+    found = []
+    for folder in ("bsdfs", "emitters"):
+        path = os.path.join(ROOT, "mitsuba_pbrdf", folder)
+        for name in sorted(os.listdir(path)):
+            if name.endswith(".py"):
+                tree = ast.parse(open(os.path.join(path, name)).read())
+                found += [f"{folder}/{name}:{node.lineno}" for node in ast.walk(tree)
+                          if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                          and node.func.attr in ("load_dict", "load_string", "load_file")]
+    assert not found, found
