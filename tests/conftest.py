@@ -65,6 +65,19 @@ def sigint_left_as_found():
 
 
 @pytest.fixture
+def python_sigint_handler():
+    """Python's own SIGINT handler (``KeyboardInterrupt``) for a test that
+    sends SIGINT to this process, the inherited one put back after: pytest
+    started as a background job inherits SIGINT ignored, and Python then
+    keeps ignoring it (so does :mod:`mitsuba_pbrdf.interrupts`, by design)."""
+    import signal
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+@pytest.fixture
 def variant(request):
     use_variant(request.param)
     yield request.param

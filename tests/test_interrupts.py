@@ -34,6 +34,9 @@ from mitsuba_pbrdf.outputs import together, write_text
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 
+#: every test here starts from Python's own SIGINT handler, whatever pytest inherited
+pytestmark = pytest.mark.usefixtures("python_sigint_handler")
+
 
 def _sigint_now():
     os.kill(os.getpid(), signal.SIGINT)

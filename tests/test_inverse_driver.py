@@ -84,7 +84,7 @@ def test_the_clamp_runs_after_every_step_and_holds_the_iterates_in_bounds():
     assert run.loss == [20.25] + [16.0] * 5            # (0.5 - 5)^2, then (1 - 5)^2
 
 
-def test_ctrl_c_leaves_the_loop_at_once():
+def test_ctrl_c_leaves_the_loop_at_once(python_sigint_handler):
     """A real SIGINT during iteration 2 (Python's handler): KeyboardInterrupt
     out of run_adam, the callback seen for iterations 0 and 1 only."""
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
