@@ -239,7 +239,7 @@ def timed_out_jobs(node):
 
 
 @pytest.mark.slow
-def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
+def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm, python_sigint_handler):
     """Two worker jobs with a walltime of 1 minute render a sweep far longer
     than that. Once the first output exists, one worker's job is cancelled
     (scancel) while it renders; later a worker job runs out of walltime while
@@ -283,17 +283,10 @@ def test_cancelled_and_timed_out_workers_lose_nothing(tmp_path, slurm):
                 return
 
     thread = threading.Thread(target=monitor, daemon=True)
-    # Python's own SIGINT handler during the sweep, whatever this process
-    # inherited (a shell's background job ignores SIGINT, and Python then keeps
-    # ignoring it: the Ctrl-C below would go unnoticed)
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
-        thread.start()
-        with pytest.raises(KeyboardInterrupt):
-            run_sweep(sweep, slurm=options, progress=False)
-        thread.join(5)
-    finally:
-        signal.signal(signal.SIGINT, previous)
+    thread.start()   # Python's own SIGINT handler meanwhile (python_sigint_handler)
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(sweep, slurm=options, progress=False)
+    thread.join(5)
     assert "interrupted" in seen, f"the sweep ended before its workers were lost: {seen}"
     assert slurm.jobs() == [], slurm.run("squeue")
     rows = rows_of(sweep)

@@ -133,12 +133,9 @@ def test_on_the_command_line_a_sigint_after_the_outputs_changes_nothing(tmp_path
         print("wrote a.txt")
         return 0
 
-    try:
-        assert run_command(command, None, "render") == 0
-        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
-        _sigint_now()                   # ignored to the end of the process
-    finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+    assert run_command(command, None, "render") == 0
+    assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    _sigint_now()                       # ignored to the end of the process
     assert open(target).read() == "new\n"
     out, err = capfd.readouterr()
     assert out == "wrote a.txt\n" and err == ""
@@ -157,14 +154,11 @@ def test_on_the_command_line_an_error_or_interruption_ends_with_sigint_ignored(c
         _sigint_now()
         raise CliError("--spp: must be positive")
 
-    try:
-        assert run_command(failing, None, "render") == 2
-        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-        assert run_command(interrupted_while_failing, None, "render") == 130
-        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
-    finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+    assert run_command(failing, None, "render") == 2
+    assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    assert run_command(interrupted_while_failing, None, "render") == 130
+    assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     err = capfd.readouterr().err.splitlines()
     assert err == ["pbrdf render: error: --spp: must be positive", "pbrdf render: interrupted"]
 
