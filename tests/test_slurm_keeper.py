@@ -8,6 +8,7 @@ tests are in tests/test_batch_slurm.py."""
 
 import contextlib
 import threading
+import time
 
 import pytest
 
@@ -23,12 +24,15 @@ class Job:
 class FakeCluster:
     """What the keeper reads of a SLURMCluster: the spec of *jobs* worker
     jobs, the submitted ones, and ``scale``, which submits a job for each
-    spec entry without one (as SpecCluster's ``_correct_state`` does)."""
+    spec entry without one (as SpecCluster's ``_correct_state`` does). The
+    keeper hears of each loss as the scheduler's plugin tells it
+    (:class:`~mitsuba_pbrdf.batch.slurm.WorkerJobEvents`)."""
 
     def __init__(self, jobs):
-        self.worker_spec = {i: {} for i in range(jobs)}
+        self.worker_spec = {f"SLURMCluster-{i}": {} for i in range(jobs)}
         self.workers = {}
         self.submitted = []
+        self.keeper = None
         self.scale()
 
     def scale(self, jobs=None):
@@ -37,9 +41,21 @@ class FakeCluster:
                 self.submitted.append(str(100 + len(self.submitted)))
                 self.workers[name] = Job(self.submitted[-1])
 
+    def leave(self, name):
+        """The worker of worker job *name* left the scheduler (Dask still holds the job)."""
+        self.keeper.worker_left(name)
+
+    def give_up(self, name):
+        """Dask gave up the worker job *name* (lost-worker-timeout after it left)."""
+        del self.workers[name]
+
     def lose(self, name):
         """The worker job *name* ended and Dask gave it up."""
-        del self.workers[name]
+        self.leave(name)
+        self.give_up(name)
+
+
+W0, W1 = "SLURMCluster-0", "SLURMCluster-1"
 
 
 def keeper_for(cluster, limit, done=lambda: 0):
@@ -47,6 +63,7 @@ def keeper_for(cluster, limit, done=lambda: 0):
     keeper = Keeper(cluster, len(cluster.worker_spec), ResubmissionCap(limit), done=done,
                     why_ended=lambda job: f"Slurm job {job} reached its walltime (00:01:00)",
                     on_give_up=lambda: given_up.append(True), logs="out/slurm-logs")
+    cluster.keeper = keeper
     return keeper, given_up
 
 
@@ -55,12 +72,12 @@ def test_lost_jobs_are_replaced_up_to_the_cap_then_nothing_more_is_submitted():
     keeper, given_up = keeper_for(cluster, limit=3)
     assert keeper.tick() and cluster.submitted == ["100", "101"]  # nothing lost yet
     for i in range(3):  # job 0 ends again and again: replaced 3 times
-        cluster.lose(0)
+        cluster.lose(W0)
         assert keeper.tick()
         assert keeper.tick()  # the same loss is counted once
     assert len(cluster.submitted) == 5 and not given_up
-    last = cluster.workers[0].job_id
-    cluster.lose(0)
+    last = cluster.workers[W0].job_id
+    cluster.lose(W0)
     assert not keeper.tick()
     assert len(cluster.submitted) == 5, "a job was submitted past the cap"
     assert given_up == [True]
@@ -79,7 +96,7 @@ def test_a_render_done_starts_the_count_again():
     keeper, given_up = keeper_for(cluster, limit=2, done=lambda: done[0])
     for i in range(20):
         done[0] += 1  # the worker job rendered before it ended
-        cluster.lose(0)
+        cluster.lose(W0)
         assert keeper.tick()
     assert len(cluster.submitted) == 21 and not given_up and keeper.error is None
 
@@ -89,8 +106,8 @@ def test_the_cap_counts_each_worker_job_on_its_own():
     cluster = FakeCluster(jobs=2)
     keeper, given_up = keeper_for(cluster, limit=2)
     for _ in range(2):
-        cluster.lose(0)
-        cluster.lose(1)
+        cluster.lose(W0)
+        cluster.lose(W1)
         assert keeper.tick()
     assert len(cluster.submitted) == 6 and not given_up
 
@@ -100,6 +117,87 @@ def test_jobs_not_yet_submitted_are_not_counted_as_lost():
     cluster.workers.clear()  # the first submissions still under way
     keeper, given_up = keeper_for(cluster, limit=1)
     assert keeper.tick() and not given_up
+
+
+def test_a_job_lost_before_the_keeper_looked_is_counted_before_it_is_replaced():
+    """CI's failure: each worker job was cancelled as soon as its worker
+    joined, and with a cap of 2 five jobs were submitted. The keeper counted a
+    loss only when a look at the cluster found a job it had seen before
+    missing; a job submitted after one look and given up before the next was
+    never seen, so its loss went uncounted and it was replaced anyway. Losses
+    now come from the scheduler's events: each replaced job is counted."""
+    cluster = FakeCluster(jobs=1)
+    keeper, given_up = keeper_for(cluster, limit=2)
+    for _ in range(2):
+        cluster.lose(W0)  # the job lost, as every replacement, before any look saw it
+        assert keeper.tick()
+    assert cluster.submitted == ["100", "101", "102"] and not given_up
+    cluster.lose(W0)
+    assert not keeper.tick() and given_up == [True]
+    assert cluster.submitted == ["100", "101", "102"], "a job was submitted past the cap"
+    assert "the last one: Slurm job 102 reached its walltime" in keeper.error
+
+
+def test_a_lost_job_is_replaced_only_once_dask_gives_it_up():
+    """Between the worker leaving and Dask giving up its job (1 s,
+    lost-worker-timeout) nothing is submitted and nothing counted; then one
+    replacement, counted once."""
+    cluster = FakeCluster(jobs=2)
+    keeper, given_up = keeper_for(cluster, limit=1)
+    cluster.leave(W0)
+    assert keeper.tick() and keeper.tick()
+    assert cluster.submitted == ["100", "101"] and keeper.cap.counts == {}
+    cluster.give_up(W0)
+    assert keeper.tick() and keeper.tick()
+    assert cluster.submitted == ["100", "101", "102"] and keeper.cap.counts == {W0: 1}
+    assert not given_up
+
+
+def test_a_worker_restarted_in_its_own_job_is_not_a_lost_job():
+    """A worker process that died and was restarted by its nanny leaves and
+    joins again from the same Slurm job: no job was lost, none is submitted,
+    and the cap's count stays at zero."""
+    cluster = FakeCluster(jobs=1)
+    keeper, given_up = keeper_for(cluster, limit=1)
+    for _ in range(3):
+        cluster.leave(W0)
+        keeper.worker_joined(W0)
+        assert keeper.tick()
+    assert cluster.submitted == ["100"] and keeper.cap.counts == {} and not given_up
+    cluster.lose(W0)  # a real loss is still the first one
+    assert keeper.tick() and cluster.submitted == ["100", "101"]
+
+
+def test_the_scheduler_plugin_names_each_worker_that_joins_and_leaves():
+    """:class:`WorkerJobEvents` on a real Dask scheduler: a worker's join and
+    its leaving reach the keeper under the worker's name (the name the
+    cluster's spec and ``workers`` use)."""
+    distributed = pytest.importorskip("distributed")
+    from mitsuba_pbrdf.batch.slurm import WorkerJobEvents
+
+    class Recorder:
+        def __init__(self):
+            self.calls = []
+
+        def worker_joined(self, name):
+            self.calls.append(("joined", name))
+
+        def worker_left(self, name):
+            self.calls.append(("left", name))
+
+    recorder = Recorder()
+    with distributed.LocalCluster(n_workers=0, processes=False, threads_per_worker=1,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        cluster.scheduler.add_plugin(WorkerJobEvents(recorder))
+        cluster.scale(1)
+        client.wait_for_workers(1, timeout=30)
+        (name,) = list(cluster.workers)
+        cluster.scale(0)
+        deadline = time.monotonic() + 30
+        while ("left", name) not in recorder.calls and time.monotonic() < deadline:
+            time.sleep(0.05)
+    assert recorder.calls == [("joined", name), ("left", name)]
 
 
 @pytest.mark.parametrize("value", [0, -1, 1.5, True])
@@ -207,16 +305,14 @@ def test_a_worker_that_joined_and_left_counts_as_started():
 
 
 def test_the_keepers_give_up_ends_the_wait_for_the_first_worker_with_its_line():
-    import time
-
     from mitsuba_pbrdf.batch.slurm import _first_worker_joined
 
     cluster = FakeCluster(1)
     keeper, given_up = keeper_for(cluster, limit=1)
     assert keeper.tick()
-    cluster.lose(0)
+    cluster.lose(W0)
     assert keeper.tick() and keeper.tick()  # replaced once, the new job seen
-    cluster.lose(0)
+    cluster.lose(W0)
     assert not keeper.tick() and given_up
     start = time.monotonic()
     with pytest.raises(SlurmError, match="replaced 1 times each .* submitting no more"):

@@ -34,8 +34,8 @@ from .cluster import ALLOWED_FAILURES, WorkerSetup
 from .slurm_keeper import REPLACE_INTERVAL_S, Keeper, ResubmissionCap
 from .slurm_options import SlurmError, SlurmOptions, format_walltime, parse_memory
 
-__all__ = ["connect_slurm", "slurm_cluster_class", "SlurmWorkerSetup", "check_partition",
-           "job_states", "job_ended", "REPLACE_INTERVAL_S"]
+__all__ = ["connect_slurm", "slurm_cluster_class", "SlurmWorkerSetup", "WorkerJobEvents",
+           "check_partition", "job_states", "job_ended", "REPLACE_INTERVAL_S"]
 
 #: Seconds to wait at exit for the worker jobs to leave Slurm's queue.
 LEAVE_TIMEOUT_S = 20.0
@@ -166,6 +166,36 @@ class SlurmWorkerSetup(WorkerSetup):
         super().setup(worker)
         worker.log_event(EVENT_TOPIC, {"worker": worker.address,
                                        "job": os.environ.get("SLURM_JOB_ID", "")})
+
+
+def _scheduler_plugin_base():
+    from distributed.diagnostics.plugin import SchedulerPlugin
+
+    return SchedulerPlugin
+
+
+class WorkerJobEvents(_scheduler_plugin_base()):
+    """A plugin of the scheduler (in the ``pbrdf batch`` process) that tells
+    *keeper* each time a worker joins or leaves, by the worker job's name in
+    the cluster's spec: every worker, however short its life (a look at the
+    cluster every few seconds missed those that joined and left in between)."""
+
+    name = "pbrdf-slurm-worker-jobs"
+
+    def __init__(self, keeper: Keeper):
+        self.keeper = keeper
+        self._names: Dict[str, str] = {}  # worker address -> worker job name
+
+    def add_worker(self, scheduler=None, worker=None, **kwargs):
+        state = scheduler.workers.get(worker)
+        if state is not None:
+            self._names[worker] = state.name
+            self.keeper.worker_joined(state.name)
+
+    def remove_worker(self, scheduler=None, worker=None, **kwargs):
+        name = self._names.pop(worker, None)
+        if name is not None:
+            self.keeper.worker_left(name)
 
 
 def node_sizes(partition: str) -> Optional[Tuple[int, int]]:
@@ -316,10 +346,11 @@ def _session(cluster_class, options: SlurmOptions, partition: str, log_directory
         client = Client(cluster)
         try:
             client.register_plugin(SlurmWorkerSetup(options.cores))
-            cluster.scale(jobs=options.jobs)
             keeper = Keeper(cluster, options.jobs, ResubmissionCap(options.max_resubmissions),
                             done=done, why_ended=_why_ended, on_give_up=on_give_up,
                             logs=log_directory)
+            cluster.scheduler.add_plugin(WorkerJobEvents(keeper))
+            cluster.scale(jobs=options.jobs)
             keeper.start()
             if not _first_worker_joined(client, keeper, options.start_timeout):
                 queued = _queued(job_name)

@@ -5,19 +5,21 @@ worker job since a render was last done; past ``max_resubmissions`` the
 :class:`Keeper` submits nothing more and gives up with one line saying why
 the last worker job ended. A sweep that renders goes on however long it is
 (every render done starts the count again); one whose worker jobs end before
-any render is done (a walltime shorter than one render, a broken environment
-on the nodes, a failing node) stops instead of submitting jobs for ever.
+any render is done (a walltime shorter than one render, a worker that
+crashes on the nodes after it joined, a failing node) stops instead of
+submitting jobs for ever.
 
 Imports neither Dask nor Slurm: the cluster (dask-jobqueue's
-``SLURMCluster``) and the Slurm look-up come in as arguments, so the unit
-tests drive it with stand-ins (tests/test_batch_slurm.py).
+``SLURMCluster``) and the Slurm look-up come in as arguments, and the
+scheduler's worker events as calls (:class:`~mitsuba_pbrdf.batch.slurm.WorkerJobEvents`),
+so the unit tests drive it with stand-ins (tests/test_slurm_keeper.py).
 """
 
 from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
-from typing import Callable, Dict, Optional, Set
+from typing import Callable, Dict, Optional
 
 __all__ = ["ResubmissionCap", "Keeper", "REPLACE_INTERVAL_S", "DEFAULT_MAX_RESUBMISSIONS"]
 
@@ -57,7 +59,17 @@ class Keeper(threading.Thread):
     Dask gives it up, within *cap*. *done* () -> renders done so far;
     *why_ended* (Slurm job id) -> one phrase on how it ended; *on_give_up* ()
     is called once, when the cap is reached (then :attr:`error` holds the line,
-    which points at the worker jobs' logs in the folder *logs*)."""
+    which points at the worker jobs' logs in the folder *logs*).
+
+    Losses come as events, not from looking at the cluster now and then: the
+    scheduler calls :meth:`worker_left` (and :meth:`worker_joined`) for every
+    worker, however short its life. A worker job that joined and was
+    cancelled between two looks used to go uncounted and be replaced anyway
+    (CI: 4 replacements with a cap of 2). Every replacement needs Dask to
+    give up a lost job first (``distributed.deploy.lost-worker-timeout``
+    after the worker left), and the keeper submits nothing while a loss it
+    was told of is not yet counted, so each replacement is counted before it
+    is submitted."""
 
     def __init__(self, cluster, jobs: int, cap: Optional[ResubmissionCap] = None,
                  done: Callable[[], int] = lambda: 0,
@@ -70,8 +82,27 @@ class Keeper(threading.Thread):
         self.logs = logs
         self.stop = threading.Event()
         self.error: Optional[str] = None
-        self._job_ids: Dict[str, str] = {}  # worker job name -> its last Slurm job id
-        self._counted: Set[str] = set()     # Slurm job ids whose loss was counted
+        self._lock = threading.Lock()
+        self._left: Dict[str, Optional[str]] = {}  # worker job name -> Slurm job id of its loss
+
+    def _job_of(self, name: str) -> Optional[str]:
+        job_id = getattr(self.cluster.workers.get(name), "job_id", None)
+        return str(job_id) if job_id else None
+
+    def worker_joined(self, name: str) -> None:
+        """The worker of worker job *name* joined the scheduler (its thread).
+        A worker that left and joined again from the same Slurm job (its
+        nanny restarted it) was not lost."""
+        job = self._job_of(name)
+        with self._lock:
+            if name in self._left and self._left[name] == job:
+                del self._left[name]
+
+    def worker_left(self, name: str) -> None:
+        """The worker of worker job *name* left the scheduler (its thread)."""
+        job = self._job_of(name)
+        with self._lock:
+            self._left[name] = job
 
     def run(self):
         while not self.stop.wait(REPLACE_INTERVAL_S):
@@ -82,30 +113,33 @@ class Keeper(threading.Thread):
                 return
 
     def tick(self) -> bool:
-        """One check: count the worker jobs lost since the last one, and ask
-        for the jobs again; False (after :attr:`on_give_up`) at the cap."""
+        """One check: count the losses Dask has given up since the last one,
+        and ask for the missing worker jobs again; False (after
+        :attr:`on_give_up`) at the cap."""
         self.cap.progress(self.done())
         try:
-            running = {name: getattr(job, "job_id", None)
-                       for name, job in list(self.cluster.workers.items())}
+            running = {name: self._job_of(name) for name in list(self.cluster.workers)}
             names = list(self.cluster.worker_spec)
         except RuntimeError:  # changed while copied (the event loop's thread): next time
             return True
-        for name, job_id in running.items():
-            if job_id:
-                self._job_ids[name] = str(job_id)
-        for name in names:
-            job_id = self._job_ids.get(name)
-            if name in running or job_id is None or job_id in self._counted:
-                continue
-            self._counted.add(job_id)
-            if not self.cap.allow(name):
-                self.error = (
-                    f"the Slurm worker jobs were lost and replaced {self.cap.limit} times "
-                    f"each (max_resubmissions, --max-resubmissions) with no render done in "
-                    f"between; the last one: {self.why_ended(job_id)}; submitting no more "
-                    f"(the worker jobs' logs are in {self.logs})")
-                self.on_give_up()
-                return False
-        self.cluster.scale(jobs=self.jobs)
-        return True
+        lost = None
+        with self._lock:  # held briefly: the scheduler's thread takes it too
+            for name, job in list(self._left.items()):
+                if name in running and running[name] == job:
+                    continue  # Dask has not given it up yet: not replaced before it is
+                del self._left[name]
+                if not self.cap.allow(name):
+                    lost = job or ""
+                    break
+            else:
+                if not self._left and any(name not in running for name in names):
+                    self.cluster.scale(jobs=self.jobs)
+        if lost is None:
+            return True
+        last = self.why_ended(lost) if lost else "a worker job ended"
+        self.error = (
+            f"the Slurm worker jobs were lost and replaced {self.cap.limit} times each "
+            f"(max_resubmissions, --max-resubmissions) with no render done in between; the "
+            f"last one: {last}; submitting no more (the worker jobs' logs are in {self.logs})")
+        self.on_give_up()
+        return False
