@@ -279,14 +279,37 @@ def _forward_derivative(scene, params, keys, key, tangent, plan, reduce, integra
         if integrator is not None:
             d_image = integrator.render_forward(scene, params, sensor, seed=grad_seed, spp=n)
         else:
-            img = scene.integrator().render(scene, sensor, seed=grad_seed, spp=n, develop=True,
-                                            evaluate=False)
-            dr.forward_to(img)
-            d_image = dr.grad(img)
-            del img
+            d_image = _forward_render(scene, sensor, grad_seed, n)
         part = reduce(d_image) * (n / spp)
         total = part if total is None else total + part
     return total
+
+
+#: Dr.Jit's refusal that forward mode through the scene's own integrator can
+#: meet (docs/inverse-rendering.md, "Forward mode and Dr.Jit's isolation scopes").
+ISOLATION_REFUSAL = "isolate_grad() scope"
+
+
+def _forward_render(scene, sensor, seed, spp):
+    """The forward-mode derivative image of one render by the scene's own
+    integrator (the tangents already set on the parameters). Dr.Jit 1.x can
+    refuse to propagate tangents into the symbolic loop and call that hold a
+    Python BSDF, depending on what the process did before (seen with
+    ``pbrdf``, never with Mitsuba's ``roughconductor``); that refusal becomes a
+    one-line RuntimeError naming the methods that work."""
+    img = scene.integrator().render(scene, sensor, seed=seed, spp=spp, develop=True,
+                                    evaluate=False)
+    try:
+        dr.forward_to(img)
+    except RuntimeError as error:
+        if ISOLATION_REFUSAL not in str(error):
+            raise
+        raise RuntimeError(
+            "forward mode through the scene's own integrator: Dr.Jit refused to propagate "
+            "the tangents into its symbolic loop and calls (a known limitation, "
+            "docs/inverse-rendering.md); render with a stokes integrator around path "
+            "(method='prb'), or use method='reverse' for the gradient of a loss") from None
+    return dr.grad(img)
 
 
 def jacobian(scene, params, keys: Sequence[str], spp=64, seed=0, passes=1, method="auto"):
