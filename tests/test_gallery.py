@@ -10,15 +10,10 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
+from mitsuba_pbrdf.camera.polcam import ANGLES, stokes_from_polarizer_images
 from mitsuba_pbrdf.visualization import gallery
-from mitsuba_pbrdf.visualization.gallery import (
-                                           POLARIZER_ANGLES,
-                                           _Settings,
-                                           polarization_camera_stokes,
-                                           polarizer_check,
-                                           render_polarizer_images,
-                                           run_gallery,
-                                           )
+from mitsuba_pbrdf.visualization.gallery import _Settings, render_polarizer_images, run_gallery
+from mitsuba_pbrdf.visualization.polarizer_figure import polarizer_check
 from mitsuba_pbrdf.rendering import render_scene
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
@@ -43,8 +38,8 @@ def test_polarization_camera_inverts_malus_law():
     p, a = rng.uniform(0, 1, s0.shape), rng.uniform(-np.pi / 2, np.pi / 2, s0.shape)
     s1, s2 = s0 * p * np.cos(2 * a), s0 * p * np.sin(2 * a)
     intensities = {t: 0.5 * (s0 + s1 * np.cos(2 * np.radians(t)) + s2 * np.sin(2 * np.radians(t)))
-                   for t in POLARIZER_ANGLES}
-    stokes = polarization_camera_stokes(intensities)
+                   for t in ANGLES}
+    stokes = stokes_from_polarizer_images(intensities)
     np.testing.assert_allclose(stokes[..., :3, :], np.stack([s0, s1, s2], axis=-2), atol=1e-12)
     assert np.all(stokes[..., 3, :] == 0)
 
@@ -60,7 +55,7 @@ def test_polarizer_renders_follow_malus_law(tmp_path):
     check = polarizer_check(filtered, clear)
     for name, error in check.items():
         assert error < 1e-2, (name, check)
-    i = {a: filtered[a].s0.astype(np.float64) for a in POLARIZER_ANGLES}
+    i = {a: filtered[a].s0.astype(np.float64) for a in ANGLES}
     s = clear.stokes.astype(np.float64)
     scale = s[:, :, 0].max()
     # The angle-0 channel is aligned with the Stokes frame: exact everywhere
@@ -74,7 +69,7 @@ def test_polarizer_renders_follow_malus_law(tmp_path):
     assert np.sum(np.abs(s[:, :, 2])) > 0.01 * np.sum(s[:, :, 0])  # the sphere has S2
     np.testing.assert_allclose(i[45] - i[135], s[:, :, 2], atol=1e-2 * scale)
     # Image means: the filters pass half the light
-    for a in POLARIZER_ANGLES:
+    for a in ANGLES:
         assert i[a].mean() == pytest.approx(0.5 * s[:, :, 0].mean(), rel=0.05)
 
 

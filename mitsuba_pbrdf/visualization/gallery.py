@@ -14,7 +14,8 @@ Pictures (PNG, palette-quantized to stay small enough to commit):
 * ``polarizer.png``: the sphere through a linear polarizer at 0°, 45°, 90° and
   135° (``scenes/gallery/polarizer.xml``), as the four channels of a
   polarization camera, and the DoLP and AoLP computed from them; with the
-  check of Malus's law against the Stokes render (:func:`polarizer_check`).
+  check of Malus's law against the Stokes render
+  (:mod:`mitsuba_pbrdf.visualization.polarizer_figure`).
 * ``polcam.png``: what a polarization camera records of the copper sphere:
   the four polarizer images and the raw mono and colour sensor frames
   (:mod:`mitsuba_pbrdf.visualization.polcam_figure`; ``pbrdf polcam``).
@@ -43,28 +44,27 @@ import inspect
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, Optional, Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
-from ..stokes.exr import write_stokes_exr
-from .panels import (DRAWERS, auto_exposure, linear_rgb, overview_figure, plot_aolp,
-                               plot_dolp, plot_intensity, save_png, tonemap)
-from ..rendering.render import render_scene
-from ..stokes.image import StokesImage
+from ..camera.polcam import ANGLES
 from ..reference.params import PBRDFParams
+from ..rendering.render import render_scene
+from ..stokes.exr import write_stokes_exr
+from ..stokes.image import StokesImage
+from .panels import DRAWERS, overview_figure, save_png
 from .pbrdf_plots import save_pbrdf_plot
+from .polarizer_figure import polarizer_check, polarizer_figure
+from .tonemap import shared_exposure
 
 __all__ = [
     "MATERIALS",
     "ROUGHNESS",
-    "POLARIZER_ANGLES",
     "GALLERY_ITEMS",
     "RENDERED_ITEMS",
     "find_scenes",
     "montage_figure",
-    "polarization_camera_stokes",
-    "polarizer_check",
     "render_materials",
     "render_roughness",
     "render_polarizer",
@@ -102,7 +102,6 @@ SUN_AZIMUTH = 210.0
 #: The skies of ``sky.png``: sky.xml's ``sky`` and the column label.
 SKIES = (("polarized_sky", "polarized_sky"), ("sunsky", "sunsky (unpolarized)"))
 #: Polarizer angles of ``polarizer.png`` (degrees, counter-clockwise in the picture).
-POLARIZER_ANGLES = (0, 45, 90, 135)
 #: Everything ``run_gallery`` makes, in order.
 GALLERY_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet", "plot",
                  "brushed", "sky")
@@ -191,11 +190,6 @@ def write_studio_envmap(path) -> str:
 # Figures
 
 
-def _shared_exposure(images: Sequence[StokesImage], percentile: float = 99.0) -> float:
-    rgb = np.concatenate([linear_rgb(im).reshape(-1, 3) for im in images], axis=0)
-    return auto_exposure(rgb[None], percentile)
-
-
 def montage_figure(
     columns: Sequence[tuple],
     rows: Sequence[str] = ("intensity", "dolp", "aolp"),
@@ -217,7 +211,7 @@ def montage_figure(
         raise ValueError(f"unknown row(s) {', '.join(unknown)}; choose from {', '.join(DRAWERS)}")
     images = [im for _, im in columns]
     if exposure is None:
-        exposure = _shared_exposure(images)
+        exposure = shared_exposure(images)
     shared = dict(exposure=exposure, dolp_max=dolp_max, min_dolp=min_dolp)
     first = images[0]
     aspect = first.height / first.width
@@ -244,76 +238,6 @@ def montage_figure(
                               ticks=drawing.ticks)
             cb.ax.tick_params(labelsize=7)
             cb.set_label(drawing.label, fontsize=8)
-    if title:
-        fig.suptitle(title, fontsize=10)
-    return fig
-
-
-def polarization_camera_stokes(intensities: Dict[int, np.ndarray]) -> np.ndarray:
-    """Linear Stokes vectors from intensities behind a polarizer at 0°, 45°,
-    90° and 135° (what a division-of-focal-plane polarization camera computes):
-    S0 = (I0 + I45 + I90 + I135) / 2, S1 = I0 − I90, S2 = I45 − I135, S3 = 0.
-    Each intensity is (H, W, bands); returns (H, W, 4, bands)."""
-    i0, i45, i90, i135 = (np.asarray(intensities[a], dtype=np.float64) for a in (0, 45, 90, 135))
-    return np.stack([(i0 + i45 + i90 + i135) / 2, i0 - i90, i45 - i135,
-                     np.zeros_like(i0)], axis=-2)
-
-
-def polarizer_check(filtered: Dict[int, StokesImage], clear: StokesImage) -> dict:
-    """Malus's law on the renders: for each relation, the largest per-pixel
-    error divided by the largest S0 of the clear (unfiltered) render.
-
-    ``sum_0_90``: I0 + I90 vs S0; ``sum_45_135``: I45 + I135 vs S0;
-    ``s1``: I0 − I90 vs S1; ``s2``: I45 − I135 vs S2 (all bands)."""
-    i = {a: filtered[a].s0.astype(np.float64) for a in POLARIZER_ANGLES}
-    s = clear.stokes.astype(np.float64)
-    scale = float(np.abs(s[:, :, 0]).max()) or 1.0
-    return {
-        "sum_0_90": float(np.abs(i[0] + i[90] - s[:, :, 0]).max() / scale),
-        "sum_45_135": float(np.abs(i[45] + i[135] - s[:, :, 0]).max() / scale),
-        "s1": float(np.abs(i[0] - i[90] - s[:, :, 1]).max() / scale),
-        "s2": float(np.abs(i[45] - i[135] - s[:, :, 2]).max() / scale),
-    }
-
-
-def polarizer_figure(filtered: Dict[int, StokesImage], clear: StokesImage,
-                     title: Optional[str] = None, dolp_max: float = 0.5,
-                     min_dolp: float = 0.02):
-    """The polarizer picture: row 1, the four filtered intensities (one
-    exposure); row 2, the unfiltered intensity and the DoLP and AoLP a
-    polarization camera computes from the four, next to the DoLP of the
-    Stokes render."""
-    import matplotlib.cm
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    exposure = 2.0 * _shared_exposure([clear])  # the filtered images are ~S0/2
-    camera = StokesImage(
-        polarization_camera_stokes({a: filtered[a].s0 for a in POLARIZER_ANGLES}),
-        bands=filtered[0].bands)
-    aspect = clear.height / clear.width
-    fig = Figure(figsize=(4 * 2.9 + 0.6, 2 * 2.9 * aspect + 1.1), layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(2, 4)
-
-    for ax, a in zip(axes[0], POLARIZER_ANGLES):
-        ax.imshow(tonemap(linear_rgb(filtered[a]), exposure)[0], interpolation="nearest")
-        ax.set_title(f"through a polarizer at {a}°", fontsize=9)
-        ax.set_xticks([])
-        ax.set_yticks([])
-        # an invisible colour bar, so that the columns line up with the row below
-        fig.colorbar(matplotlib.cm.ScalarMappable(), ax=ax, fraction=0.046,
-                     pad=0.03).ax.set_visible(False)
-    plot_intensity(axes[1, 0], clear, exposure=exposure / 2.0,
-                   title=f"no filter (S0, {np.log2(exposure / 2.0):+.1f} EV)")
-    fig.colorbar(matplotlib.cm.ScalarMappable(), ax=axes[1, 0], fraction=0.046,
-                 pad=0.03).ax.set_visible(False)
-    plot_dolp(axes[1, 1], camera, dolp_max=dolp_max)
-    axes[1, 1].set_title("DoLP from the four pictures", fontsize=9)
-    plot_aolp(axes[1, 2], camera, min_dolp=min_dolp)
-    axes[1, 2].set_title("AoLP from the four pictures", fontsize=9)
-    plot_dolp(axes[1, 3], clear, dolp_max=dolp_max)
-    axes[1, 3].set_title("DoLP of the Stokes render (no filter)", fontsize=9)
     if title:
         fig.suptitle(title, fontsize=10)
     return fig
@@ -417,7 +341,7 @@ def render_polarizer_images(settings: _Settings, **params):
     holds pixel by pixel without Monte Carlo noise (to about 0.3 % of the
     largest S0 off axis, where rays cross the filter obliquely)."""
     filtered = {a: _render(settings, "polarizer.xml", f"polarizer_{a}", angle=a, **params)
-                for a in POLARIZER_ANGLES}
+                for a in ANGLES}
     clear = _render(settings, "polarizer.xml", "polarizer_clear", polarizing="false",
                     transmittance=2, **params)
     return filtered, clear

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..stokes.image import StokesImage, luminance_stokes
 
-__all__ = ["linear_rgb", "auto_exposure", "tonemap", "pixel_stokes"]
+__all__ = ["linear_rgb", "auto_exposure", "shared_exposure", "tonemap", "pixel_stokes"]
 
 #: Rec. 709 luminance weights of linear R, G, B.
 _LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
@@ -43,6 +43,13 @@ def auto_exposure(rgb: np.ndarray, percentile: float = 99.0) -> float:
     lit = lum[lum > 0]
     ref = float(np.percentile(lit, percentile)) if lit.size else 0.0
     return 1.0 / ref if ref > 0 else 1.0
+
+
+def shared_exposure(images, percentile: float = 99.0) -> float:
+    """One :func:`auto_exposure` for several Stokes images together (their
+    :func:`linear_rgb` pixels pooled), so that they can be compared."""
+    rgb = np.concatenate([linear_rgb(im).reshape(-1, 3) for im in images], axis=0)
+    return auto_exposure(rgb[None], percentile)
 
 
 def tonemap(rgb: np.ndarray, exposure: Optional[float] = None, percentile: float = 99.0):
