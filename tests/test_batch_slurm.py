@@ -16,6 +16,7 @@ The option checks at the top need no Slurm.
 
 import importlib.util
 import os
+import re
 import signal
 import sys
 import threading
@@ -419,6 +420,30 @@ def test_worker_jobs_lost_before_any_render_stop_at_the_cap(tmp_path, slurm, cap
     assert (f"the Slurm worker jobs were lost and replaced 2 times each (max_resubmissions, "
             f"--max-resubmissions) with no render done in between; the last one: Slurm job "
             f"{cancelled[-1]} was cancelled; submitting no more") in err
+    assert {r["status"] for r in rows_of(load_sweep(path))} == {"pending"}
+    assert slurm.jobs() == []
+
+
+@pytest.mark.slow
+def test_worker_jobs_that_fail_before_joining_stop_the_sweep_with_their_error(tmp_path, slurm,
+                                                                              capfd):
+    """Python broken on the nodes (here ``PYTHONHOME`` pointing nowhere, passed
+    with ``--sbatch=--export=...``): each worker job fails before its worker
+    joins. Dask never hears of such a job, so before, the sweep waited out
+    ``--start-timeout`` (300 s by default) and then blamed sbatch. Now it
+    stops within seconds with Slurm's state of the job and the error line of
+    its log; exit 2, rows pending, the queue empty."""
+    path = write_sweep(tmp_path, grid(3, 64))
+    start = time.monotonic()
+    assert main(["batch", str(path), "--slurm", "--jobs", "2", "--cores", "1", "--memory", "1GB",
+                 "--sbatch=--export=ALL,PYTHONHOME=/nonexistent", "--no-progress"]) == 2
+    took = time.monotonic() - start
+    err = one_line_error(capfd)
+    assert took < 60, took  # far from the 300 s of --start-timeout
+    assert re.search(r"Slurm job \d+ ended: FAILED \(reason NonZeroExitCode\) before its worker "
+                     r"joined the sweep: ModuleNotFoundError: No module named 'encodings'; "
+                     r"nothing would render, so no more worker jobs are submitted \(the worker "
+                     r"jobs' logs are in .*slurm-logs\)$", err), err
     assert {r["status"] for r in rows_of(load_sweep(path))} == {"pending"}
     assert slurm.jobs() == []
 

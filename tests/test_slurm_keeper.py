@@ -200,6 +200,90 @@ def test_the_scheduler_plugin_names_each_worker_that_joins_and_leaves():
     assert recorder.calls == [("joined", name), ("left", name)]
 
 
+PYTHON_BROKEN_LOG = """\
+Python path configuration:
+  PYTHONHOME = '/nonexistent'
+Fatal Python error: init_fs_encoding: failed to get the Python codec of the filesystem encoding
+Python runtime state: core initialized
+ModuleNotFoundError: No module named 'encodings'
+
+Current thread 0x00007f6365e45b80 (most recent call first):
+  <no Python frame>
+"""
+
+
+def test_a_job_that_ended_before_its_worker_joined_stops_the_sweep_at_once(tmp_path):
+    """Python broken on the nodes: the worker job fails before its worker
+    joins. Dask never hears of it (nothing to replace), and waiting would last
+    until --start-timeout (or for ever, mid-sweep); with no worker in the
+    scheduler the keeper asks Slurm, and gives up with Slurm's answer and the
+    error line of the job's log."""
+    from mitsuba_pbrdf.batch.slurm import _first_worker_joined
+
+    logs = tmp_path / "slurm-logs"
+    logs.mkdir()
+    (logs / "pbrdf-0a1b2c3d-100.err").write_text(PYTHON_BROKEN_LOG)
+    cluster = FakeCluster(jobs=1)
+    asked = []
+
+    def ended(jobs):
+        asked.append(list(jobs))
+        return {"100": "Slurm job 100 ended: FAILED (reason NonZeroExitCode)"}
+
+    given_up = []
+    keeper = Keeper(cluster, 1, ResubmissionCap(2), ended=ended, logs=str(logs),
+                    on_give_up=lambda: given_up.append(True))
+    cluster.keeper = keeper
+    assert not keeper.tick() and given_up == [True] and asked == [["100"]]
+    assert keeper.error == (
+        "Slurm job 100 ended: FAILED (reason NonZeroExitCode) before its worker joined the "
+        "sweep: ModuleNotFoundError: No module named 'encodings'; nothing would render, so no "
+        f"more worker jobs are submitted (the worker jobs' logs are in {logs})")
+    assert cluster.submitted == ["100"]
+    with pytest.raises(SlurmError, match="^Slurm job 100 ended: FAILED .* 'encodings'"):
+        _first_worker_joined(FakeClient(), keeper, 60.0)
+
+
+def test_a_job_that_may_still_bring_a_worker_keeps_the_sweep_going():
+    """The keeper gives up only when no worker job can bring a worker: not
+    while one is still queued (Slurm: not ended), nor while a worker is in the
+    scheduler (Slurm is not even asked), nor while a replacement is on its
+    way, nor for a worker job whose worker had joined."""
+    cluster = FakeCluster(jobs=2)
+    states = {}
+    asked = []
+
+    def ended(jobs):
+        asked.append(list(jobs))
+        return {job: f"Slurm job {job} ended: FAILED" for job in jobs if states.get(job)}
+
+    keeper = Keeper(cluster, 2, ResubmissionCap(2), ended=ended)
+    cluster.keeper = keeper
+    states["101"] = "FAILED"  # one of the two failed before joining, the other is queued
+    assert keeper.tick() and asked == [["100", "101"]] and keeper.error is None
+    keeper.worker_joined(W0)  # 100 joined: Slurm is not asked while it is there
+    asked.clear()
+    assert keeper.tick() and asked == [] and keeper.error is None
+    cluster.lose(W0)  # 100 lost: its replacement 102 is submitted and queued
+    assert keeper.tick() and cluster.submitted == ["100", "101", "102"]
+    assert keeper.tick() and keeper.error is None
+    states["102"] = "FAILED"  # now no worker job can bring a worker
+    assert not keeper.tick()
+    assert keeper.error.startswith("Slurm job 101 ended: FAILED before its worker joined")
+
+
+def test_the_log_line_shown_is_the_error_not_the_trailing_noise(tmp_path):
+    from mitsuba_pbrdf.batch.slurm_keeper import log_error_line
+
+    (tmp_path / "pbrdf-x-7.err").write_text(PYTHON_BROKEN_LOG)
+    (tmp_path / "pbrdf-x-8.err").write_text("starting\n\nslurmstepd: step 8.0 done\n")
+    (tmp_path / "pbrdf-x-9.err").write_text("")
+    assert log_error_line(str(tmp_path), "7") == "ModuleNotFoundError: No module named 'encodings'"
+    assert log_error_line(str(tmp_path), "8") == "slurmstepd: step 8.0 done"
+    assert log_error_line(str(tmp_path), "9") == ""
+    assert log_error_line(str(tmp_path), "10") == ""
+
+
 @pytest.mark.parametrize("value", [0, -1, 1.5, True])
 def test_max_resubmissions_must_be_a_positive_integer(value):
     from mitsuba_pbrdf.batch.slurm_options import slurm_options

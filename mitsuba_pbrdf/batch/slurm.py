@@ -311,6 +311,17 @@ def _why_ended(job: str) -> str:
     return job_ended(job, job_states([job]).get(job, {}))
 
 
+#: Slurm job states of a job that will not run (again) by itself.
+ENDED_STATES = frozenset({"COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL",
+                          "OUT_OF_MEMORY", "BOOT_FAIL", "DEADLINE", "PREEMPTED"})
+
+
+def _ended(jobs: List[str]) -> Dict[str, str]:
+    """``{job id: how it ended}`` for those of *jobs* that Slurm says ended."""
+    return {job: job_ended(job, fields) for job, fields in job_states(jobs).items()
+            if fields.get("JobState") in ENDED_STATES}
+
+
 def _first_worker_joined(client, keeper: Keeper, timeout: float) -> bool:
     """Whether a worker joined within *timeout* s. A worker that joined and was
     lost at once counts (it started; the keeper replaces it): waiting for one
@@ -348,7 +359,7 @@ def _session(cluster_class, options: SlurmOptions, partition: str, log_directory
             client.register_plugin(SlurmWorkerSetup(options.cores))
             keeper = Keeper(cluster, options.jobs, ResubmissionCap(options.max_resubmissions),
                             done=done, why_ended=_why_ended, on_give_up=on_give_up,
-                            logs=log_directory)
+                            logs=log_directory, ended=_ended)
             cluster.scheduler.add_plugin(WorkerJobEvents(keeper))
             cluster.scale(jobs=options.jobs)
             keeper.start()

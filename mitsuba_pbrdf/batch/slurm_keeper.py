@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
-from typing import Callable, Dict, Optional
+from typing import Callable, Dict, List, Optional, Set
 
-__all__ = ["ResubmissionCap", "Keeper", "REPLACE_INTERVAL_S", "DEFAULT_MAX_RESUBMISSIONS"]
+__all__ = ["ResubmissionCap", "Keeper", "log_error_line", "REPLACE_INTERVAL_S",
+           "DEFAULT_MAX_RESUBMISSIONS"]
 
 #: Seconds between two checks that the cluster still has its worker jobs.
 REPLACE_INTERVAL_S = 2.0
@@ -59,7 +60,12 @@ class Keeper(threading.Thread):
     Dask gives it up, within *cap*. *done* () -> renders done so far;
     *why_ended* (Slurm job id) -> one phrase on how it ended; *on_give_up* ()
     is called once, when the cap is reached (then :attr:`error` holds the line,
-    which points at the worker jobs' logs in the folder *logs*).
+    which points at the worker jobs' logs in the folder *logs*). *ended*
+    (Slurm job ids) -> ``{job id: how it ended}`` for those that have ended:
+    when no worker is in the scheduler and every worker job ended before its
+    worker joined (Python missing or broken on the nodes, a prologue that
+    failed), nothing will ever render, so the keeper gives up at once, with
+    the error line of a job's log.
 
     Losses come as events, not from looking at the cluster now and then: the
     scheduler calls :meth:`worker_left` (and :meth:`worker_joined`) for every
@@ -74,16 +80,20 @@ class Keeper(threading.Thread):
     def __init__(self, cluster, jobs: int, cap: Optional[ResubmissionCap] = None,
                  done: Callable[[], int] = lambda: 0,
                  why_ended: Callable[[str], str] = lambda job: f"Slurm job {job} ended",
-                 on_give_up: Callable[[], None] = lambda: None, logs: str = "slurm-logs"):
+                 on_give_up: Callable[[], None] = lambda: None, logs: str = "slurm-logs",
+                 ended: Callable[[List[str]], Dict[str, str]] = lambda jobs: {}):
         super().__init__(daemon=True, name="pbrdf-slurm-keeper")
         self.cluster, self.jobs = cluster, jobs
         self.cap = cap or ResubmissionCap()
         self.done, self.why_ended, self.on_give_up = done, why_ended, on_give_up
+        self.ended = ended
         self.logs = logs
         self.stop = threading.Event()
         self.error: Optional[str] = None
         self._lock = threading.Lock()
         self._left: Dict[str, Optional[str]] = {}  # worker job name -> Slurm job id of its loss
+        self._joined: Set[str] = set()   # Slurm job ids whose worker joined
+        self._present: Set[str] = set()  # worker job names whose worker is in the scheduler
 
     def _job_of(self, name: str) -> Optional[str]:
         job_id = getattr(self.cluster.workers.get(name), "job_id", None)
@@ -95,6 +105,9 @@ class Keeper(threading.Thread):
         nanny restarted it) was not lost."""
         job = self._job_of(name)
         with self._lock:
+            self._present.add(name)
+            if job:
+                self._joined.add(job)
             if name in self._left and self._left[name] == job:
                 del self._left[name]
 
@@ -102,6 +115,7 @@ class Keeper(threading.Thread):
         """The worker of worker job *name* left the scheduler (its thread)."""
         job = self._job_of(name)
         with self._lock:
+            self._present.discard(name)
             self._left[name] = job
 
     def run(self):
@@ -134,12 +148,63 @@ class Keeper(threading.Thread):
             else:
                 if not self._left and any(name not in running for name in names):
                     self.cluster.scale(jobs=self.jobs)
-        if lost is None:
+        if lost is not None:
+            last = self.why_ended(lost) if lost else "a worker job ended"
+            self._give_up(
+                f"the Slurm worker jobs were lost and replaced {self.cap.limit} times each "
+                f"(max_resubmissions, --max-resubmissions) with no render done in between; the "
+                f"last one: {last}; submitting no more (the worker jobs' logs are in {self.logs})")
+            return False
+        return self._check_unjoined()
+
+    def _check_unjoined(self) -> bool:
+        """When no worker is in the scheduler, none is being submitted, and
+        the worker job of every spec entry has never had its worker join,
+        ask Slurm about them: False (after :attr:`on_give_up`) when all have
+        ended, for no worker will come (Dask replaces only workers that left)."""
+        try:
+            names = list(self.cluster.worker_spec)
+            jobs = [self._job_of(name) for name in names]
+        except RuntimeError:  # changed while copied: next time
             return True
-        last = self.why_ended(lost) if lost else "a worker job ended"
-        self.error = (
-            f"the Slurm worker jobs were lost and replaced {self.cap.limit} times each "
-            f"(max_resubmissions, --max-resubmissions) with no render done in between; the "
-            f"last one: {last}; submitting no more (the worker jobs' logs are in {self.logs})")
-        self.on_give_up()
+        with self._lock:
+            if self._present or self._left or not jobs or any(
+                    not job or job in self._joined for job in jobs):
+                return True
+        ended = self.ended(sorted(set(jobs)))
+        if set(ended) != set(jobs):
+            return True
+        job = min(ended, key=lambda j: (len(j), j))
+        hint = log_error_line(self.logs, job)
+        self._give_up(
+            f"{ended[job]} before its worker joined the sweep"
+            + (f": {hint}" if hint else "")
+            + f"; nothing would render, so no more worker jobs are submitted (the worker jobs' "
+              f"logs are in {self.logs})")
         return False
+
+    def _give_up(self, line: str) -> None:
+        self.error = line
+        self.on_give_up()
+
+
+def log_error_line(logs: str, job: str, tail: int = 50) -> str:
+    """The last line that names an error in the last *tail* lines of Slurm
+    job *job*'s standard error (``<logs>/<job name>-<job>.err``, as
+    dask-jobqueue names it), else its last non-empty line; "" without one."""
+    import glob
+    import os
+    import re
+
+    for path in sorted(glob.glob(os.path.join(glob.escape(logs), f"*-{job}.err"))):
+        try:
+            with open(path, errors="replace") as f:
+                lines = [line.strip() for line in f.read().splitlines()[-tail:] if line.strip()]
+        except OSError:
+            continue
+        for line in reversed(lines):
+            if re.search(r"Error\b|error:|Exception\b|Killed|not found|No such file", line):
+                return line
+        if lines:
+            return lines[-1]
+    return ""
