@@ -241,7 +241,7 @@ def test_a_job_that_ended_before_its_worker_joined_stops_the_sweep_at_once(tmp_p
         f"more worker jobs are submitted (the worker jobs' logs are in {logs})")
     assert cluster.submitted == ["100"]
     with pytest.raises(SlurmError, match="^Slurm job 100 ended: FAILED .* 'encodings'"):
-        _first_worker_joined(FakeClient(), keeper, 60.0)
+        _first_worker_joined(keeper, 60.0)
 
 
 def test_a_job_that_may_still_bring_a_worker_keeps_the_sweep_going():
@@ -361,31 +361,20 @@ def test_a_request_larger_than_the_nodes_names_cores_memory_and_the_node_size(mo
     assert "--cores" not in str(info.value)
 
 
-class FakeClient:
-    """What waiting for the first worker reads of a Dask client: the workers
-    present now, and the events workers logged when they joined."""
-
-    def __init__(self, present=(), joined=()):
-        self.present, self.joined = dict.fromkeys(present), list(joined)
-
-    def scheduler_info(self):
-        return {"workers": self.present}
-
-    def get_events(self, topic):
-        return [(0.0, {"worker": w, "job": job}) for w, job in self.joined]
-
-
 def test_a_worker_that_joined_and_left_counts_as_started():
     """Slurm workers cancelled within milliseconds of joining (CI: three in
     a row, each gone before a poll) were never seen by
     ``Client.wait_for_workers``, which then waited out --start-timeout and
-    reported that no worker job started, after the keeper had given up."""
+    reported that no worker job started, after the keeper had given up. The
+    wait now asks the keeper, which the scheduler told of every join."""
     from mitsuba_pbrdf.batch.slurm import _first_worker_joined
 
-    keeper, _ = keeper_for(FakeCluster(1), limit=2)
-    assert _first_worker_joined(FakeClient(joined=[("tcp://a:1", "14")]), keeper, 5.0)
-    assert _first_worker_joined(FakeClient(present=["tcp://a:1"]), keeper, 5.0)
-    assert not _first_worker_joined(FakeClient(), keeper, 0.2)
+    cluster = FakeCluster(1)
+    keeper, _ = keeper_for(cluster, limit=2)
+    assert not _first_worker_joined(keeper, 0.2)
+    keeper.worker_joined(W0)
+    cluster.leave(W0)  # joined and left before the wait looked
+    assert _first_worker_joined(keeper, 5.0)
 
 
 def test_the_keepers_give_up_ends_the_wait_for_the_first_worker_with_its_line():
@@ -400,5 +389,5 @@ def test_the_keepers_give_up_ends_the_wait_for_the_first_worker_with_its_line():
     assert not keeper.tick() and given_up
     start = time.monotonic()
     with pytest.raises(SlurmError, match="replaced 1 times each .* submitting no more"):
-        _first_worker_joined(FakeClient(), keeper, 60.0)
+        _first_worker_joined(keeper, 60.0)
     assert time.monotonic() - start < 1.0

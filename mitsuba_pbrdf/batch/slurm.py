@@ -322,18 +322,19 @@ def _ended(jobs: List[str]) -> Dict[str, str]:
             if fields.get("JobState") in ENDED_STATES}
 
 
-def _first_worker_joined(client, keeper: Keeper, timeout: float) -> bool:
-    """Whether a worker joined within *timeout* s. A worker that joined and was
-    lost at once counts (it started; the keeper replaces it): waiting for one
-    to be present, as ``Client.wait_for_workers`` does, can miss every worker
-    that lives less than its poll interval and then wait out *timeout* after
-    the keeper has given up. Raises :class:`SlurmError` with the keeper's line
+def _first_worker_joined(keeper: Keeper, timeout: float) -> bool:
+    """Whether a worker joined within *timeout* s, as the scheduler told the
+    keeper (:class:`WorkerJobEvents`). A worker that joined and was lost at
+    once counts (it started; the keeper replaces it): waiting for one to be
+    present, as ``Client.wait_for_workers`` does, can miss every worker that
+    lives less than its poll interval and then wait out *timeout* after the
+    keeper has given up. Raises :class:`SlurmError` with the keeper's line
     when it gives up first."""
     deadline = time.monotonic() + timeout
     while True:
         if keeper.error:
             raise SlurmError(keeper.error)
-        if _worker_jobs(client) or client.scheduler_info().get("workers"):
+        if keeper.any_joined():
             return True
         if time.monotonic() >= deadline:
             return False
@@ -363,7 +364,7 @@ def _session(cluster_class, options: SlurmOptions, partition: str, log_directory
             cluster.scheduler.add_plugin(WorkerJobEvents(keeper))
             cluster.scale(jobs=options.jobs)
             keeper.start()
-            if not _first_worker_joined(client, keeper, options.start_timeout):
+            if not _first_worker_joined(keeper, options.start_timeout):
                 queued = _queued(job_name)
                 why = ", ".join(sorted({f"{s} ({r})" for _, s, r in queued})) or \
                     "no job in the queue: sbatch failed, see the logs in " + log_directory

@@ -111,6 +111,11 @@ class Keeper(threading.Thread):
             if name in self._left and self._left[name] == job:
                 del self._left[name]
 
+    def any_joined(self) -> bool:
+        """Whether a worker of this cluster ever joined the scheduler."""
+        with self._lock:
+            return bool(self._joined or self._present)
+
     def worker_left(self, name: str) -> None:
         """The worker of worker job *name* left the scheduler (its thread)."""
         job = self._job_of(name)
