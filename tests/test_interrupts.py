@@ -278,8 +278,8 @@ def test_sigint_at_random_delays_never_replaces_an_output(name, tmp_path):
     rng = random.Random(seed)
     delays = sorted(rng.uniform(0.0, 2.0) for _ in range(3))
     print(f"{name}: seed {seed}, delays {', '.join(f'{d:.3f}' for d in delays)} s")
-    for delay in delays:
-        out = tmp_path / f"{delay:.3f}"
+    for i, delay in enumerate(delays):
+        out = tmp_path / f"{i}-{delay:.3f}"  # two delays may print alike (CI: 0.567, 0.567)
         out.mkdir()
         args, outputs = COMMANDS[name](str(out))
         for rel in outputs:
