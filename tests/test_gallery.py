@@ -10,7 +10,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf.camera.polcam import ANGLES, stokes_from_polarizer_images
+from mitsuba_pbrdf.camera.polcam import ANGLES, stokes_from_intensities
 from mitsuba_pbrdf.visualization import gallery
 from mitsuba_pbrdf.visualization.gallery import _Settings, render_polarizer_images, run_gallery
 from mitsuba_pbrdf.visualization.polarizer_figure import polarizer_check
@@ -39,7 +39,7 @@ def test_polarization_camera_inverts_malus_law():
     s1, s2 = s0 * p * np.cos(2 * a), s0 * p * np.sin(2 * a)
     intensities = {t: 0.5 * (s0 + s1 * np.cos(2 * np.radians(t)) + s2 * np.sin(2 * np.radians(t)))
                    for t in ANGLES}
-    stokes = stokes_from_polarizer_images(intensities)
+    stokes = stokes_from_intensities(intensities, axis=-2)
     np.testing.assert_allclose(stokes[..., :3, :], np.stack([s0, s1, s2], axis=-2), atol=1e-12)
     assert np.all(stokes[..., 3, :] == 0)
 

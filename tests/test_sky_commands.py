@@ -73,13 +73,13 @@ def test_a_stokes_cube_and_a_narrow_band_of_the_sky_see_the_same_dolp(tmp_path):
 
 def test_polcam_of_the_sky_gives_back_its_dolp_and_aolp(tmp_path):
     from mitsuba_pbrdf.stokes.exr import read_exr_channels
-    from mitsuba_pbrdf.camera.polcam import stokes_from_polarizer_images
+    from mitsuba_pbrdf.camera.polcam import stokes_from_intensities
 
     image = render(tmp_path, "sky", "--wavelength", "550")
     assert main(["polcam", str(tmp_path / "sky.exr"), "--out", str(tmp_path / "cam")]) == 0
     intensities = {a: read_exr_channels(tmp_path / "cam" / f"sky_I{a}.exr")["550nm"][..., None]
                    for a in (0, 45, 90, 135)}
-    camera = stokes_from_polarizer_images(intensities)[..., 0]
+    camera = stokes_from_intensities(intensities, axis=-2)[..., 0]
     stokes = image.stokes[..., 0].astype(np.float64)
     assert np.abs(dolp(camera, axis=-1) - dolp(stokes, axis=-1))[TOP].max() < 1e-5
     turn = np.degrees(aolp(camera, axis=-1) - aolp(stokes, axis=-1))[TOP]

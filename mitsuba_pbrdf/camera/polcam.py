@@ -43,7 +43,7 @@ from ..stokes.image import StokesImage, luminance_stokes
 from ..stokes.quality import require_usable
 
 __all__ = ["ANGLES", "MONO_LAYOUT", "BAYER_LAYOUT", "COLOUR_CUBE_REFUSAL", "polarizer_images",
-           "stokes_from_polarizer_images",
+           "stokes_from_intensities",
            "malus", "mono_layout", "colour_layout", "mono_mosaic", "colour_mosaic", "SensorModel",
            "write_png16", "is_cube", "polcam_outputs", "polcam_file_names", "write_polcam_files"]
 
@@ -72,15 +72,15 @@ def polarizer_images(image: StokesImage) -> Dict[int, np.ndarray]:
     return {a: malus(image.stokes, a, axis=-2).astype(np.float32) for a in ANGLES}
 
 
-def stokes_from_polarizer_images(intensities: Dict[int, np.ndarray]) -> np.ndarray:
+def stokes_from_intensities(intensities: Dict[int, np.ndarray], axis: int = -1) -> np.ndarray:
     """Linear Stokes vectors from the intensities behind a polarizer at each
     of :data:`ANGLES` (what a division-of-focal-plane camera computes; the
-    inverse of :func:`polarizer_images`): S0 = (I0 + I45 + I90 + I135) / 2,
-    S1 = I0 − I90, S2 = I45 − I135, S3 = 0. Each intensity is (H, W, bands);
-    returns (H, W, 4, bands), float64."""
+    inverse of :func:`malus` at those angles): S0 = (I0 + I45 + I90 + I135) / 2,
+    S1 = I0 − I90, S2 = I45 − I135, S3 = 0, float64, the four components on
+    a new *axis* (-2 for ``StokesImage.stokes`` from (H, W, bands) intensities)."""
     i0, i45, i90, i135 = (np.asarray(intensities[a], dtype=np.float64) for a in ANGLES)
     return np.stack([(i0 + i45 + i90 + i135) / 2, i0 - i90, i45 - i135,
-                     np.zeros_like(i0)], axis=-2)
+                     np.zeros_like(i0)], axis=axis)
 
 
 def mono_layout(height: int, width: int) -> np.ndarray:

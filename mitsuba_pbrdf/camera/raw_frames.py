@@ -28,7 +28,7 @@ from typing import Optional
 import numpy as np
 
 from ..stokes.image import StokesImage
-from .polcam import ANGLES, colour_layout, mono_layout
+from .polcam import ANGLES, colour_layout, mono_layout, stokes_from_intensities
 
 __all__ = ["demosaic", "stokes_of_polarizer_images", "read_polcam_exr", "mosaic_preview",
            "mosaic_previews"]
@@ -37,10 +37,8 @@ _POLARIZER_FILE = re.compile(r"^(?P<stem>.*)_I(?P<angle>0|45|90|135)\.exr$")
 
 
 def _stokes(images: dict) -> np.ndarray:
-    """(..., 4) Stokes vectors from the four polarizer intensities {angle: (...)}."""
-    i0, i45, i90, i135 = (np.asarray(images[a], dtype=np.float64) for a in ANGLES)
-    s = np.stack([(i0 + i45 + i90 + i135) / 2, i0 - i90, i45 - i135, np.zeros_like(i0)], -1)
-    return s.astype(np.float32)
+    """(..., 4) float32 Stokes vectors from the four polarizer intensities {angle: (...)}."""
+    return stokes_from_intensities(images).astype(np.float32)
 
 
 def demosaic(frame: np.ndarray, sensor: str = "mono", band: str = "Y") -> StokesImage:

@@ -101,7 +101,6 @@ SUN_ELEVATIONS = (15.0, 35.0, 60.0)
 SUN_AZIMUTH = 210.0
 #: The skies of ``sky.png``: sky.xml's ``sky`` and the column label.
 SKIES = (("polarized_sky", "polarized_sky"), ("sunsky", "sunsky (unpolarized)"))
-#: Polarizer angles of ``polarizer.png`` (degrees, counter-clockwise in the picture).
 #: Everything ``run_gallery`` makes, in order.
 GALLERY_ITEMS = ("materials", "roughness", "polarizer", "polcam", "normalmap", "sheet", "plot",
                  "brushed", "sky")

@@ -9,7 +9,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from ..camera.polcam import ANGLES, stokes_from_polarizer_images
+from ..camera.polcam import ANGLES, stokes_from_intensities
 from ..stokes.image import StokesImage
 from .panels import plot_aolp, plot_dolp, plot_intensity
 from .tonemap import linear_rgb, shared_exposure, tonemap
@@ -47,7 +47,7 @@ def polarizer_figure(filtered: Dict[int, StokesImage], clear: StokesImage,
 
     exposure = 2.0 * shared_exposure([clear])  # the filtered images are ~S0/2
     camera = StokesImage(
-        stokes_from_polarizer_images({a: filtered[a].s0 for a in ANGLES}),
+        stokes_from_intensities({a: filtered[a].s0 for a in ANGLES}, axis=-2),
         bands=filtered[0].bands)
     aspect = clear.height / clear.width
     fig = Figure(figsize=(4 * 2.9 + 0.6, 2 * 2.9 * aspect + 1.1), layout="constrained")
