@@ -27,6 +27,7 @@ import importlib
 import importlib.util
 import logging
 import sys
+import threading
 
 from .interrupts import held
 from .variant import UnknownVariantError, _mitsuba, require_variant
@@ -50,6 +51,11 @@ PLUGINS = (
 )
 
 _modules = {}
+#: Held while a module is looked up or run: Mitsuba builds a scene's plugins on
+#: several threads, and another thread must not take a module whose body is
+#: still running (its VARIANT set, its classes not yet: CI, "no attribute
+#: 'PolarizedBRDF'"). Reentrant: a module may import another one.
+_modules_lock = threading.RLock()
 
 
 def variant_module(name: str):
@@ -57,6 +63,11 @@ def variant_module(name: str):
     that variant's Mitsuba base classes): run once per variant, then reused."""
     mi = require_variant()
     variant = mi.variant()
+    with _modules_lock:
+        return _variant_module(name, variant)
+
+
+def _variant_module(name: str, variant: str):
     module = _modules.get((name, variant))
     if module is None:
         current = sys.modules.get(name)
