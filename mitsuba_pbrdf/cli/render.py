@@ -59,9 +59,12 @@ def run(args) -> int:
     picture = picture_kwargs(args)
     warn_unused_picture_options(args, picture["panels"], "render")
     # the library's checks, once (errors name the parameter; run_command names the option)
-    request = check_render(scene, spp=args.spp, variant=chosen_variant(args), params=params,
-                           passes=args.passes, wavelength=args.wavelength, bands=args.bands,
-                           size=args.size, auto_stokes=args.auto_stokes)
+    try:
+        request = check_render(scene, spp=args.spp, variant=chosen_variant(args), params=params,
+                               passes=args.passes, wavelength=args.wavelength, bands=args.bands,
+                               size=args.size, auto_stokes=args.auto_stokes)
+    except SceneLoadError as e:  # Mitsuba's parser read the scene for the checks
+        raise CliError(f"cannot load {scene}: {e}") from e
     written = request.mode.band_names  # the Stokes bands the render writes
     if picture["band"] not in (None, *written):
         raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(written)}")
