@@ -128,8 +128,13 @@ def parse_scene(scene_path, variant: str, params=None):
 def prepare(scene_path, variant: str, params=None, setup: SceneSetup = SceneSetup()) -> Prepared:
     """The scene file parsed (:func:`parse_scene`) and edited as *setup* asks;
     raises the module's one-line errors. Builds no object."""
+    import mitsuba as mi
+
     config, state = parse_scene(scene_path, variant, params)
     prepared = Prepared(config, state, os.fspath(scene_path))
+    if state.nodes[_ROOT].type != mi.ObjectType.Scene:
+        raise StokesSceneError(f"{os.path.basename(prepared.scene_path)} is not a scene: its "
+                               f"root is a {str(state.nodes[_ROOT].type).split('.')[-1]}")
     if setup.integrator != "as_is":
         prepared.notice = _integrator(prepared, setup)
     if setup.size is not None:
