@@ -75,7 +75,7 @@ def published(folder, integrator="path", crop=""):
     return folder / "main.xml"
 
 
-@pytest.mark.parametrize("integrator", ["path", pytest.param("moment", marks=pytest.mark.slow),
+@pytest.mark.parametrize("integrator", ["path", "moment",
                                         pytest.param("none", marks=pytest.mark.slow)])
 def test_a_published_scene_renders_as_the_scene_wrapped_by_hand(integrator, tmp_path, caplog):
     """The automatic stokes gives the image a hand edit gives, seed for seed

@@ -53,12 +53,11 @@ __all__ = ["SceneSetup", "Prepared", "StokesSceneError", "WRAPPABLE", "parse_siz
 #: Integrators that ``stokes`` can wrap: they carry Mueller matrices and rotate
 #: their Stokes frames along the path.
 WRAPPABLE = ("path", "direct", "volpath", "volpathmis")
-#: Integrators that write Stokes channels themselves.
-STOKES_INTEGRATORS = ("stokes", "stokes_prb")
 #: Mitsuba's default when a scene names no integrator.
 DEFAULT_INTEGRATOR = "path"
 _SIZE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
-#: Largest film side accepted from ``size`` (Mitsuba's films index pixels with 32 bits).
+#: Largest film side accepted from ``size``: a bound, so that no absurd size (2^63 - 1)
+#: reaches Mitsuba; 32768 x 32768 pixels (2^30) stay within 32-bit pixel indices.
 MAX_SIDE = 1 << 15
 
 
@@ -80,7 +79,7 @@ class SceneSetup:
     auto_stokes: bool = True
     size: Optional[Tuple[int, int]] = None
     srf: Optional[tuple] = None
-    error_parameter: str = "scene"
+    error_parameter: str = "srf"
 
 
 @dataclass
