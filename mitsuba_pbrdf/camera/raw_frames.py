@@ -30,8 +30,8 @@ import numpy as np
 from ..stokes.image import StokesImage
 from .polcam import ANGLES, colour_layout, mono_layout, stokes_from_intensities
 
-__all__ = ["demosaic", "stokes_of_polarizer_images", "read_polcam_exr", "mosaic_preview",
-           "mosaic_previews"]
+__all__ = ["demosaic", "stokes_of_polarizer_images", "read_polcam_exr", "polarizer_siblings",
+           "mosaic_preview", "mosaic_previews"]
 
 _POLARIZER_FILE = re.compile(r"^(?P<stem>.*)_I(?P<angle>0|45|90|135)\.exr$")
 
@@ -114,10 +114,9 @@ def read_polcam_exr(path) -> Optional[StokesImage]:
         match = _POLARIZER_FILE.match(os.path.basename(path))
         if match is None:
             return None
-        folder, stem = os.path.dirname(path), match.group("stem")
+        stem = match.group("stem")
         images = {}
-        for a in ANGLES:
-            sibling = os.path.join(folder, f"{stem}_I{a}.exr")
+        for a, sibling in zip(ANGLES, _polarizer_files(path, match)):
             if not os.path.isfile(sibling):
                 raise FileNotFoundError(f"{sibling}: the Stokes image of a polarizer image "
                                         "needs all four (I0, I45, I90, I135) beside it")
@@ -127,6 +126,23 @@ def read_polcam_exr(path) -> Optional[StokesImage]:
     image.metadata = dict(metadata, title=f"{os.path.basename(path)}: the Stokes image of "
                                           f"the polarization camera ({how}; S3 unseen)")
     return image
+
+
+def _polarizer_files(path: str, match) -> list:
+    folder, stem = os.path.dirname(path), match.group("stem")
+    return [os.path.join(folder, f"{stem}_I{a}.exr") for a in ANGLES]
+
+
+def polarizer_siblings(path) -> list:
+    """The other three polarizer images that :func:`read_polcam_exr` reads
+    with the polarizer image *path* (``<stem>_I<angle>.exr``), told by its
+    name; none for another name."""
+    path = os.fspath(path)
+    match = _POLARIZER_FILE.match(os.path.basename(path))
+    if match is None:
+        return []
+    return [p for p in _polarizer_files(path, match) if os.path.basename(p)
+            != os.path.basename(path)]
 
 
 def mosaic_preview(frame: np.ndarray, bits: Optional[int] = None) -> np.ndarray:

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from typing import Dict, List, Mapping, Optional
 
 __all__ = ["SceneParameterError", "ParameterUse", "SceneParameter", "parameter_uses",
-           "declared_parameters", "scene_parameters", "did_you_mean", "unknown_parameter_message",
+           "declared_parameters", "scene_parameters", "scene_inputs", "did_you_mean", "unknown_parameter_message",
            "check_parameter_values", "check_loaded_scene"]
 
 _REFERENCE = re.compile(r"\$(\w+)")
@@ -206,6 +206,44 @@ def scene_parameters(scene_path) -> List[SceneParameter]:
     uses = parameter_uses(path)
     names = list(defaults) + sorted(k for k in uses if k not in defaults)
     return [SceneParameter(n, defaults.get(n), tuple(uses.get(n, ()))) for n in names]
+
+
+def scene_inputs(scene_path, params: Optional[Mapping[str, str]] = None) -> List[str]:
+    """The files a scene reads, besides itself: every ``filename`` property
+    (bitmaps, environment maps, meshes, tables) and ``<include>``, of the file
+    and the files it includes, with ``$key`` filled from *params* or the
+    ``<default>`` s, relative to the including file's folder as Mitsuba finds
+    them. For the outputs' check (:func:`mitsuba_pbrdf.outputs.check_plan`: a
+    render never writes over its own texture); an unreadable file gives none."""
+    values = dict(_scene_defaults(scene_path))
+    values.update({k: str(v) for k, v in (params or {}).items()})
+    found: List[str] = []
+    seen: set = set()
+
+    def fill(text: str) -> Optional[str]:
+        text = _REFERENCE.sub(lambda m: values.get(m.group(1), m.group(0)), text)
+        return None if "$" in text else text
+
+    def visit(path):
+        path = os.path.abspath(os.fspath(path))
+        if path in seen:
+            return
+        seen.add(path)
+        try:
+            root = ET.parse(path).getroot()
+        except (ET.ParseError, OSError):
+            return
+        for element in root.iter():
+            name = element.get("filename") if element.tag == "include" else (
+                element.get("value") if element.get("name") == "filename" else None)
+            name = fill(name) if name else None
+            if name:
+                found.append(os.path.join(os.path.dirname(path), name))
+                if element.tag == "include":
+                    visit(found[-1])
+
+    visit(scene_path)
+    return found
 
 
 def did_you_mean(key: str, declared) -> str:
