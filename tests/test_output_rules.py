@@ -312,3 +312,72 @@ def test_batch_manifest_never_replaces_the_sweep_file(files, capfd, monkeypatch)
     line = capfd.readouterr().err.strip()
     assert "out and the sweep file name the same file" in line and len(line.splitlines()) == 1
     assert open("sweep/manifest.csv").read() == before
+
+
+# ---------------------------------------------------------------- what is written is valid
+
+
+def _fit_at(wavelengths, n, k):
+    """A two-wavelength fit's result, as write_fitted_scene reads it."""
+    import types
+
+    return types.SimpleNamespace(
+        values={"n": np.array(n), "k": np.array(k), "sigma": 0.2, "ks": 1.0, "kdd": 0.1,
+                "sigma_dd": 0.4, "kid": 0.05},
+        wavelengths=np.array(wavelengths), model="three", index_note="n, k fitted per wavelength",
+        shadowing="vgroove", distribution="ggx", dd_distribution="ggx", objective="log",
+        reduced_chi2=1.2)
+
+
+def test_fitted_scene_spectra_cover_the_spectral_range(tmp_path):
+    """A fit at 500 and 600 nm wrote eta = 0 outside 500-600 nm, which the
+    plugin refuses; now the end values are held out to 360 and 830 nm, and a
+    comment says so. The data file's odd name is escaped (valid XML)."""
+    import xml.etree.ElementTree as ET
+
+    from mitsuba_pbrdf.fitting.scene_out import write_fitted_scene
+
+    path = write_fitted_scene(_fit_at([600.0, 500.0], [0.9, 1.1], [7.0, 6.0]),
+                              str(tmp_path / "fitted.xml"), source="al---sample\udcff.csv")
+    text = open(path, encoding="utf-8").read()
+    root = ET.fromstring(text)                       # al---sample: valid XML
+    eta = root.find(".//bsdf[@type='pbrdf']/spectrum[@name='eta']").get("value")
+    k = root.find(".//bsdf[@type='pbrdf']/spectrum[@name='k']").get("value")
+    assert eta == "360:1.1, 500:1.1, 600:0.9, 830:0.9" and k == "360:6, 500:6, 600:7, 830:7"
+    assert "held at the end values outside 500-600 nm, out to 360-830 nm" in text
+    assert "al- - -sample\\xff.csv" in text
+
+
+@pytest.mark.parametrize("variant", ["llvm_ad_spectral_polarized", "llvm_ad_rgb",
+                                     "llvm_ad_spectral"])
+def test_fitted_scene_renders_polarized_and_unpolarized(variant, tmp_path):
+    """The scene of a two-wavelength fit loads and renders (finite, not black)
+    in a polarized variant as it is, and in unpolarized ones without its
+    stokes integrator (rendering.cube.scene_without_stokes, as render --bands
+    loads it)."""
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.fitting.scene_out import write_fitted_scene
+    from mitsuba_pbrdf.registry import use_variant
+    from mitsuba_pbrdf.rendering.cube import scene_without_stokes
+    from mitsuba_pbrdf.rendering.scene_loading import load_scene, load_scene_text
+
+    path = write_fitted_scene(_fit_at([500.0, 600.0], [1.1, 0.9], [6.0, 7.0]),
+                              str(tmp_path / "fitted.xml"), source="al---sample.csv")
+    use_variant(variant)
+    params = {"width": 8, "height": 6, "spp": 2}
+    scene = (load_scene(path, params) if "polarized" in variant
+             else load_scene_text(scene_without_stokes(path), path, params))
+    image = np.asarray(mi.render(scene))
+    assert np.isfinite(image).all() and image[..., :3].max() > 0
+
+
+def test_exr_header_text_is_escaped(tmp_path):
+    """A title with a line break and a byte of a file name that is not UTF-8
+    (how Python decodes one) raised UnicodeEncodeError inside OpenEXR."""
+    from mitsuba_pbrdf.stokes.exr import read_exr, write_exr
+
+    path = write_exr(tmp_path / "h.exr", {"Y": np.zeros((2, 2), np.float32)},
+                     {"title": "two\nlines \udcff.exr", "source": "a\tb"})
+    metadata, _ = read_exr(path)
+    assert metadata["title"] == "two lines \\xff.exr" and metadata["source"] == "a b"

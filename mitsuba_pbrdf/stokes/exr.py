@@ -91,8 +91,10 @@ def write_exr(path, channels, metadata=None, compression: str = "zip", attribute
     path = os.fspath(path)
     channels = {name: np.ascontiguousarray(a, dtype=np.float32) for name, a in channels.items()}
     header = {"compression": comp, "type": OpenEXR.scanlineimage, **(attributes or {})}
-    for key, value in (metadata or {}).items():
-        header[_HEADER_PREFIX + key] = str(value)
+    from ..outputs import escape_text
+
+    for key, value in (metadata or {}).items():  # titles and sources hold file names
+        header[_HEADER_PREFIX + escape_text(key, "line")] = escape_text(value, "line")
     with atomic_path(path) as tmp, OpenEXR.File(header, channels) as f:
         with _library_output() as noise:
             try:
