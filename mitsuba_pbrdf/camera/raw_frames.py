@@ -121,6 +121,7 @@ def read_polcam_exr(path) -> Optional[StokesImage]:
                 raise FileNotFoundError(f"{sibling}: the Stokes image of a polarizer image "
                                         "needs all four (I0, I45, I90, I135) beside it")
             images[a] = read_exr(sibling)[1]
+            _same_frame(images[a], channels, sibling, path)
         image = stokes_of_polarizer_images(images, _band_order(channels))
         how = f"{stem}_I0/I45/I90/I135.exr"
     image.metadata = dict(metadata, title=f"{os.path.basename(path)}: the Stokes image of "
@@ -143,6 +144,22 @@ def polarizer_siblings(path) -> list:
         return []
     return [p for p in _polarizer_files(path, match) if os.path.basename(p)
             != os.path.basename(path)]
+
+
+def _same_frame(sibling: dict, channels: dict, sibling_path: str, path: str):
+    """ValueError naming *sibling_path* unless its channels are those of
+    *path*'s (*channels*), of the same size: the four images of one camera."""
+    if sorted(sibling) != sorted(channels):
+        raise ValueError(f"{sibling_path}: channels {', '.join(sorted(sibling)) or 'none'}, "
+                         f"but {os.path.basename(path)} has {', '.join(sorted(channels))}: "
+                         "not the polarizer images of one camera")
+    shapes = {np.shape(a) for a in (*sibling.values(), *channels.values())}
+    if len(shapes) > 1:
+        size = next(np.shape(a) for a in channels.values())
+        other = next(np.shape(a) for a in sibling.values() if np.shape(a) != size)
+        raise ValueError(f"{sibling_path}: {other[1]}x{other[0]} pixels, but "
+                         f"{os.path.basename(path)} has {size[1]}x{size[0]}: not the polarizer "
+                         "images of one camera")
 
 
 def mosaic_preview(frame: np.ndarray, bits: Optional[int] = None) -> np.ndarray:
