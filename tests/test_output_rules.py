@@ -121,8 +121,8 @@ def _path(files, command, option, value, row):
         return f"{tmp}/{name}.txt"
     if value == "noext":
         return f"{tmp}/{name}"
-    if value == "unwritable":
-        return f"/sys/{name}{suffix}"
+    if value == "unwritable":   # odd characters too: the message names it on one line
+        return f"/sys/{name}{ODD}{suffix}"
     if value == "notfolder":
         return f"{README}/{name}"
     raise AssertionError(value)
@@ -203,6 +203,7 @@ def test_outputs_are_refused_before_any_work(command, row, files, capfd, monkeyp
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in err, err
     line = lines[0]
+    assert not any(ord(c) < 32 for c in line), line    # no terminal escape from a file name
     assert line.startswith(f"pbrdf {argv[0]}: error: "), line
     faulty = [o for o, v in row.items() if v in FAULTS]
     assert any(o in line for o in faulty), (line, faulty)
@@ -381,3 +382,12 @@ def test_exr_header_text_is_escaped(tmp_path):
                      {"title": "two\nlines \udcff.exr", "source": "a\tb"})
     metadata, _ = read_exr(path)
     assert metadata["title"] == "two lines \\xff.exr" and metadata["source"] == "a b"
+
+
+def test_odd_names_are_written_as_given(files, capfd, monkeypatch):
+    """A valid output name with odd characters (a line break, quotes, '--',
+    an escape character) is written under that exact name."""
+    monkeypatch.chdir(files["tmp"])
+    out = os.path.join(files["tmp"], "written", f"{ODD}.png")
+    assert main(["view", files["exr"], "--out", out]) == 0
+    assert os.path.isfile(out)
