@@ -38,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
+import math
 import os
 import stat
 import tempfile
@@ -281,6 +282,22 @@ def write_text(path, text: str, encoding: str = "utf-8") -> str:
     return write_bytes(path, text.encode(encoding))
 
 
+def _strict_json(value):
+    """*value* with every NaN or infinity (which ``json.dumps`` writes as
+    ``NaN``/``Infinity``, not JSON: strict parsers, ``jq`` and browsers refuse
+    the file) as ``None`` (``null``)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_strict_json(v) for v in value]
+    return value
+
+
 def write_json(path, value, indent: int = 1) -> str:
-    """Write *value* as JSON to *path* atomically; returns the path."""
-    return write_text(path, json.dumps(value, indent=indent) + "\n")
+    """Write *value* as JSON to *path* atomically, strict JSON (non-finite
+    numbers as ``null``; strings escaped by ``json.dumps``, which writes any
+    character, lone surrogates too, as ``\\uXXXX``); returns the path."""
+    return write_text(path, json.dumps(_strict_json(value), indent=indent, allow_nan=False)
+                      + "\n")

@@ -391,3 +391,20 @@ def test_odd_names_are_written_as_given(files, capfd, monkeypatch):
     out = os.path.join(files["tmp"], "written", f"{ODD}.png")
     assert main(["view", files["exr"], "--out", out]) == 0
     assert os.path.isfile(out)
+
+
+def test_json_outputs_are_strict_json(tmp_path):
+    """json.dumps wrote NaN and Infinity (a fit's reduced chi2 with no degree
+    of freedom), which strict JSON parsers refuse; they are null now."""
+    import json
+
+    from mitsuba_pbrdf.outputs import write_json
+
+    path = write_json(tmp_path / "r.json", {"chi2": float("nan"), "rms": [float("inf"), 1.5],
+                                            "name": "al---\udcff"})
+
+    def refuse(constant):
+        raise ValueError(constant)
+
+    assert json.loads(open(path).read(), parse_constant=refuse) == {
+        "chi2": None, "rms": [None, 1.5], "name": "al---\udcff"}
