@@ -408,3 +408,12 @@ def test_json_outputs_are_strict_json(tmp_path):
 
     assert json.loads(open(path).read(), parse_constant=refuse) == {
         "chi2": None, "rms": [None, 1.5], "name": "al---\udcff"}
+
+
+def test_fit_never_replaces_its_index_table(files, capfd, monkeypatch, tmp_path):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "nk.csv").write_text("wavelength,n,k\n400,1,6\n700,1.5,8\n")
+    before = (tmp_path / "nk.csv").read_text()
+    assert main(["fit", files["data"], "--nk", "nk.csv", "--json", f"{tmp_path}/./nk.csv"]) == 2
+    assert "--json and --nk name the same file" in capfd.readouterr().err
+    assert (tmp_path / "nk.csv").read_text() == before
