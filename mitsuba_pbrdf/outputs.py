@@ -46,7 +46,7 @@ import tempfile
 from . import interrupts
 
 __all__ = ["OutputError", "OutputPlanError", "check_writable", "check_plan", "same_file",
-           "escape_text", "atomic_path", "together", "write_bytes", "write_text", "write_json"]
+           "escape_text", "utf8_text", "atomic_path", "together", "write_bytes", "write_text", "write_json"]
 
 
 class OutputError(OSError):
@@ -152,6 +152,17 @@ def _hidden(char: str) -> bool:
             or 0xD800 <= code <= 0xDFFF or code in (0xFFFE, 0xFFFF))
 
 
+def utf8_text(text) -> bool:
+    """Whether *text* encodes as UTF-8: not a name holding bytes that are not
+    (which Python decodes as lone surrogates, and which libraries that take
+    paths as UTF-8 text, OpenEXR among them, refuse)."""
+    try:
+        os.fspath(text).encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
 def escape_text(text, context: str) -> str:
     """*text* (anything a user gave: a file name, a title, a material's name)
     as it may enter a file of kind *context*. In every context, characters no
@@ -159,6 +170,7 @@ def escape_text(text, context: str) -> str:
     characters but tab and newline, U+FFFE/U+FFFF) become backslash escapes
     (``\\xff``), so the file encodes as UTF-8 and parses; then:
 
+    * ``"text"``: nothing more (a picture's title, where line breaks are kept);
     * ``"line"``: one line (an OpenEXR string attribute, a message, a ``#``
       comment line of a CSV): tabs and newlines become spaces;
     * ``"xml"``: an XML attribute value or text: ``& < > " '`` and tab and
@@ -169,6 +181,8 @@ def escape_text(text, context: str) -> str:
       quote or a line break, or starts with ``#`` (this package's comment lines).
     """
     text = "".join(_visible(c) if _hidden(c) else c for c in str(text))
+    if context == "text":
+        return text
     if context == "line":
         return " ".join(text.replace("\t", " ").splitlines())
     if context == "xml":

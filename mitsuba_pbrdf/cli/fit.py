@@ -13,7 +13,7 @@ from typing import Optional, Sequence
 
 from ..interrupts import release
 from ..outputs import together
-from ..outputs import atomic_path, write_json
+from ..outputs import atomic_path, escape_text, write_json
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..errors import one_line
 from .arguments import check_outputs, float_list, positive_int, require_file
@@ -164,7 +164,7 @@ def _write_outputs(args, table, data, results):
     from ..fitting import plot_fit
 
     if args.plot:
-        title = os.path.basename(args.data)
+        title = escape_text(os.path.basename(args.data), "line")
         with atomic_path(args.plot) as tmp:
             if table is not None:
                 from ..fitting.table_plots import plot_table_fit
