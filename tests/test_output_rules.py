@@ -457,3 +457,20 @@ def test_fit_outputs_of_a_data_file_not_named_in_utf8(tmp_path, monkeypatch):
     ET.parse("s.xml")
     assert json.load(open("j.json"))["two"]["model"] == "two"
     assert os.path.getsize("p.png") > 1000
+
+
+def test_scene_inputs_follow_includes_and_parameters(tmp_path):
+    from mitsuba_pbrdf.rendering.scene_params import scene_inputs
+
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "part.xml").write_text(
+        '<scene version="3.0.0"><texture type="bitmap" id="t">'
+        '<string name="filename" value="$tex.exr"/></texture></scene>')
+    (tmp_path / "main.xml").write_text(
+        '<scene version="3.0.0"><default name="tex" value="maps/a"/>'
+        '<include filename="sub/part.xml"/><emitter type="envmap">'
+        '<string name="filename" value="sky.exr"/></emitter></scene>')
+    found = scene_inputs(tmp_path / "main.xml")
+    assert found == [str(tmp_path / "sub/part.xml"), str(tmp_path / "sky.exr"),
+                     str(tmp_path / "sub/maps/a.exr")]
+    assert scene_inputs(tmp_path / "main.xml", {"tex": "b"})[-1] == str(tmp_path / "sub/b.exr")
