@@ -155,7 +155,8 @@ def write_fitted_scene(result, path, material=None, source=None):
     comment = (f"pbrdf fitted by pbrdf fit{' to ' + source if source else ''}: "
                f"{result.model}-component, {result.distribution} lobes, {result.objective} "
                f"objective, reduced chi2 {result.reduced_chi2:.3g}. Render with "
-               f"pbrdf render {path} (a polarized variant)")
+               f"pbrdf render {path} (a polarized variant; in an unpolarized one, render the "
+               f"path integrator nested in stokes alone)")
     text = _SCENE.format(comment=escape_text(comment, "xml-comment"),
                          bsdf=bsdf_xml(result, material))
     with atomic_path(path) as tmp:
