@@ -31,12 +31,15 @@ def one_line(message) -> str:
 def describe_error(error: BaseException) -> str:
     """The one-line message of an error: ``cannot write PATH: REASON`` for an
     output (:class:`mitsuba_pbrdf.outputs.OutputError`), ``PATH: REASON`` for
-    other ``OSError`` s naming a file, else the message."""
-    from .outputs import OutputError
+    other ``OSError`` s naming a file, else the message; a file name's line
+    breaks and control characters escaped (:func:`mitsuba_pbrdf.outputs.escape_text`),
+    so it stays one line on a terminal."""
+    from .outputs import OutputError, escape_text
 
     if isinstance(error, OSError) and error.filename is not None:
         reason = error.strerror or one_line(error)
+        path = escape_text(error.filename, "line")
         if isinstance(error, OutputError):
-            return f"cannot write {error.filename}: {reason}"
-        return f"{error.filename}: {reason}"
-    return one_line(error) or type(error).__name__
+            return f"cannot write {path}: {reason}"
+        return f"{path}: {reason}"
+    return escape_text(one_line(error), "line") or type(error).__name__

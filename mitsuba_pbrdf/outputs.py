@@ -19,6 +19,18 @@ Commands call :func:`check_writable` on each output before any long work
 
 Errors are :class:`OutputError` (an ``OSError``) with ``filename`` set (so a command can print
 "cannot write PATH: REASON" on one line). Standard library only.
+
+One rule for the outputs of every command, checked by :func:`check_plan`
+before any work: each output has a format its writer gives (by extension,
+``formats``), and is a file of its own: not one of the command's inputs, not
+another output (paths compared resolved: symlinks, ``./x`` and ``x``, hard
+links). Its :class:`OutputPlanError` names both options::
+
+    check_plan([("--json", "a.json", None), ("--plot", "a.png", ("png",))],
+               inputs=[("FILE", "data.csv")])
+
+Text a user gave (a file name, a title, a material's name) enters a file only
+through :func:`escape_text`, which knows each kind of file's rules.
 """
 
 from __future__ import annotations
@@ -26,14 +38,15 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
+import math
 import os
 import stat
 import tempfile
 
 from . import interrupts
 
-__all__ = ["OutputError", "check_writable", "atomic_path", "together", "write_bytes",
-           "write_text", "write_json"]
+__all__ = ["OutputError", "OutputPlanError", "check_writable", "check_plan", "same_file",
+           "escape_text", "utf8_text", "atomic_path", "together", "write_bytes", "write_text", "write_json"]
 
 
 class OutputError(OSError):
@@ -69,6 +82,122 @@ def check_writable(path) -> bool:
     os.close(fd)
     os.unlink(probe)
     return os.path.exists(path)
+
+
+class OutputPlanError(ValueError):
+    """Outputs that cannot be written as asked, found before any work (an
+    output that is an input or another output, a format its writer does not
+    give); the message opens with the output's option."""
+
+
+def same_file(a, b) -> bool:
+    """Whether paths *a* and *b* name one file: equal once resolved (symlinks,
+    ``..``, ``./``), or the same file on disk (hard links)."""
+    a, b = os.fspath(a), os.fspath(b)
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_plan(outputs, inputs=()) -> None:
+    """Raise :class:`OutputPlanError` unless every output of *outputs*
+    (``(name, path, formats)``: the option that gives it, its path, and the
+    extensions its writer gives, lower case without the dot, or None for any)
+    has one of its *formats* and names a file of its own: none of *inputs*
+    (``(name, path)``) and no other output. Entries with path None are
+    skipped. Nothing is read or written."""
+    outputs = [(name, os.fspath(path), formats) for name, path, formats in outputs
+               if path is not None]
+    for name, path, formats in outputs:
+        if formats:
+            extension = os.path.splitext(os.path.basename(path))[1].lower().lstrip(".")
+            wanted = " or ".join("." + f for f in formats)
+            if not extension:
+                raise OutputPlanError(f"{name}: {escape_text(path, 'line')} has no extension; "
+                                      f"give a {wanted} file name")
+            if extension not in formats:
+                raise OutputPlanError(f"{name}: cannot write a .{escape_text(extension, 'line')}"
+                                      f" file ({escape_text(path, 'line')}); it writes {wanted}")
+    done = []
+    for name, path, _ in outputs:
+        for what, (other, other_path) in ([("input", i) for i in inputs if i[1] is not None]
+                                          + [("output", o) for o in done]):
+            if same_file(path, other_path):
+                shown = escape_text(path, "line")
+                if name == other:
+                    raise OutputPlanError(f"{name}: two of its outputs are the same file {shown}")
+                raise OutputPlanError(
+                    f"{name} and {other} name the same file {shown}: an output never "
+                    f"replaces {'an input' if what == 'input' else 'another output'}; give "
+                    f"{name} another path")
+        done.append((name, path))
+
+
+def _visible(char: str) -> str:
+    """A character no text file should hold, as a backslash escape: a lone
+    surrogate (a byte of a file name that is not UTF-8, as Python decodes it:
+    ``\\xff``), a control character or a non-character (``\\x1b``, ``\\ufffe``)."""
+    code = ord(char)
+    if 0xDC80 <= code <= 0xDCFF:
+        return f"\\x{code - 0xDC00:02x}"
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+def _hidden(char: str) -> bool:
+    code = ord(char)
+    return ((code < 0x20 and char not in "\t\n\r") or 0x7F <= code <= 0x9F
+            or 0xD800 <= code <= 0xDFFF or code in (0xFFFE, 0xFFFF))
+
+
+def utf8_text(text) -> bool:
+    """Whether *text* encodes as UTF-8: not a name holding bytes that are not
+    (which Python decodes as lone surrogates, and which libraries that take
+    paths as UTF-8 text, OpenEXR among them, refuse)."""
+    try:
+        os.fspath(text).encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def escape_text(text, context: str) -> str:
+    """*text* (anything a user gave: a file name, a title, a material's name)
+    as it may enter a file of kind *context*. In every context, characters no
+    text file should hold (lone surrogates from undecodable file names, control
+    characters but tab and newline, U+FFFE/U+FFFF) become backslash escapes
+    (``\\xff``), so the file encodes as UTF-8 and parses; then:
+
+    * ``"text"``: nothing more (a picture's title, where line breaks are kept);
+    * ``"line"``: one line (an OpenEXR string attribute, a message, a ``#``
+      comment line of a CSV): tabs and newlines become spaces;
+    * ``"xml"``: an XML attribute value or text: ``& < > " '`` and tab and
+      newline as character references;
+    * ``"xml-comment"``: the body of ``<!-- -->``, which XML forbids to hold
+      ``--`` or to end in ``-``: a space goes between;
+    * ``"csv"``: one CSV field, quoted (RFC 4180) when it holds a comma, a
+      quote or a line break, or starts with ``#`` (this package's comment lines).
+    """
+    text = "".join(_visible(c) if _hidden(c) else c for c in str(text))
+    if context == "text":
+        return text
+    if context == "line":
+        return " ".join(text.replace("\t", " ").splitlines())
+    if context == "xml":
+        return (text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+                .replace('"', "&quot;").replace("'", "&apos;").replace("\t", "&#9;")
+                .replace("\n", "&#10;").replace("\r", "&#13;"))
+    if context == "xml-comment":
+        while "--" in text:
+            text = text.replace("--", "- -")
+        return text + " " if text.endswith("-") else text
+    if context == "csv":
+        if any(c in text for c in ',"\n\r') or text.startswith("#"):
+            return '"' + text.replace('"', '""') + '"'
+        return text
+    raise ValueError(f"escape_text: unknown context {context!r}")
 
 
 def _new_file_mode(existing: str) -> int:
@@ -167,6 +296,22 @@ def write_text(path, text: str, encoding: str = "utf-8") -> str:
     return write_bytes(path, text.encode(encoding))
 
 
+def _strict_json(value):
+    """*value* with every NaN or infinity (which ``json.dumps`` writes as
+    ``NaN``/``Infinity``, not JSON: strict parsers, ``jq`` and browsers refuse
+    the file) as ``None`` (``null``)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_strict_json(v) for v in value]
+    return value
+
+
 def write_json(path, value, indent: int = 1) -> str:
-    """Write *value* as JSON to *path* atomically; returns the path."""
-    return write_text(path, json.dumps(value, indent=indent) + "\n")
+    """Write *value* as JSON to *path* atomically, strict JSON (non-finite
+    numbers as ``null``; strings escaped by ``json.dumps``, which writes any
+    character, lone surrogates too, as ``\\uXXXX``); returns the path."""
+    return write_text(path, json.dumps(_strict_json(value), indent=indent, allow_nan=False)
+                      + "\n")

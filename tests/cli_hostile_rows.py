@@ -146,6 +146,15 @@ ROWS = [
              "--iterations", "1", "--truth", "{zero_truth}"],
             status=2, text="zero_truth.exr: not a normal map (vectors of length 0 to 0",
             absent="{tmp}/rn/recovery.json"),
+    # a polarizer image's siblings (issue 35): KeyError 'R', NumPy's broadcast error
+    Hostile("view: a polarizer image whose _I45 has other bands",
+            ["view", "{polcam_bands}", "--out", "{tmp}/pb.png"],
+            status=2, text="bands_I45.exr: channels Y, but bands_I0.exr has B, G, R",
+            absent="{tmp}/pb.png"),
+    Hostile("view: a polarizer image whose _I45 has another size",
+            ["view", "{polcam_size}", "--out", "{tmp}/ps.png"],
+            status=2, text="size_I45.exr: 6x4 pixels, but size_I0.exr has 8x8",
+            absent="{tmp}/ps.png"),
     # files named in their errors
     Hostile("fit: a binary file",
             ["fit", "{binary}"],
@@ -185,6 +194,14 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
     from mitsuba_pbrdf.stokes.exr import write_exr
 
     zeros = np.zeros((8, 8), np.float32)
+
+    def polarizer_images(stem, odd_one):
+        """pbrdf polcam's four polarizer images of *stem*, _I45 replaced by *odd_one*."""
+        for a in (0, 45, 90, 135):
+            channels = odd_one if a == 45 else {c: zeros + 1 for c in "RGB"}
+            write_exr(tmp_path / f"{stem}_I{a}.exr", channels, {"polcam": f"I{a}"})
+        return str(tmp_path / f"{stem}_I0.exr")
+
     many = "".join(f"p{i} = {list(range(10))}\n" for i in range(7))
     (tmp_path / "binary.csv").write_bytes(bytes(range(256)) * 8)
     (tmp_path / "nul.csv").write_text("theta_i,phi_i\n\0\0\n")
@@ -202,6 +219,8 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
         negative_exr=stokes_exr(tmp_path / "negative.exr", set_((Ellipsis, 0, slice(None)), -1.0)),
         binary=str(tmp_path / "binary.csv"), nul_csv=str(tmp_path / "nul.csv"),
         prb_scene=str(tmp_path / "prb.xml"),
+        polcam_bands=polarizer_images("bands", {"Y": zeros + 1}),
+        polcam_size=polarizer_images("size", {c: np.ones((4, 6), np.float32) for c in "RGB"}),
         exr8=stokes_exr(tmp_path / "good8.exr", h=8, w=8),
         zero8=stokes_exr(tmp_path / "zero8.exr", set_((Ellipsis,), 0.0), h=8, w=8),
         negative8=stokes_exr(tmp_path / "negative8.exr", set_((Ellipsis, 0, slice(None)), -1.0),

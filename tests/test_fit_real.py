@@ -351,7 +351,7 @@ def test_command_line_fits_real_aluminium(tmp_path):
     (["--nk", "missing.csv"], "--nk: index table not found: missing.csv"),
     (["--nk", "{binary}"], "not a text file"),
     (["--nk", "{table}", "--material", "Al"], "give --material or --nk, not both"),
-    (["--scene-out", "fit.png"], "--scene-out writes a Mitsuba scene: give a .xml path"),
+    (["--scene-out", "fit.png"], "--scene-out: cannot write a .png file (fit.png); it writes .xml"),
     (["--scene-out", "/proc/x.xml"], "--scene-out"),
     (["--nk", "{narrow}"], "no extrapolation"),
     (["--objective", "cosine", "--abs-uncertainty", "0"], "cosine objective needs an absolute"),

@@ -292,7 +292,7 @@ def _scene_path(path: str, folder: str, scene: str) -> str:
 def load_sweep(path) -> Sweep:
     """Read and check the sweep file *path* (see the module docstring); raises
     :class:`SweepError`, or ``FileNotFoundError`` for a missing file."""
-    from ..outputs import check_writable
+    from ..outputs import OutputPlanError, check_plan, check_writable
 
     path = os.path.abspath(os.fspath(path))
     data = _read_toml(path)
@@ -323,6 +323,11 @@ def load_sweep(path) -> Sweep:
                     f"{COLOUR_CUBE_REFUSAL}")
     slurm = _slurm_table(path, data.get("slurm"))
     values = _params(path, data.get("params", {}), scene)
+    try:  # the one rule of outputs (mitsuba_pbrdf.outputs): the manifest replaces no input
+        check_plan([("out", os.path.join(out, MANIFEST_NAME), None)],
+                   inputs=[("the sweep file", path), ("scene", scene)])
+    except OutputPlanError as e:
+        _fail(path, str(e))
     try:
         check_writable(os.path.join(out, MANIFEST_NAME))
     except OSError as e:

@@ -30,8 +30,8 @@ import numpy as np
 from ..stokes.image import StokesImage
 from .polcam import ANGLES, colour_layout, mono_layout, stokes_from_intensities
 
-__all__ = ["demosaic", "stokes_of_polarizer_images", "read_polcam_exr", "mosaic_preview",
-           "mosaic_previews"]
+__all__ = ["demosaic", "stokes_of_polarizer_images", "read_polcam_exr", "polarizer_siblings",
+           "mosaic_preview", "mosaic_previews"]
 
 _POLARIZER_FILE = re.compile(r"^(?P<stem>.*)_I(?P<angle>0|45|90|135)\.exr$")
 
@@ -114,19 +114,52 @@ def read_polcam_exr(path) -> Optional[StokesImage]:
         match = _POLARIZER_FILE.match(os.path.basename(path))
         if match is None:
             return None
-        folder, stem = os.path.dirname(path), match.group("stem")
+        stem = match.group("stem")
         images = {}
-        for a in ANGLES:
-            sibling = os.path.join(folder, f"{stem}_I{a}.exr")
+        for a, sibling in zip(ANGLES, _polarizer_files(path, match)):
             if not os.path.isfile(sibling):
                 raise FileNotFoundError(f"{sibling}: the Stokes image of a polarizer image "
                                         "needs all four (I0, I45, I90, I135) beside it")
             images[a] = read_exr(sibling)[1]
+            _same_frame(images[a], channels, sibling, path)
         image = stokes_of_polarizer_images(images, _band_order(channels))
         how = f"{stem}_I0/I45/I90/I135.exr"
     image.metadata = dict(metadata, title=f"{os.path.basename(path)}: the Stokes image of "
                                           f"the polarization camera ({how}; S3 unseen)")
     return image
+
+
+def _polarizer_files(path: str, match) -> list:
+    folder, stem = os.path.dirname(path), match.group("stem")
+    return [os.path.join(folder, f"{stem}_I{a}.exr") for a in ANGLES]
+
+
+def polarizer_siblings(path) -> list:
+    """The other three polarizer images that :func:`read_polcam_exr` reads
+    with the polarizer image *path* (``<stem>_I<angle>.exr``), told by its
+    name; none for another name."""
+    path = os.fspath(path)
+    match = _POLARIZER_FILE.match(os.path.basename(path))
+    if match is None:
+        return []
+    return [p for p in _polarizer_files(path, match) if os.path.basename(p)
+            != os.path.basename(path)]
+
+
+def _same_frame(sibling: dict, channels: dict, sibling_path: str, path: str):
+    """ValueError naming *sibling_path* unless its channels are those of
+    *path*'s (*channels*), of the same size: the four images of one camera."""
+    if sorted(sibling) != sorted(channels):
+        raise ValueError(f"{sibling_path}: channels {', '.join(sorted(sibling)) or 'none'}, "
+                         f"but {os.path.basename(path)} has {', '.join(sorted(channels))}: "
+                         "not the polarizer images of one camera")
+    shapes = {np.shape(a) for a in (*sibling.values(), *channels.values())}
+    if len(shapes) > 1:
+        size = next(np.shape(a) for a in channels.values())
+        other = next(np.shape(a) for a in sibling.values() if np.shape(a) != size)
+        raise ValueError(f"{sibling_path}: {other[1]}x{other[0]} pixels, but "
+                         f"{os.path.basename(path)} has {size[1]}x{size[0]}: not the polarizer "
+                         "images of one camera")
 
 
 def mosaic_preview(frame: np.ndarray, bits: Optional[int] = None) -> np.ndarray:

@@ -89,16 +89,27 @@ def finite_float(name: str, value: Optional[float], low: Optional[float] = None,
         raise CliError(f"{name} must be a finite number{rng}, got {value:g}")
 
 
-def check_outputs(*outputs, create_folders: bool = True):
-    """Before any long work: each output can be written
-    (:func:`mitsuba_pbrdf.outputs.check_writable`). *outputs* are paths or
-    ``(option, path)`` pairs (the option then opens the message); None is
-    skipped. With ``create_folders=False`` the output's folder must exist.
-    Raises :class:`CliError`."""
-    from ..outputs import check_writable
+def check_outputs(*outputs, inputs=(), create_folders: bool = True):
+    """Before any work, the one rule of every command's outputs: each has a
+    format its writer gives and is a file of its own, neither one of *inputs*
+    nor another output (:func:`mitsuba_pbrdf.outputs.check_plan`), and can be
+    written (:func:`mitsuba_pbrdf.outputs.check_writable`). *outputs* are
+    paths, ``(option, path)`` or ``(option, path, formats)`` (extensions
+    without the dot; the option opens the message); *inputs* are ``(name,
+    path)`` pairs (``FILE``, ``--nk``); None paths are skipped. With
+    ``create_folders=False`` the output's folder must exist. Raises
+    :class:`CliError`."""
+    from ..outputs import OutputPlanError, check_plan, check_writable
 
-    for item in outputs:
-        option, path = item if isinstance(item, tuple) else (None, item)
+    items = [(None,) + (item,) if not isinstance(item, tuple) else item for item in outputs]
+    items = [(option, path, item_formats[0] if item_formats else None)
+             for option, path, *item_formats in items]
+    try:
+        check_plan([(option or "output", path, formats) for option, path, formats in items],
+                   inputs=inputs)
+    except OutputPlanError as e:
+        raise CliError(str(e)) from None
+    for option, path, _ in items:
         if path is None:
             continue
         prefix = f"{option}: " if option else ""

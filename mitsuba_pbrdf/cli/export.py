@@ -21,12 +21,8 @@ def run(args) -> int:
     from ..measured.pbsdf import PbsdfError
 
     params = params_from_args(args)
-    if not args.out.endswith(".pbsdf"):
-        raise CliError(f"--out must name a .pbsdf file, got {args.out!r}")
     folder = os.path.dirname(os.path.abspath(args.out))
-    if not os.path.isdir(folder):
-        raise CliError(f"--out: folder {folder} does not exist")
-    check_outputs(("--out", args.out))
+    check_outputs(("--out", args.out, ("pbsdf",)), create_folders=False)
     if args.bands is not None and args.wavelengths is not None:
         raise CliError("give --wavelengths (the 5 bands measured_polarized renders) or "
                        "--bands (any number), not both")

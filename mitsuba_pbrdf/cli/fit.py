@@ -13,13 +13,17 @@ from typing import Optional, Sequence
 
 from ..interrupts import release
 from ..outputs import together
-from ..outputs import atomic_path, write_json
+from ..outputs import atomic_path, escape_text, write_json
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..errors import one_line
 from .arguments import check_outputs, float_list, positive_int, require_file
 from .errors import CliError
 from .fit_progress import FitProgressDisplay
 from .model_options import add_model_arguments
+
+
+#: what ``--plot`` writes, told by its extension (Matplotlib's formats)
+PLOT_FORMATS = ("png", "pdf", "svg")
 
 
 def is_pbsdf(path) -> bool:
@@ -59,11 +63,9 @@ def _check_options(args):
         fix = parse_assignments(args.fix, "--fix")
     except ValueError as e:
         raise CliError(one_line(e)) from e
-    check_outputs(("--plot", args.plot), ("--json", args.json), ("--scene-out", args.scene_out),
-                  create_folders=False)
-    if args.scene_out is not None and not args.scene_out.lower().endswith(".xml"):
-        raise CliError(f"--scene-out writes a Mitsuba scene: give a .xml path, not "
-                       f"{args.scene_out!r}")
+    check_outputs(("--plot", args.plot, PLOT_FORMATS), ("--json", args.json),
+                  ("--scene-out", args.scene_out, ("xml",)),
+                  inputs=[("FILE", args.data), ("--nk", args.nk)], create_folders=False)
     return init, fix
 
 
@@ -162,7 +164,7 @@ def _write_outputs(args, table, data, results):
     from ..fitting import plot_fit
 
     if args.plot:
-        title = os.path.basename(args.data)
+        title = escape_text(os.path.basename(args.data), "line")
         with atomic_path(args.plot) as tmp:
             if table is not None:
                 from ..fitting.table_plots import plot_table_fit
@@ -244,7 +246,7 @@ def add_parser(subparsers):
                         "m00..m33, a CSV file's columns; dolp is derived from m00, m10, m20 "
                         "when the file has no dolp column)")
     p.add_argument("--seed", type=int, default=0, help=".pbsdf: seed of the cell sample")
-    p.add_argument("--plot", help="write a PNG of fit versus data")
+    p.add_argument("--plot", help="write a picture of fit versus data (.png, .pdf or .svg)")
     p.add_argument("--json", help="write the results as JSON")
     p.add_argument("--scene-out", metavar="FILE.xml",
                    help="write a Mitsuba scene with the fitted pbrdf BSDF (the three-component "

@@ -18,7 +18,7 @@ def run(args) -> int:
 
     params = params_from_args(args)
     wavelengths = float_list(args.wavelengths, "--wavelengths")
-    check_outputs(("--out", args.out))
+    check_outputs(("--out", args.out, ("png",)))
     if not all(math.isfinite(w) and 0 < w < 1e5 for w in wavelengths):
         raise CliError(f"--wavelengths takes wavelengths in nm, finite and > 0, got "
                        f"{args.wavelengths!r}")

@@ -69,7 +69,8 @@ def run(args) -> int:
     paths = {suffix: os.path.join(args.out, name) for suffix, name in names.items()}
     previews = {os.path.join(args.out, name): picture for name, picture
                 in mosaic_previews(outputs, stem, model.bits if model.enabled else None).items()}
-    check_outputs(*[("--out", p) for p in [*paths.values(), *previews]])
+    check_outputs(*[("--out", p) for p in [*paths.values(), *previews]],
+                  inputs=[("STOKES.exr", args.exr)])
     metadata = {k: v for k, v in image.metadata.items() if not k.startswith("time_")}
     metadata["source"] = os.path.basename(args.exr)
     with together():  # all the files or none (mitsuba_pbrdf.interrupts)

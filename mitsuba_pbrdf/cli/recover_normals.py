@@ -73,7 +73,12 @@ def run(args) -> int:
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"--out: {args.out} is not a folder")
     paths = recovery_paths(args.out)
-    check_outputs(*[("--out", p) for p in paths.values()])
+    from ..rendering.scene_params import scene_inputs
+
+    check_outputs(*[("--out", p) for p in paths.values()],
+                  inputs=[("SCENE.xml", args.scene), *[("--targets", t) for t in args.targets],
+                          ("--truth", args.truth)]
+                  + [("a file the scene reads", p) for p in scene_inputs(args.scene)])
     variant = chosen_variant(args)
     require_polarized(variant)
     use_variant(variant)

@@ -79,7 +79,11 @@ def run(args) -> int:
         raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(written)}")
     stem = _out_stem(args.out, scene)
     exr_path, png_path = stem + ".exr", stem + ".png"
-    check_outputs(("--out", exr_path), ("--out", png_path))
+    from ..rendering.scene_params import scene_inputs
+
+    check_outputs(("--out", exr_path, ("exr",)), ("--out", png_path, ("png",)),
+                  inputs=[("SCENE.xml", scene)]
+                  + [("a file the scene reads", path) for path in scene_inputs(scene, params)])
     existed = [os.path.exists(exr_path), os.path.exists(png_path)]
     if request.notice:
         print(f"{PROG} render: {request.notice} (--no-auto-stokes refuses instead)",

@@ -27,6 +27,14 @@ from .pictures import (picture_kwargs, picture_options, report_quality,
                        warn_unused_picture_options)
 
 
+def polcam_siblings(path: str) -> list:
+    """``(name, path)`` of the other polarizer images that ``view`` reads
+    with a polarizer image ``<stem>_I<angle>.exr`` of ``pbrdf polcam``."""
+    from ..camera.raw_frames import polarizer_siblings
+
+    return [("a polarizer image beside STOKES.exr", p) for p in polarizer_siblings(path)]
+
+
 def run(args) -> int:
     """``pbrdf view``."""
     from ..stokes.exr import read_stokes_exr
@@ -40,7 +48,10 @@ def run(args) -> int:
     if args.dolp_scale not in DOLP_SCALES:
         raise CliError(f"--dolp-scale must be {' or '.join(DOLP_SCALES)}, got {args.dolp_scale!r}")
     out = args.out or os.path.splitext(args.exr)[0] + ".png"
-    check_outputs(("--out", out))
+    # with --spectrum the sheet's CSV goes beside it (<out>.csv)
+    csv = os.path.splitext(out)[0] + ".csv" if args.spectrum is not None else None
+    check_outputs(("--out", out, ("png",)), ("--out", csv, ("csv",)),
+                  inputs=[("STOKES.exr", args.exr)] + polcam_siblings(args.exr))
     existed = os.path.exists(out)
     polcam = False
     try:
@@ -97,8 +108,6 @@ def _cube_sheet(args, image, out: str, existed: bool) -> int:
     # the unusable-pixel rule, for every band the sheet draws
     report_quality(image, None, args.exr, "view", bands=image.bands)
     csv = os.path.splitext(out)[0] + ".csv"
-    if region is not None:
-        check_outputs(("--out", csv))
     if not image.metadata.get("title"):
         image.metadata["title"] = os.path.basename(args.exr)
     dolp_max = args.dolp_max if args.dolp_max == "auto" else float(args.dolp_max)

@@ -83,7 +83,7 @@ def plot_table_fit(table: PbsdfTable, results, path, title=None):
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, format="png")
+    fig.savefig(path, dpi=110)  # the format of path's extension, as plot_fit's
     return path
 
 

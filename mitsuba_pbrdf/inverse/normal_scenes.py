@@ -163,7 +163,7 @@ def write_plate_files(folder, normals, metal: str = "Cu", size: int = 32, spp: i
     and ``height``, ``spp``, ``sigma`` (and ``max_depth``, 3), so ``pbrdf
     render plate.xml -D spp=256`` renders a target. ``plate_normals.exr`` is
     what ``recover-normals --truth`` takes (:func:`read_normal_map`)."""
-    from ..outputs import write_text
+    from ..outputs import escape_text, write_text
     from ..stokes.exr import write_exr
 
     folder = os.fspath(folder)
@@ -173,7 +173,8 @@ def write_plate_files(folder, normals, metal: str = "Cu", size: int = 32, spp: i
     z, a = math.radians(VIEW_ZENITH), math.radians(VIEW_AZIMUTHS[0])
     origin = 4.0 * np.array([math.sin(z) * math.cos(a), math.sin(z) * math.sin(a), math.cos(z)])
     text = PLATE_XML.format(ox=origin[0], oy=origin[1], oz=origin[2], spp=int(spp),
-                            size=int(size), normals="plate_normals.exr", metal=metal,
+                            size=int(size), normals="plate_normals.exr",
+                            metal=escape_text(metal, "xml"),
                             sigma=float(sigma))
     return write_text(os.path.join(folder, "plate.xml"), text)
 

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from typing import Dict, List, Mapping, Optional
 
 __all__ = ["SceneParameterError", "ParameterUse", "SceneParameter", "parameter_uses",
-           "declared_parameters", "scene_parameters", "did_you_mean", "unknown_parameter_message",
+           "declared_parameters", "scene_parameters", "scene_inputs", "did_you_mean", "unknown_parameter_message",
            "check_parameter_values", "check_loaded_scene"]
 
 _REFERENCE = re.compile(r"\$(\w+)")
@@ -164,11 +164,11 @@ class SceneParameter:
         return "; ".join(lines) or "unused"
 
 
-def _scene_defaults(scene_path) -> Dict[str, str]:
-    """``{name: value}`` of the ``<default>`` s of the scene file and the files
-    it ``<include>`` s, in the order they come (the scene's own first: they
-    are what an included file sees)."""
-    found: Dict[str, str] = {}
+def _scene_files(scene_path, fill=None):
+    """``(path, root element)`` of the scene file and of each file it
+    ``<include>`` s, once each, the scene's own first; an include's name goes
+    through *fill* (None: one with a ``$key`` is left out), relative to the
+    including file's folder. An unreadable file is left out."""
     seen: set = set()
 
     def visit(path):
@@ -180,15 +180,25 @@ def _scene_defaults(scene_path) -> Dict[str, str]:
             root = ET.parse(path).getroot()
         except (ET.ParseError, OSError):
             return
+        yield path, root
+        for element in root.iter("include"):
+            name = element.get("filename", "$")
+            name = fill(name) if fill is not None else (None if "$" in name else name)
+            if name:
+                yield from visit(os.path.join(os.path.dirname(path), name))
+
+    yield from visit(scene_path)
+
+
+def _scene_defaults(scene_path) -> Dict[str, str]:
+    """``{name: value}`` of the ``<default>`` s of the scene file and the files
+    it ``<include>`` s, in the order they come (the scene's own first: they
+    are what an included file sees)."""
+    found: Dict[str, str] = {}
+    for _, root in _scene_files(scene_path):
         for element in root.iter("default"):
             if element.get("name"):
                 found.setdefault(element.get("name"), element.get("value", ""))
-        for element in root.iter("include"):
-            name = element.get("filename", "$")
-            if "$" not in name:
-                visit(os.path.join(os.path.dirname(path), name))
-
-    visit(scene_path)
     return found
 
 
@@ -208,6 +218,30 @@ def scene_parameters(scene_path) -> List[SceneParameter]:
     uses = parameter_uses(path)
     names = list(defaults) + sorted(k for k in uses if k not in defaults)
     return [SceneParameter(n, defaults.get(n), tuple(uses.get(n, ()))) for n in names]
+
+
+def scene_inputs(scene_path, params: Optional[Mapping[str, str]] = None) -> List[str]:
+    """The files a scene reads, besides itself: every ``filename`` property
+    (bitmaps, environment maps, meshes, tables) and ``<include>``, of the file
+    and the files it includes, with ``$key`` filled from *params* or the
+    ``<default>`` s, relative to the including file's folder as Mitsuba finds
+    them. For the outputs' check (:func:`mitsuba_pbrdf.outputs.check_plan`: a
+    render never writes over its own texture); an unreadable file gives none."""
+    values = dict(_scene_defaults(scene_path))
+    values.update({k: str(v) for k, v in (params or {}).items()})
+
+    def fill(text: str) -> Optional[str]:
+        text = _REFERENCE.sub(lambda m: values.get(m.group(1), m.group(0)), text)
+        return None if "$" in text else text
+
+    found = []
+    for path, root in _scene_files(scene_path, fill):
+        for element in root.iter():
+            name = element.get("filename") if element.tag == "include" else (
+                element.get("value") if element.get("name") == "filename" else None)
+            if name and fill(name):
+                found.append(os.path.join(os.path.dirname(path), fill(name)))
+    return found
 
 
 def did_you_mean(key: str, declared) -> str:

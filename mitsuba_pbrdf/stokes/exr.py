@@ -25,7 +25,7 @@ import warnings
 
 import numpy as np
 
-from ..outputs import atomic_path
+from ..outputs import atomic_path, utf8_text
 from .image import StokesImage, _from_channels, as_stokes_image
 
 __all__ = ["write_stokes_exr", "read_stokes_exr", "write_exr", "read_exr", "read_exr_channels"]
@@ -91,12 +91,22 @@ def write_exr(path, channels, metadata=None, compression: str = "zip", attribute
     path = os.fspath(path)
     channels = {name: np.ascontiguousarray(a, dtype=np.float32) for name, a in channels.items()}
     header = {"compression": comp, "type": OpenEXR.scanlineimage, **(attributes or {})}
-    for key, value in (metadata or {}).items():
-        header[_HEADER_PREFIX + key] = str(value)
+    from ..outputs import escape_text
+
+    for key, value in (metadata or {}).items():  # titles and sources hold file names
+        header[_HEADER_PREFIX + escape_text(key, "line")] = escape_text(value, "line")
     with atomic_path(path) as tmp, OpenEXR.File(header, channels) as f:
         with _library_output() as noise:
             try:
-                f.write(tmp)
+                if utf8_text(tmp):
+                    f.write(tmp)
+                else:  # a name OpenEXR cannot take (see _read_checked): through memory
+                    import io
+
+                    buffer = io.BytesIO()
+                    f.write(buffer)
+                    with open(tmp, "wb") as out:
+                        out.write(buffer.getvalue())
             except RuntimeError as e:
                 raise OSError(None, _first_line(noise.text()) or " ".join(str(e).split()),
                               tmp) from None
@@ -207,9 +217,13 @@ def _read_checked(path: str):
     error = None
     with _library_output() as noise:  # OpenEXR prints warnings of its own
         try:
-            with OpenEXR.File(path, separate_channels=True) as f:
-                header = dict(f.header())
-                channels = {name: ch.pixels for name, ch in f.channels().items()}
+            # OpenEXR takes a path only as UTF-8 text: a name with bytes that are
+            # not (Python decodes them as lone surrogates) is read from a stream
+            with contextlib.ExitStack() as stack:
+                source = path if utf8_text(path) else stack.enter_context(open(path, "rb"))
+                with OpenEXR.File(source, separate_channels=True) as f:
+                    header = dict(f.header())
+                    channels = {name: ch.pixels for name, ch in f.channels().items()}
         except Exception as e:  # OpenEXR raises plain RuntimeErrors
             error = e
     complaint = _first_line(noise.text())

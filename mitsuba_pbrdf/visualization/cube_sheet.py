@@ -112,16 +112,17 @@ def stokes_spectrum(image: StokesImage, region: Region) -> np.ndarray:
 def write_spectrum_csv(path, image: StokesImage, region: Region) -> str:
     """The region's Stokes spectrum as CSV (band, centre_nm, S0..S3, DoLP),
     written atomically."""
-    from ..outputs import atomic_path
+    from ..outputs import atomic_path, escape_text
 
     spectrum = stokes_spectrum(image, region)
     with np.errstate(invalid="ignore", divide="ignore"):
         dolp = np.hypot(spectrum[:, 1], spectrum[:, 2]) / spectrum[:, 0]
-    lines = [f"# {region.describe()}", "band,centre_nm,S0,S1,S2,S3,DoLP"]
+    lines = [f"# {escape_text(region.describe(), 'line')}", "band,centre_nm,S0,S1,S2,S3,DoLP"]
     for name, c, s, d in zip(image.bands, band_centres(image), spectrum, dolp):
-        lines.append(",".join([name, f"{c:g}"] + [f"{v:.7g}" for v in s] + [f"{d:.7g}"]))
+        lines.append(",".join([escape_text(name, "csv"), f"{c:g}"] + [f"{v:.7g}" for v in s]
+                              + [f"{d:.7g}"]))
     with atomic_path(path) as tmp:
-        with open(tmp, "w") as f:
+        with open(tmp, "w", encoding="utf-8") as f:
             f.write("\n".join(lines) + "\n")
     return str(path)
 

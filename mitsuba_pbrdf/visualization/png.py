@@ -9,9 +9,21 @@ from typing import Optional
 
 import numpy as np
 
-from ..outputs import atomic_path
+from ..outputs import atomic_path, escape_text
 
 __all__ = ["save_png", "write_pixels_png"]
+
+
+def _escape_texts(fig):
+    """Every text of *fig* through :func:`mitsuba_pbrdf.outputs.escape_text`:
+    titles hold file names, and one with bytes that are not UTF-8 (lone
+    surrogates) makes matplotlib's font code raise."""
+    from matplotlib.text import Text
+
+    for artist in fig.findobj(Text):
+        text = artist.get_text()
+        if escape_text(text, "text") != text:
+            artist.set_text(escape_text(text, "text"))
 
 
 def save_png(fig, path, dpi: int = 150, colors: Optional[int] = None) -> str:
@@ -22,6 +34,7 @@ def save_png(fig, path, dpi: int = 150, colors: Optional[int] = None) -> str:
     committed to the repository, 2-3x smaller.
     Returns the path."""
     path = os.fspath(path)
+    _escape_texts(fig)
     with atomic_path(path) as tmp:
         if colors is None:
             fig.savefig(tmp, dpi=dpi, format="png")
