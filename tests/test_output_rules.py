@@ -354,21 +354,20 @@ def test_fitted_scene_spectra_cover_the_spectral_range(tmp_path):
 def test_fitted_scene_renders_polarized_and_unpolarized(variant, tmp_path):
     """The scene of a two-wavelength fit loads and renders (finite, not black)
     in a polarized variant as it is, and in unpolarized ones without its
-    stokes integrator (rendering.cube.scene_without_stokes, as render --bands
+    stokes integrator (SceneSetup(integrator="nested"), as render --bands
     loads it)."""
     import mitsuba as mi
 
     from mitsuba_pbrdf.fitting.scene_out import write_fitted_scene
     from mitsuba_pbrdf.registry import use_variant
-    from mitsuba_pbrdf.rendering.cube import scene_without_stokes
-    from mitsuba_pbrdf.rendering.scene_loading import load_scene, load_scene_text
+    from mitsuba_pbrdf.rendering.scene_setup import SceneSetup, load_scene_setup
 
     path = write_fitted_scene(_fit_at([500.0, 600.0], [1.1, 0.9], [6.0, 7.0]),
                               str(tmp_path / "fitted.xml"), source="al---sample.csv")
     use_variant(variant)
     params = {"width": 8, "height": 6, "spp": 2}
-    scene = (load_scene(path, params) if "polarized" in variant
-             else load_scene_text(scene_without_stokes(path), path, params))
+    setup = SceneSetup(integrator="stokes" if "polarized" in variant else "nested")
+    scene = load_scene_setup(path, params, setup)
     image = np.asarray(mi.render(scene))
     assert np.isfinite(image).all() and image[..., :3].max() > 0
 
