@@ -18,7 +18,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from bsdf_harness import as_numpy, hemisphere_pairs, make_si, to_vector
+from bsdf_harness import as_numpy, hemisphere_pairs, make_si, tile_means, to_vector
 from mitsuba_pbrdf import schema
 
 TOL = 1e-5
@@ -139,10 +139,8 @@ def scene(bsdf):
             "light": {"type": "point", "position": [3, -3, 4], "intensity": 40.0}}
 
 
-def render_tiles(bsdf, seed=1, tile=4):
-    image = np.array(mi.render(mi.load_dict(scene(bsdf)), seed=seed), dtype=np.float64)
-    h, w = image.shape[0] // tile * tile, image.shape[1] // tile * tile
-    return image[:h, :w].reshape(h // tile, tile, w // tile, tile, -1).mean(axis=(1, 3))
+def render_tiles(bsdf, seed=1):
+    return tile_means(mi.render(mi.load_dict(scene(bsdf)), seed=seed))
 
 
 @pytest.mark.parametrize("variant", ["llvm_ad_spectral_polarized", "llvm_ad_rgb"], indirect=True)
