@@ -4,14 +4,19 @@ is loaded, that ``eval``, ``pdf`` and ``sample`` loop over.
 A lobe is a weight texture times a normalized shape. Two shapes exist:
 
 * :class:`MicrofacetLobe`: ``D(h) G / (4 cos_i cos_o)`` with a Beckmann or GGX
-  distribution of width ``alpha = sqrt(2) * sigma`` (``width`` is the RMS
-  slope sigma; an anisotropic lobe has ``width`` = sigma_u along the shading
-  frame's s axis and ``width_v`` = sigma_v along its t axis), sampled through
+  distribution of width ``alpha = sqrt(2) * sigma`` (``width`` is a
+  :class:`Width`: the RMS slope sigma, or Mitsuba's alpha; an anisotropic lobe
+  has ``width`` along the shading frame's s axis and ``width_v`` along its t
+  axis), sampled through
   its visible normals. The specular lobe
   (``polarizing``: its weight multiplies the facet's Fresnel Mueller matrix)
   and the directional diffuse lobe (depolarized) are of this shape.
 * :class:`LambertianLobe`: ``1 / pi``, cosine-sampled, depolarized: the ideal
   diffuse lobe.
+* :class:`DeltaLobe`: the specular lobe's smooth limit (sigma = 0), a mirror:
+  ``eval`` and ``pdf`` are 0 (a delta has no density), sampling returns the
+  mirror direction with pdf 1 (times its selection probability), as Mitsuba's
+  ``conductor`` does.
 
 Each lobe has four straight methods, all in the local shading frame:
 ``value`` (the *unweighted* value times ``cos_o``, what Mitsuba's ``eval``
@@ -32,9 +37,9 @@ import drjit as dr
 import mitsuba as mi
 
 from .microfacet import visible_g1
+from .params import Width
 
 _INV_PI = 1.0 / math.pi
-_SQRT2 = math.sqrt(2.0)
 
 
 @dataclass(frozen=True)
@@ -91,24 +96,28 @@ class LobeSample(NamedTuple):
 
 @dataclass(frozen=True)
 class MicrofacetLobe:
-    """A microfacet lobe: ``weight`` (texture), ``width`` (RMS slope sigma,
-    float texture; sigma_u where ``width_v``, sigma_v, is given: anisotropic),
+    """A microfacet lobe: ``weight`` (texture), ``width`` (a :class:`Width`;
+    along the s axis where ``width_v``, along t, is given: anisotropic),
     ``distribution`` (``mi.MicrofacetType``), ``shadowing`` (a function of
     :data:`.microfacet.SHADOWING`), ``flags`` (its lobe type, ``GlossyReflection``),
     ``index`` (component index), ``polarizing``
-    (Fresnel Mueller matrix or depolarizer) and ``textures``, its parameters by
-    name as ``traverse`` exposes them."""
+    (Fresnel Mueller matrix or depolarizer), ``textures``, its parameters by
+    name as ``traverse`` exposes them, and ``projected``: whether Smith's G1
+    projects the widths on the azimuth (anisotropic widths that may differ,
+    decided when the lobe is built, never from traced values)."""
 
     name: str
     weight: object
-    width: object
+    width: Width
     distribution: object
     shadowing: Callable
     flags: object
     index: int
     polarizing: bool
     textures: Dict[str, object]
-    width_v: Optional[object] = None
+    width_v: Optional[Width] = None
+    projected: bool = False
+    delta: bool = False
 
     @property
     def anisotropic(self):
@@ -117,11 +126,11 @@ class MicrofacetLobe:
     def microfacets(self, si, active):
         """Mitsuba's distribution of this lobe at ``si`` (visible-normal sampling),
         alpha_u along the shading frame's s axis, alpha_v along t."""
-        alpha_u = _SQRT2 * self.width.eval_1(si, active)
+        alpha_u = self.width.alpha(si, active)
         if self.width_v is None:
             return mi.MicrofacetDistribution(self.distribution, alpha_u, True)
         return mi.MicrofacetDistribution(self.distribution, alpha_u,
-                                         _SQRT2 * self.width_v.eval_1(si, active), True)
+                                         self.width_v.alpha(si, active), True)
 
     def sample_direction(self, si, sample2, active):
         """A direction drawn from the visible normals seen from ``si.wi``."""
@@ -144,7 +153,7 @@ class MicrofacetLobe:
         """``prob`` times the density of sampling ``wo``: the visible-normal
         density mapped through the reflection Jacobian."""
         distribution = self.microfacets(ev.si, ev.active)
-        return (prob * self._D(distribution, ev.half) * visible_g1(distribution, ev.si.wi)
+        return (prob * self._D(distribution, ev.half) * visible_g1(distribution, ev.si.wi, self.projected)
                 * ev.half.inv_4cos_i)
 
     def sample_alone(self, si, sample2, active) -> LobeSample:
@@ -156,7 +165,7 @@ class MicrofacetLobe:
         wo = mi.reflect(si.wi, m)
         cos_beta = dr.dot(si.wi, m)
         active = active & (mi.Frame3f.cos_theta(wo) > 0) & (cos_beta > 0)
-        g1 = visible_g1(distribution, si.wi)
+        g1 = visible_g1(distribution, si.wi, self.projected)
         pdf = distribution.eval(m) * g1 * dr.rcp(4.0 * mi.Frame3f.cos_theta(si.wi))
         G = self.shadowing(distribution, si.wi, wo, mi.Frame3f.cos_theta(m), cos_beta)
         return LobeSample(wo, pdf, G * dr.rcp(g1) * pdf, m, active)
@@ -174,6 +183,7 @@ class LambertianLobe:
     textures: Dict[str, object]
     polarizing: bool = False
     anisotropic: bool = False
+    delta: bool = False
 
     def sample_direction(self, si, sample2, active):
         return mi.warp.square_to_cosine_hemisphere(sample2)
@@ -188,3 +198,34 @@ class LambertianLobe:
         wo = mi.warp.square_to_cosine_hemisphere(sample2)
         pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
         return LobeSample(wo, pdf, pdf, mi.Vector3f(0.0, 0.0, 1.0), active)   # value = cos_o / pi = pdf
+
+
+@dataclass(frozen=True)
+class DeltaLobe:
+    """The smooth specular lobe: ``weight`` (texture), ``flags``
+    (``DeltaReflection``), ``index``, ``textures`` (its weight: a delta has no
+    width to expose), ``polarizing`` (the Fresnel Mueller matrix at the
+    surface normal). The BSDF leaves it out of ``eval`` and ``pdf``."""
+
+    name: str
+    weight: object
+    flags: object
+    index: int
+    textures: Dict[str, object]
+    polarizing: bool = True
+    anisotropic: bool = False
+    delta: bool = True
+
+    def sample_direction(self, si, sample2, active):
+        return mirror(si.wi)
+
+    def sample_alone(self, si, sample2, active) -> LobeSample:
+        """The mirror direction, pdf 1 and unweighted value 1 (the weight and
+        Fresnel factor at the normal are the BSDF's), as Mitsuba's conductor."""
+        one = dr.full(mi.Float, 1.0, dr.width(si.wi))
+        return LobeSample(mirror(si.wi), one, one, mi.Vector3f(0.0, 0.0, 1.0), active)
+
+
+def mirror(wi):
+    """The mirror direction of ``wi`` about the shading normal (local frame)."""
+    return mi.Vector3f(-wi.x, -wi.y, wi.z)

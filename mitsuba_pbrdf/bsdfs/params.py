@@ -6,10 +6,13 @@ fails at load time instead of rendering black or NaN pixels.
 """
 
 import math
+from typing import NamedTuple
 
 import drjit as dr
 import mitsuba as mi
 import numpy as np
+
+from .. import schema
 
 # Texture parameters holding values (as opposed to wavelengths or UV transforms).
 _VALUE_KEYS = ("value", "values", "data", "color")
@@ -37,12 +40,102 @@ def declared(props, parameter, default=None):
     declared bounds; *default* replaces the declared default."""
     return texture(props, parameter.name, parameter.default if default is None else default,
                    spectral=parameter.kind == "spectrum", positive=parameter.positive,
-                   minimum=parameter.floor)
+                   minimum=parameter.floor, smooth_at_zero=parameter.smooth_at_zero)
 
 
-def texture(props, name, default, *, spectral, positive=False, minimum=None):
+class Width(NamedTuple):
+    """A lobe's width as the scene gives it: a float ``texture``, the ``name``
+    it is given (and exposed) under, ``sigma_u`` or Mitsuba's ``alpha_u``, and
+    ``to_alpha``, the distribution's alpha per value (sqrt(2) for a slope
+    sigma, 1 for an alpha)."""
+
+    texture: object
+    name: str
+    to_alpha: float
+
+    def alpha(self, si, active):
+        """The distribution's width alpha at ``si``."""
+        return self.to_alpha * self.texture.eval_1(si, active)
+
+    def __str__(self):  # an alias's value is not the slope: say so
+        if self.to_alpha == schema.ALPHA_PER_SIGMA:
+            return str(self.texture)
+        return f"{self.texture} (given as {self.name})"
+
+
+def read_width(props, name):
+    """Width parameter *name* (``sigma``, ``sigma_u`` ...) as a :class:`Width`,
+    given under its name or its alias (Mitsuba's ``alpha``, ``alpha_u`` ...),
+    checked against the declaration of the name it is given under; None
+    where neither is given. Both refused, naming both."""
+    p = schema.parameter(name)
+    given = [n for n in _names(name) if n in props]
+    if len(given) == 2:
+        a = p.alias
+        factor = "sqrt(2)" if a.scale == schema.ALPHA_PER_SIGMA else f"{a.scale:g}"
+        raise ValueError(f"pbrdf: give either '{name}' or '{a.name}' "
+                         f"({a.name} = {factor} {name}), not both")
+    as_given = schema.parameter(given[0] if given else name)
+    if not given and as_given.default is None:
+        return None
+    return Width(declared(props, as_given), as_given.name, schema.ALPHA_PER_SIGMA / as_given.scale)
+
+
+def _names(name):
+    """The names parameter *name* may be given under: its own, its alias."""
+    alias = schema.parameter(name).alias
+    return (name, alias.name) if alias else (name,)
+
+
+def read_refinement(props, name, refined):
+    """A refinement (``sigma_u``) as given, else the *refined* parameter's
+    :class:`Width` (``sigma``) where any of its refinements is given, else
+    None (the lobe is isotropic). Given under an alias, a refinement is
+    exposed under its alias (a defaulted one under the alias of its own name
+    where *refined* was given as an alias: ``alpha_u`` takes ``alpha``)."""
+    own = read_width(props, name)
+    if own is not None:
+        return own
+    refinements = schema.REFINEMENTS[schema.parameter(name).refines]
+    if not any(n in props for r in refinements for n in _names(r)):
+        return None
+    exposed = name if refined.name == schema.parameter(name).refines \
+        else schema.parameter(name).alias.name
+    return Width(refined.texture, exposed, refined.to_alpha)
+
+
+def is_smooth(width_u, width_v):
+    """Whether a lobe of widths ``width_u``, ``width_v`` (None: isotropic) is
+    the smooth limit, a delta lobe: every width exactly 0. A lobe smooth
+    along one axis only is refused (a delta in one direction, a microfacet
+    spread in the other, is no lobe Mitsuba can sample)."""
+    widths = [w for w in (width_u, width_v) if w is not None]
+    zero = [is_constant_zero(w.texture) for w in widths]
+    if any(zero) and not all(zero):
+        flat = widths[zero.index(True)].name
+        rough = widths[zero.index(False)].name
+        raise ValueError(f"pbrdf: '{flat}' is 0 (smooth) but '{rough}' is not: a lobe is "
+                         f"smooth only where both widths are 0; give '{flat}' >= "
+                         f"{schema.parameter(flat).floor:.3g} for a nearly smooth axis")
+    return all(zero)
+
+
+def projected(width_u, width_v):
+    """Whether a lobe of widths ``width_u``, ``width_v`` (None: isotropic)
+    needs Smith's G1 projected on the azimuth: anisotropic, unless both are
+    the same number. Decided from the textures at load time, as
+    roughconductor decides ``Anisotropic``: their values may be traced."""
+    if width_v is None:
+        return False
+    u, v = constant(width_u.texture), constant(width_v.texture)
+    return u is None or v is None or u * width_u.to_alpha != v * width_v.to_alpha
+
+
+def texture(props, name, default, *, spectral, positive=False, minimum=None,
+            smooth_at_zero=False):
     """A float/spectrum/texture parameter, checked to be finite and >= 0
-    (> 0 when ``positive``, >= ``minimum`` when given) everywhere.
+    (> 0 when ``positive``, >= ``minimum`` when given) everywhere; where
+    ``smooth_at_zero``, a texture that is 0 everywhere passes too.
 
     ``spectral`` parameters may exceed 1 (unbounded textures); float parameters
     are evaluated with ``eval_1``.
@@ -55,7 +148,8 @@ def texture(props, name, default, *, spectral, positive=False, minimum=None):
         if kind == mi.Properties.Type.Object and not isinstance(props[name], mi.Texture):
             raise TypeError(f"pbrdf: parameter '{name}' must be a texture, "
                             f"got {type(props[name]).__name__}")
-        if kind in (mi.Properties.Type.Float, mi.Properties.Type.Integer):
+        if kind in (mi.Properties.Type.Float, mi.Properties.Type.Integer) \
+                and not (smooth_at_zero and props[name] == 0):
             _check_number(name, props[name], positive, minimum)
         elif kind == mi.Properties.Type.Color:  # <rgb>: check the colour as written
             colour = [float(c) for c in props[name]]
@@ -70,6 +164,8 @@ def texture(props, name, default, *, spectral, positive=False, minimum=None):
     except RuntimeError as error:  # e.g. an inline spectrum Mitsuba refuses
         reason = str(error).strip().splitlines()[-1]
         raise ValueError(f"pbrdf: parameter '{name}' is invalid: {reason}") from None
+    if smooth_at_zero and is_constant_zero(tex):
+        return tex
     check_texture_values(name, tex, positive, minimum, spectral=spectral)
     return tex
 
@@ -105,7 +201,8 @@ def check_texture_values(name, tex, positive=False, minimum=None, spectral=True)
         if not np.all(np.isfinite(values)):
             raise ValueError(f"pbrdf: parameter '{name}' contains NaN or infinite values")
         low = float(values.min())
-        if minimum is not None and low < minimum:
+        # textures hold float32: a floor given in Python (1e-4) is as stored
+        if minimum is not None and low < float(np.float32(minimum)):
             raise ValueError(f"pbrdf: parameter '{name}' must be >= {minimum:.3g} everywhere, "
                              f"found {low:g}")
         if low < 0 or (positive and low <= 0):
@@ -194,6 +291,13 @@ def _eval_1_values(name, tex):
                       "(e.g. an ordinary 8-bit RGB PNG)")
         raise ValueError(f"pbrdf: parameter '{name}' takes one value per point (eval_1): "
                          f"{reason}; give a number or a one-channel bitmap (raw = true)") from None
+
+
+def constant(tex):
+    """The texture's value where it holds one number (a float or uniform
+    texture), else None."""
+    values = texture_values(tex)
+    return float(values[0][0]) if len(values) == 1 and values[0].size == 1 else None
 
 
 def is_constant_zero(tex):

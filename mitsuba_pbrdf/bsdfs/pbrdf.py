@@ -30,18 +30,33 @@ two agree):
      - exposed, differentiable, discontinuous
    * - ``sigma``
      - float or texture
-     - RMS microfacet slope per axis of the specular lobe (paper Eq. 3); Beckmann width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor). Valid: >= 7.07e-05.
+     - RMS microfacet slope per axis of the specular lobe (paper Eq. 3); Beckmann width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor). 0 is the smooth limit: a delta lobe, Mitsuba's conductor. Valid: 0 (smooth: a mirror) or >= 7.07e-05.
      - 0.1
+     - exposed where the lobe is isotropic, differentiable, discontinuous
+   * - ``alpha``
+     - float or texture
+     - Mitsuba's roughness (roughconductor's alpha, Beckmann or GGX as distribution says): the specular lobe's width alpha = sqrt(2) sigma, given instead of sigma. Valid: 0 (smooth: a mirror) or >= 0.0001.
+     - --
      - exposed where the lobe is isotropic, differentiable, discontinuous
    * - ``sigma_u``
      - float or texture
-     - RMS slope of the specular lobe along the shading frame's s axis (dp_du); alpha_u = sqrt(2) sigma_u. Giving sigma_u or sigma_v makes the lobe anisotropic. Valid: >= 7.07e-05.
+     - RMS slope of the specular lobe along the shading frame's s axis (dp_du); alpha_u = sqrt(2) sigma_u. Giving sigma_u or sigma_v makes the lobe anisotropic. Valid: 0 (smooth: a mirror) or >= 7.07e-05.
      - ``sigma``
+     - exposed where the lobe is anisotropic, differentiable, discontinuous
+   * - ``alpha_u``
+     - float or texture
+     - Mitsuba's alpha_u: the specular lobe's width along s, alpha_u = sqrt(2) sigma_u, given instead of sigma_u. Valid: 0 (smooth: a mirror) or >= 0.0001.
+     - --
      - exposed where the lobe is anisotropic, differentiable, discontinuous
    * - ``sigma_v``
      - float or texture
-     - RMS slope of the specular lobe along the shading frame's t axis (n x dp_du); alpha_v = sqrt(2) sigma_v. Valid: >= 7.07e-05.
+     - RMS slope of the specular lobe along the shading frame's t axis (n x dp_du); alpha_v = sqrt(2) sigma_v. 0 only with sigma_u = 0 (smooth). Valid: 0 (smooth: a mirror) or >= 7.07e-05.
      - ``sigma``
+     - exposed where the lobe is anisotropic, differentiable, discontinuous
+   * - ``alpha_v``
+     - float or texture
+     - Mitsuba's alpha_v: the specular lobe's width along t, alpha_v = sqrt(2) sigma_v, given instead of sigma_v. Valid: 0 (smooth: a mirror) or >= 0.0001.
+     - --
      - exposed where the lobe is anisotropic, differentiable, discontinuous
    * - ``distribution``
      - string
@@ -116,20 +131,35 @@ defaulting to ``sigma`` (``sigma_dd``); where neither is given the lobe is
 isotropic and ``traverse`` exposes ``sigma``, else the lobe is anisotropic and
 ``traverse`` exposes ``sigma_u`` and ``sigma_v`` instead (the schema's
 ``refines`` relation). ``distribution`` is the specular lobe's Beckmann or GGX.
+Mitsuba's names ``alpha``, ``alpha_u``, ``alpha_v`` (alpha = sqrt(2) sigma, for
+GGX too) are taken instead of ``sigma``, ``sigma_u``, ``sigma_v``, never both;
+``traverse`` exposes a width under the name it is given.
 
 The surface is one-sided: directions below the horizon give zero. A lobe whose
 weight is exactly zero at load time is dropped entirely (not evaluated, not
 sampled, not in the flags, not traversed); give it a small non-zero weight to
 optimize it. Components, in order of the lobes present: specular
-(GlossyReflection), directional diffuse (GlossyReflection), ideal diffuse
-(DiffuseReflection).
+(GlossyReflection; DeltaReflection where smooth), directional diffuse
+(GlossyReflection), ideal diffuse (DiffuseReflection).
+
+Smooth limit: ``sigma = 0`` (``alpha = 0``, or ``sigma_u = sigma_v = 0``), a
+constant 0 when loaded, makes the specular lobe a delta, Mitsuba's
+``conductor``: ``eval`` and ``pdf`` leave it out, ``sample`` picks it with
+its selection probability P (pdf 1 alone) and returns the mirror direction
+with weight ks F / P, F the Fresnel Mueller matrix at the normal. Zero along
+one axis only, a texture that is 0 somewhere only, and ``sampling="cosine"``
+(which cannot find a delta) are refused. Its width is not traversed: there is
+no derivative by sigma at 0 (a render's is 0 there to first order where the
+light seen in the mirror is smooth, the facet slopes having zero mean);
+derivatives by eta, k and ks are as for a rough lobe.
 
 Sampling picks a lobe with probabilities proportional to an estimate of each
 lobe's albedo for the current direction (ks times the unpolarized Fresnel
 reflectance at the incidence angle, kdd, kid; averaged over wavelengths),
 then samples the specular and directional diffuse lobes by Beckmann/GGX
 visible-normal sampling and the ideal diffuse lobe by cosine-weighted
-hemisphere sampling. The returned pdf is the mixture pdf (one-sample MIS).
+hemisphere sampling (the smooth lobe: its mirror direction). The returned pdf is
+the mixture pdf (one-sample MIS).
 
 XML::
 
@@ -154,7 +184,7 @@ from ..variant import require_variant
 from . import params
 from .fresnel import fresnel_unpolarized, specular_mueller
 from .ior import complex_ior_textures
-from .lobes import Evaluation, LambertianLobe, MicrofacetLobe
+from .lobes import DeltaLobe, Evaluation, LambertianLobe, MicrofacetLobe
 from .microfacet import SHADOWING
 
 #: The Mitsuba variant whose ``mi.BSDF`` this module's class derives from;
@@ -194,15 +224,9 @@ def _read_choice(props, name):
     return params.choice(props, name, p.choices, p.default)
 
 
-def _read_refinement(props, name, refined):
-    """A refinement (``sigma_u``) as given, else the *refined* parameter's
-    texture (``sigma``) where any of its refinements is given, else None
-    (the lobe is isotropic)."""
-    if name in props:
-        return _read(props, name)
-    if any(r in props for r in schema.REFINEMENTS[schema.parameter(name).refines]):
-        return refined
-    return None
+def _exposed_widths(widths):
+    """``{name: texture}`` of a lobe's widths (None: absent) as given."""
+    return {w.name: w.texture for w in widths if w is not None}
 
 
 class Exposed(NamedTuple):
@@ -225,15 +249,15 @@ class PolarizedBRDF(mi.BSDF):
         # Each parameter read once by name and checked (schema.py declares them;
         # tests/test_schema.py checks that these reads match the declarations).
         self.material, self.eta, self.k = _read_ior(props)
-        self.sigma = _read(props, "sigma")
-        self.sigma_u = _read_refinement(props, "sigma_u", self.sigma)
-        self.sigma_v = _read_refinement(props, "sigma_v", self.sigma)
+        self.sigma = params.read_width(props, "sigma")
+        self.sigma_u = params.read_refinement(props, "sigma_u", self.sigma)
+        self.sigma_v = params.read_refinement(props, "sigma_v", self.sigma)
         self.distribution = _read_choice(props, "distribution")
         self.ks = _read(props, "ks")
         self.kdd = _read(props, "kdd")
-        self.sigma_dd = _read(props, "sigma_dd")
-        self.sigma_dd_u = _read_refinement(props, "sigma_dd_u", self.sigma_dd)
-        self.sigma_dd_v = _read_refinement(props, "sigma_dd_v", self.sigma_dd)
+        self.sigma_dd = params.read_width(props, "sigma_dd")
+        self.sigma_dd_u = params.read_refinement(props, "sigma_dd_u", self.sigma_dd)
+        self.sigma_dd_v = params.read_refinement(props, "sigma_dd_v", self.sigma_dd)
         self.kid = _read(props, "kid")
         self.shadowing = _read_choice(props, "shadowing")
         self.dd_distribution = _read_choice(props, "dd_distribution")
@@ -252,31 +276,34 @@ class PolarizedBRDF(mi.BSDF):
         """One record per lobe whose weight is not exactly zero, in component
         order: specular, directional diffuse, ideal diffuse. A microfacet lobe
         with refined widths is anisotropic (its component flags then carry
-        ``BSDFFlags.Anisotropic``)."""
+        ``BSDFFlags.Anisotropic``). A specular lobe of widths exactly 0 is
+        the smooth limit, a :class:`DeltaLobe` (``DeltaReflection``)."""
         glossy, diffuse = mi.BSDFFlags.GlossyReflection, mi.BSDFFlags.DiffuseReflection
         types = {"beckmann": mi.MicrofacetType.Beckmann, "ggx": mi.MicrofacetType.GGX}
         shadowing = SHADOWING[self.shadowing]
         lobes = []
-        if not params.is_constant_zero(self.ks):
-            if self.sigma_u is None:
-                widths, textures = (self.sigma, None), {"ks": self.ks, "sigma": self.sigma}
-            else:
-                widths = (self.sigma_u, self.sigma_v)
-                textures = {"ks": self.ks, "sigma_u": self.sigma_u, "sigma_v": self.sigma_v}
+        widths = (self.sigma, None) if self.sigma_u is None else (self.sigma_u, self.sigma_v)
+        smooth = params.is_smooth(*widths)
+        if smooth and self.sampling == "cosine" and not params.is_constant_zero(self.ks):
+            raise ValueError("pbrdf: parameter 'sampling' is 'cosine', which cannot sample the "
+                             "smooth specular lobe (sigma = 0); use 'mixture'")
+        if smooth and not params.is_constant_zero(self.ks):
+            lobes.append(DeltaLobe("specular", self.ks, mi.BSDFFlags.DeltaReflection, len(lobes),
+                                   textures={"ks": self.ks}))
+        elif not params.is_constant_zero(self.ks):
+            textures = {"ks": self.ks, **_exposed_widths(widths)}
             lobes.append(MicrofacetLobe("specular", self.ks, widths[0], types[self.distribution],
                                         shadowing, glossy, len(lobes), polarizing=True,
-                                        textures=textures, width_v=widths[1]))
+                                        textures=textures, width_v=widths[1],
+                                        projected=params.projected(*widths)))
         if not params.is_constant_zero(self.kdd):
-            if self.sigma_dd_u is None:
-                widths = (self.sigma_dd, None)
-                textures = {"kdd": self.kdd, "sigma_dd": self.sigma_dd}
-            else:
-                widths = (self.sigma_dd_u, self.sigma_dd_v)
-                textures = {"kdd": self.kdd, "sigma_dd_u": self.sigma_dd_u,
-                            "sigma_dd_v": self.sigma_dd_v}
+            widths = ((self.sigma_dd, None) if self.sigma_dd_u is None
+                      else (self.sigma_dd_u, self.sigma_dd_v))
+            textures = {"kdd": self.kdd, **_exposed_widths(widths)}
             lobes.append(MicrofacetLobe("directional_diffuse", self.kdd, widths[0],
                                         types[self.dd_distribution], shadowing, glossy, len(lobes),
-                                        polarizing=False, textures=textures, width_v=widths[1]))
+                                        polarizing=False, textures=textures, width_v=widths[1],
+                                        projected=params.projected(*widths)))
         if not params.is_constant_zero(self.kid):
             lobes.append(LambertianLobe("ideal_diffuse", self.kid, diffuse, len(lobes),
                                         textures={"kid": self.kid}))
@@ -372,8 +399,16 @@ class PolarizedBRDF(mi.BSDF):
 
         # One-sample MIS: the weight is the full value over the mixture pdf.
         ev = Evaluation.of(si, wo, active)
-        return _sample_record(wo, self._pdf(ctx, ev, probs), component, sampled_type, ev.active,
-                              self._value(ctx, ev))
+        pdf, value = self._pdf(ctx, ev, probs), self._value(ctx, ev)
+        delta = next((lobe for lobe in enabled if lobe.delta), None)
+        if delta is not None:
+            # A delta's sample is weighed alone (the other lobes have no mass
+            # on its direction): its selection probability, its value there.
+            on_delta = sampled_type == self._component_flags(delta)
+            pdf = dr.select(on_delta, probs[delta.index], pdf)
+            value = dr.select(on_delta, self._weighted(delta, ctx, si, wo, mi.Vector3f(0, 0, 1),
+                                                       1.0, ev.active), value)
+        return _sample_record(wo, pdf, component, sampled_type, ev.active, value)
 
     # -------------------------------------------------------------- internals
 
@@ -426,6 +461,8 @@ class PolarizedBRDF(mi.BSDF):
         zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
         value = zero
         for lobe in self._enabled_lobes(ctx):
+            if lobe.delta:  # no value off its direction, none measurable on it
+                continue
             value = value + self._weighted(lobe, ctx, ev.si, ev.wo, ev.half.h, lobe.value(ev),
                                            ev.active)
         return dr.select(ev.active, value, zero)
@@ -443,7 +480,8 @@ class PolarizedBRDF(mi.BSDF):
             if probs is None:
                 probs = self._lobe_probabilities(ctx, ev.si, ev.active)
             for lobe in enabled:
-                pdf = pdf + lobe.pdf(ev, probs[lobe.index])
+                if not lobe.delta:   # a delta has no density
+                    pdf = pdf + lobe.pdf(ev, probs[lobe.index])
         return dr.select(ev.active & dr.isfinite(pdf), pdf, 0.0)
 
 
