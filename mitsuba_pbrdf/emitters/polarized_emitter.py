@@ -139,7 +139,7 @@ class PolarizedEmitter(mi.Emitter):
 
     def eval(self, si, active=True):
         w = si.to_world(si.wi) if self.surface else si.wi
-        return self.light(self.inner.eval(si, active), w)
+        return self.light(wrapped.nested(self).eval(si, active), w)
 
     eval_direction = wrapped.eval_direction
     sample_direction = wrapped.sample_direction
@@ -149,10 +149,10 @@ class PolarizedEmitter(mi.Emitter):
     bbox = wrapped.bbox
 
     def pdf_position(self, ps, active=True):
-        return self.inner.pdf_position(ps, active)
+        return wrapped.nested(self).pdf_position(ps, active)
 
     def sample_wavelengths(self, si, sample, active=True):
-        wavelengths, weight = self.inner.sample_wavelengths(si, sample, active)
+        wavelengths, weight = wrapped.nested(self).sample_wavelengths(si, sample, active)
         return wavelengths, weight * self.transmittance
 
     def set_shape(self, shape):
