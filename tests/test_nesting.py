@@ -1,0 +1,149 @@
+"""Plugins nested in plugins compose with their polarization.
+
+**Emitter in emitter.** ``polarized_emitter`` is a linear diattenuator in
+front of its lamp: principal transmittances T (1 + p) and T (1 - p) (module
+docstring), so two of them at theta1 (inner) and theta2 (outer) pass, on the
+polarizers' axis (light along local z, where the tilted-polarizer
+approximation is exact), ``2 T1 T2 L cos²(theta1 - theta2)`` for p = 1
+(Malus's law), polarized along the outer axis. Off axis each filter acts
+with its axis projected across the ray; the expected Stokes vector is the
+product of the two diattenuators' Mueller matrices, written here in their
+trigonometric form from the projected axes' angles (the plugin uses an
+algebraic form without angles), applied to the bare lamp's value from the
+same call. Both sides are float32 products of a few terms: ``TOL = 1e-5`` of
+the bare lamp's S0.
+"""
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+import pytest
+
+TOL = 1e-5
+
+
+# ------------------------------------------------------------ reference (NumPy)
+
+def diattenuator(chi, degree, transmittance):
+    """(..., 4, 4) Mueller matrix of a linear diattenuator whose axis is at
+    ``chi`` (radians) in the Stokes basis: principal transmittances
+    T (1 + p), T (1 - p)."""
+    q, r = transmittance * (1 + degree), transmittance * (1 - degree)
+    c, s = np.cos(2 * chi), np.sin(2 * chi)
+    g = np.sqrt(q * r)
+    m = np.zeros(np.shape(chi) + (4, 4))
+    m[..., 0, 0] = (q + r) / 2
+    m[..., 0, 1] = m[..., 1, 0] = (q - r) / 2 * c
+    m[..., 0, 2] = m[..., 2, 0] = (q - r) / 2 * s
+    m[..., 1, 1] = ((q + r) * c ** 2 + 2 * g * s ** 2) / 2
+    m[..., 2, 2] = ((q + r) * s ** 2 + 2 * g * c ** 2) / 2
+    m[..., 1, 2] = m[..., 2, 1] = (q + r - 2 * g) * c * s / 2
+    m[..., 3, 3] = g
+    return m
+
+
+def axis_angle(angle_deg, w):
+    """The angle (radians) of the axis (cos a, sin a, 0) projected across
+    rays propagating along ``w`` (N x 3), in Mitsuba's Stokes basis of w."""
+    a = np.array([math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg)), 0.0])
+    e = a - (w @ a)[:, None] * w
+    x = vectors(mi.mueller.stokes_basis(mi.Vector3f(*w.T)))
+    y = np.cross(w, x)
+    return np.arctan2(np.sum(e * y, -1), np.sum(e * x, -1))
+
+
+def vectors(v):
+    """A Dr.Jit 3-vector as an N x 3 float64 array."""
+    return np.stack([np.array(c, np.float64) for c in v], -1)
+
+
+def first_column(value):
+    """The Stokes vectors (N x 4, first wavelength) of emitters' Mueller values."""
+    return np.stack([np.array(value[i, 0], np.float64)[0] for i in range(4)], -1)
+
+
+def filters(*layers, lamp):
+    """``polarized_emitter``s nested around ``lamp``: ``layers`` (angle,
+    degree, transmittance) from the innermost out."""
+    emitter = lamp
+    for angle, degree, transmittance in layers:
+        emitter = {"type": "polarized_emitter", "angle": angle, "degree": degree,
+                   "transmittance": transmittance, "inner": emitter}
+    return emitter
+
+
+def expected(bare, w, layers):
+    """The bare lamp's Stokes vectors (N x 4) through ``layers``."""
+    s = bare.copy()
+    for angle, degree, transmittance in layers:
+        s = np.einsum("nij,nj->ni", diattenuator(axis_angle(angle, w), degree, transmittance), s)
+    return s
+
+
+def directions(n, seed):
+    rng = np.random.default_rng(seed)
+    w = rng.normal(size=(n, 3))
+    w = w / np.linalg.norm(w, axis=1, keepdims=True)
+    return np.concatenate([[[0, 0, 1.0], [0, 0, -1.0]], w])
+
+
+# ------------------------------------------------------------ emitter in emitter
+
+@pytest.mark.parametrize("theta1,theta2", [(0, 90), (0, 0), (30, 75), (-20, 115)])
+def test_emitter_in_emitter_follows_malus_law(theta1, theta2):
+    """Crossed ideal polarizers pass nothing: the outer filter acts on the
+    inner one's polarized light, not on its intensity."""
+    layers = [(theta1, 1.0, 0.5), (theta2, 1.0, 0.5)]
+    lamp = {"type": "constant", "radiance": 2.0}
+    w = directions(30, 1)
+    si = dr.zeros(mi.SurfaceInteraction3f, len(w))
+    si.wi = mi.Vector3f(*w.T)      # an infinite emitter's light propagates along si.wi
+    si.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
+    bare = first_column(mi.load_dict(lamp).eval(si))
+    seen = first_column(mi.load_dict(filters(*layers, lamp=lamp)).eval(si))
+    L = bare[0, 0]
+    # on the axis, +z: Malus, polarized along the outer axis
+    delta = math.radians(theta1 - theta2)
+    assert abs(seen[0, 0] - 2 * 0.25 * L * math.cos(delta) ** 2) < TOL * L
+    if abs(math.cos(delta)) > 0.1:
+        aolp = 0.5 * math.degrees(math.atan2(seen[0, 2], seen[0, 1]))
+        assert abs((aolp - theta2 + 90) % 180 - 90) < 1e-3
+    assert np.abs(seen - expected(bare, w, layers)).max() < TOL * L
+
+
+@pytest.mark.parametrize("method", ["sample_direction", "eval_direction", "sample_ray"])
+def test_emitter_in_emitter_composes_in_every_method(method):
+    """An area lamp in a rectangle behind a leaky filter behind another one:
+    what each method returns is the bare lamp's value through both filters."""
+    layers = [(20.0, 0.7, 0.6), (65.0, 0.9, 0.8)]
+    lamp = {"type": "area", "radiance": 3.0}
+
+    scenes = [mi.load_dict({"type": "scene", "lamp": {"type": "rectangle", "emitter": wrapped}})
+              for wrapped in (lamp, filters(*layers, lamp=lamp))]    # kept alive
+
+    rng = np.random.default_rng(5)
+    n = 64
+    it = dr.zeros(mi.Interaction3f, n)
+    it.p = mi.Point3f(*np.stack([rng.uniform(-2, 2, n), rng.uniform(-2, 2, n),
+                                 rng.uniform(0.5, 3, n)]))
+    it.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
+    sample = mi.Point2f(*rng.uniform(size=(2, n)))
+    ray_sample = mi.Point2f(*rng.uniform(size=(2, n)))
+    out = []
+    for scene in scenes:
+        e = scene.emitters()[0]
+        if method == "sample_ray":
+            ray, value = e.sample_ray(0.0, 0.3, sample, ray_sample)
+            w = vectors(ray.d)
+        else:
+            ds, value = e.sample_direction(it, sample)
+            if method == "eval_direction":
+                value = e.eval_direction(it, ds)
+            w = -vectors(ds.d)
+        out.append((first_column(value), w))
+    (bare, w_bare), (seen, w) = out
+    assert np.abs(w - w_bare).max() < 1e-6
+    assert np.all(bare[:, 0] > 0)
+    assert np.abs(seen - expected(bare, w, layers)).max() < TOL * bare[:, 0].max()
