@@ -147,3 +147,52 @@ def test_emitter_in_emitter_composes_in_every_method(method):
     assert np.abs(w - w_bare).max() < 1e-6
     assert np.all(bare[:, 0] > 0)
     assert np.abs(seen - expected(bare, w, layers)).max() < TOL * bare[:, 0].max()
+
+
+# ------------------------------------------------------------ to_world of the emitters
+
+def singular():
+    """A transform whose third column is the sum of the first two."""
+    m = np.eye(4)
+    m[:3, 2] = [1.0, 1.0, 0.0]
+    return mi.ScalarTransform4f(m)
+
+
+def stokes_map(path):
+    """A 16 x 9 Stokes EXR at ``path`` (S0 = 1, S1 = 0.5, S2 = 0.2 everywhere)."""
+    from mitsuba_pbrdf.stokes import write_stokes_exr
+
+    s = np.zeros((9, 16, 4, 3), np.float32)
+    s[:, :, 0], s[:, :, 1], s[:, :, 2] = 1.0, 0.5, 0.2
+    write_stokes_exr(path, s, bands=list("RGB"))
+    return str(path)
+
+
+def emitter_dict(kind, tmp_path, **extra):
+    base = {"polarized_sky": {"type": "polarized_sky", "sun_direction": [0.0, 0.5, 1.0],
+                              "radiance": 1.0},
+            "sunsky": {"type": "polarized_sky", "sun_direction": [0.0, 0.5, 1.0]},
+            "stokes_envmap": {"type": "stokes_envmap",
+                              "filename": stokes_map(tmp_path / "map.exr")},
+            "polarized_emitter": {"type": "polarized_emitter",
+                                  "lamp": {"type": "constant"}}}[kind]
+    return dict(base, **extra)
+
+
+@pytest.mark.parametrize("kind", ["polarized_sky", "sunsky", "stokes_envmap",
+                                  "polarized_emitter"])
+@pytest.mark.parametrize("to_world,error,text", [
+    (singular, ValueError, "parameter 'to_world' is singular (its 3 x 3 part has determinant 0)"),
+    (lambda: mi.ScalarTransform4f(np.diag([1.0, 1.0, np.nan, 1.0])), ValueError,
+     "parameter 'to_world' contains NaN or infinite values"),
+    (lambda: 3.0, TypeError, "parameter 'to_world' must be a transform, got float"),
+], ids=["singular", "nan", "float"])
+def test_a_bad_to_world_is_named_at_load_time(kind, to_world, error, text, tmp_path):
+    """Was: ZeroDivisionError (polarized_sky), LinAlgError: Singular matrix
+    (stokes_envmap), a silent load (polarized_emitter's singular or
+    stokes_envmap's NaN transform), AttributeError (a float)."""
+    with pytest.raises(Exception) as raised:
+        mi.load_dict(emitter_dict(kind, tmp_path, to_world=to_world()))
+    last = str(raised.value).strip().splitlines()[-1]
+    plugin = "polarized_sky" if kind == "sunsky" else kind
+    assert last.startswith(f"{error.__name__}: {plugin}: {text}"), last

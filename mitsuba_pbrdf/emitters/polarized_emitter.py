@@ -39,6 +39,7 @@
      - transform
      - The polarizer's frame: its sheet is the local xy plane. Give a spot
        light's or a rectangle's own ``to_world`` to turn the axis with it.
+       Refused at load time if singular or not finite.
      - identity
      - --
 
@@ -114,7 +115,7 @@ def _configure(props):
     angle = math.radians(read.number(props, _NAME, "angle", 0.0))
     degree = read.number(props, _NAME, "degree", 1.0, 0.0, 1.0)
     transmittance = read.number(props, _NAME, "transmittance", 1.0, 0.0, 1.0)
-    m = read.transform(props, "to_world")
+    m = read.transform(props, _NAME, "to_world")
     local = (math.cos(angle), math.sin(angle), 0.0)
     axis = read.unit_vector(_NAME, "to_world",
                             [sum(m[i][j] * local[j] for j in range(3)) for i in range(3)])

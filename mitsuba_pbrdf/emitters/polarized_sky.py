@@ -85,6 +85,7 @@
    * - ``to_world``
      - transform
      - Local-to-world transform of the sky (``sunsky``'s: its local +Z is up).
+       Refused at load time if singular or not finite.
      - identity
      - --
 
@@ -268,7 +269,7 @@ def _configure(props):
     if model != "berry" and "neutral_point_separation" in props:
         raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
                          "model 'berry' only")
-    to_world = read.transform(props, "to_world")
+    to_world = read.transform(props, _NAME, "to_world")
     up = read.unit_vector(_NAME, "to_world", [to_world[i][2] for i in range(3)])
     horizontal = read.unit_vector(_NAME, "to_world", [to_world[i][0] for i in range(3)])
     when = _sun_position(props)

@@ -27,6 +27,7 @@
    * - ``to_world``
      - transform
      - Local-to-world transform, as Mitsuba's ``envmap`` (local +Y up).
+       Refused at load time if singular or not finite.
      - identity
      - --
 
@@ -123,11 +124,11 @@ def _configure(props):
     if not os.path.isfile(path):
         raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
     scale = read.number(props, _NAME, "scale", 1.0, low=0.0)
+    m = np.array(read.transform(props, _NAME, "to_world"), np.float64)[:3, :3]
     s0, stokes = load_stokes_map(path)
     config = {"bitmap": mi.Bitmap(s0), "scale": scale}
     if "to_world" in props:
         config["to_world"] = props["to_world"]
-    m = np.array(read.transform(props, "to_world"), np.float64)[:3, :3]
     return {"filename": filename, "inner": create("envmap", **config),
             "to_local": [[float(c) for c in row] for row in np.linalg.inv(m)],
             "to_world_rows": [[float(c) for c in row] for row in m],
