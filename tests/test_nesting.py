@@ -196,3 +196,21 @@ def test_a_bad_to_world_is_named_at_load_time(kind, to_world, error, text, tmp_p
     last = str(raised.value).strip().splitlines()[-1]
     plugin = "polarized_sky" if kind == "sunsky" else kind
     assert last.startswith(f"{error.__name__}: {plugin}: {text}"), last
+
+
+# ------------------------------------------------------------ polarized_sky's nested emitter
+
+@pytest.mark.parametrize("inner", ["polarized_emitter", "stokes_envmap"])
+def test_a_polarized_emitter_nested_in_the_sky_is_refused(inner, tmp_path):
+    """The sky replaces its intensity's polarization: a polarized intensity
+    was silently unpolarized (a 0-degree filter's S1 = S0 became 0)."""
+    with pytest.raises(Exception) as raised:
+        mi.load_dict({"type": "polarized_sky", "sun_direction": [0.0, 0.5, 1.0],
+                      "inner": emitter_dict(inner, tmp_path)})
+    last = str(raised.value).strip().splitlines()[-1]
+    assert last.startswith("ValueError: polarized_sky: the nested emitter is polarized"), last
+    # unpolarized ones, a transparent filter included, are the sky's intensity
+    for unpolarized in ({"type": "constant"},
+                        {"type": "polarized_emitter", "degree": 0.0, "lamp": {"type": "constant"}}):
+        mi.load_dict({"type": "polarized_sky", "sun_direction": [0.0, 0.5, 1.0],
+                      "inner": unpolarized})

@@ -79,7 +79,9 @@
    * - (nested emitter)
      - emitter
      - An infinite emitter (``envmap``, ``constant``, ``sunsky``...) whose
-       radiance and sampling replace the ``sunsky`` intensity.
+       radiance and sampling replace the ``sunsky`` intensity. A polarized
+       one (``stokes_envmap``, a ``polarized_emitter``...) is refused at
+       load time: the sky would replace its polarization.
      - --
      - ``intensity.*``
    * - ``to_world``
@@ -213,6 +215,13 @@ def _intensity_emitter(props, up, sun, when):
         if not emitter.is_environment():
             raise ValueError(f"{_NAME}: the nested emitter must be an infinite emitter "
                              f"(envmap, constant, sunsky), got {emitter.class_name()}")
+        dop = wrapped.max_dop(emitter)
+        if dop > 1e-6:
+            # the sky's pattern would replace that polarization, silently
+            raise ValueError(f"{_NAME}: the nested emitter is polarized (degree up to "
+                             f"{dop:.3g}), and the sky replaces the polarization of its "
+                             "intensity: nest an unpolarized emitter (envmap, constant, "
+                             "sunsky), or put a polarized_emitter around the sky to filter it")
         return emitter, "nested", None, None, sun
     if "radiance" in props:
         texture, varying = _texture(props)

@@ -89,3 +89,31 @@ def sample_position(self, time, sample, active=True):
 
 def bbox(self):
     return self.inner.bbox()
+
+
+def max_dop(emitter, n=64):
+    """The largest degree of polarization of an infinite ``emitter``'s light
+    over ``n`` directions spread over the sphere (a Fibonacci lattice) at
+    four wavelengths: 0 for Mitsuba's own emitters (depolarizers) and in
+    unpolarized variants. A load-time check (plain floats)."""
+    import numpy as np
+
+    if not mi.is_polarized:
+        return 0.0
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = np.pi * (3.0 - np.sqrt(5.0)) * k
+    r = np.sqrt(1.0 - z * z)
+    w = np.stack([r * np.cos(phi), r * np.sin(phi), z], -1)
+    scalar = mi.variant().startswith("scalar")
+    worst = 0.0
+    for rows in ([[*v] for v in w] if scalar else [w.T]):
+        si = dr.zeros(mi.SurfaceInteraction3f) if scalar else dr.zeros(mi.SurfaceInteraction3f, n)
+        si.wi = mi.Vector3f(*rows)
+        if mi.is_spectral:
+            si.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
+        value = emitter.eval(si)
+        s = [np.asarray(value[i, 0], np.float64) for i in range(4)]
+        dop = np.sqrt(s[1] ** 2 + s[2] ** 2 + s[3] ** 2) / np.maximum(np.abs(s[0]), 1e-30)
+        worst = max(worst, float(np.max(np.where(np.abs(s[0]) > 0, dop, 0.0))))
+    return worst
