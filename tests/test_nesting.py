@@ -21,6 +21,8 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
+from proof.covering import pairwise, uncovered
+
 TOL = 1e-5
 
 
@@ -61,7 +63,8 @@ def vectors(v):
 
 def first_column(value):
     """The Stokes vectors (N x 4, first wavelength) of emitters' Mueller values."""
-    return np.stack([np.array(value[i, 0], np.float64)[0] for i in range(4)], -1)
+    rows = [np.atleast_1d(np.array(value[i, 0], np.float64)[0]) for i in range(4)]
+    return np.stack(np.broadcast_arrays(*rows), -1)     # a literal 0 has width 1
 
 
 def filters(*layers, lamp):
@@ -214,3 +217,179 @@ def test_a_polarized_emitter_nested_in_the_sky_is_refused(inner, tmp_path):
                         {"type": "polarized_emitter", "degree": 0.0, "lamp": {"type": "constant"}}):
         mi.load_dict({"type": "polarized_sky", "sun_direction": [0.0, 0.5, 1.0],
                       "inner": unpolarized})
+
+
+# ------------------------------------------------------------ the emitters' covering array
+
+SUN = [0.0, 0.5, 1.0]
+OUTER_FILTERS = {"filter": [(65.0, 0.9, 0.7)], "filter2": [(65.0, 0.9, 0.7), (-10.0, 1.0, 0.5)]}
+EMITTER_FACTORS = {
+    "inner": ["constant", "area", "spot", "filter", "stokes_envmap", "sky"],
+    "outer": ["filter", "filter2", "sky"],
+    "variant": ["llvm_ad_spectral_polarized", "llvm_ad_mono_polarized", "llvm_ad_spectral"],
+    "to_world": ["identity", "rotation", "scaled", "singular"],
+    "method": ["eval", "eval_direction", "sample_direction", "sample_ray"],
+}
+
+
+def transform(name):
+    """The outer plugin's ``to_world`` level as (Mitsuba transform or None, 3 x 3)."""
+    rotation = mi.ScalarTransform4f().rotate([1.0, 2.0, 0.5], 70.0)
+    t = {"identity": None, "rotation": rotation, "scaled": rotation.scale(2.0),
+         "singular": singular()}[name]
+    m = np.eye(3) if t is None else np.array(t.matrix, np.float64).reshape(4, 4)[:3, :3]
+    return t, m
+
+
+def inner_dict(kind, tmp_path):
+    return {"constant": {"type": "constant", "radiance": 1.5},
+            "area": {"type": "area", "radiance": 1.5},
+            "spot": {"type": "spot", "intensity": 4.0, "cutoff_angle": 60.0,
+                     "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, -1],
+                                                                target=[0, 0, 1], up=[0, 1, 0])},
+            "filter": filters((20.0, 0.8, 0.9), lamp={"type": "constant", "radiance": 1.5}),
+            "stokes_envmap": emitter_dict("stokes_envmap", tmp_path),
+            "sky": {"type": "polarized_sky", "sun_direction": [0.3, -0.2, 1.0], "radiance": 1.5,
+                    "dolp_max": 0.6}}[kind]
+
+
+def outer_dict(row, inner):
+    t, _ = transform(row["to_world"])
+    extra = {} if t is None else {"to_world": t}
+    if row["outer"] == "sky":
+        return dict({"type": "polarized_sky", "sun_direction": SUN, "dolp_max": 0.7,
+                     "inner": inner}, **extra)
+    emitter = inner
+    for angle, degree, transmittance in OUTER_FILTERS[row["outer"]]:
+        emitter = dict({"type": "polarized_emitter", "angle": angle, "degree": degree,
+                        "transmittance": transmittance, "inner": emitter}, **extra)
+    return emitter
+
+
+def load_emitter(d, kind):
+    """``(keep-alive, emitter)``: an area lamp lives in a rectangle at z = 0
+    facing +z."""
+    if kind != "area":
+        return None, mi.load_dict(d)
+    scene = mi.load_dict({"type": "scene", "lamp": {"type": "rectangle", "emitter": d}})
+    return scene, scene.emitters()[0]
+
+
+def outer_mueller(row, w):
+    """(N, 4, 4) NumPy Mueller matrix of the outer plugin for light along ``w``
+    (None for the sky: its polarization replaces the intensity's)."""
+    from proof import polarized_light as pl
+
+    _, m = transform(row["to_world"])
+    out = np.broadcast_to(np.eye(4), (len(w), 4, 4))
+    if row["outer"] == "sky":
+        return None
+    for angle, degree, transmittance in OUTER_FILTERS[row["outer"]]:
+        a = m @ np.array([math.cos(math.radians(angle)), math.sin(math.radians(angle)), 0.0])
+        e = a - (w @ a)[:, None] * w
+        x = vectors(mi.mueller.stokes_basis(mi.Vector3f(*w.T)))
+        chi = np.arctan2(np.sum(e * np.cross(w, x), -1), np.sum(e * x, -1))
+        out = diattenuator(chi, degree, transmittance) @ out
+    del pl
+    return out
+
+
+def call(emitter, row, rng_seed, n=48):
+    """``(value, w)``: the row's method on ``n`` fixed inputs; w the
+    propagation direction of the light (N x 3)."""
+    rng = np.random.default_rng(rng_seed)
+    wavelengths = (450.0, 520.0, 600.0, 690.0)
+    method = row["method"]
+    if method == "sample_ray":
+        ray, value = emitter.sample_ray(0.0, mi.Float(rng.uniform(size=n)),
+                                        mi.Point2f(*rng.uniform(size=(2, n))),
+                                        mi.Point2f(*rng.uniform(size=(2, n))))
+        return value, vectors(ray.d)
+    it = dr.zeros(mi.Interaction3f, n)
+    it.p = mi.Point3f(rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n), rng.uniform(1, 2, n))
+    if mi.is_spectral:
+        it.wavelengths = mi.UnpolarizedSpectrum(*wavelengths)
+    if method == "eval":
+        if row["inner"] == "area":     # points on the lamp seen from it.p
+            target = np.stack([rng.uniform(-1, 1, n), rng.uniform(-1, 1, n), np.zeros(n)])
+            d = target - np.array([np.array(c) for c in it.p])
+            ray = mi.Ray3f(it.p, mi.Vector3f(*(d / np.linalg.norm(d, axis=0))))
+            ray.wavelengths = it.wavelengths
+            si = row["_scene"].ray_intersect(ray)
+            return emitter.eval(si), -vectors(ray.d)
+        w = directions(n - 2, rng_seed)
+        si = dr.zeros(mi.SurfaceInteraction3f, n)
+        si.wi = mi.Vector3f(*w.T)
+        si.wavelengths = it.wavelengths
+        return emitter.eval(si), w
+    ds, value = emitter.sample_direction(it, mi.Point2f(*rng.uniform(size=(2, n))))
+    if method == "eval_direction":
+        value = emitter.eval_direction(it, ds)
+    return value, -vectors(ds.d)
+
+
+def refusal(row):
+    """The one line a row must be refused with, or None."""
+    if row["to_world"] == "singular":
+        plugin = "polarized_sky" if row["outer"] == "sky" else "polarized_emitter"
+        return f"ValueError: {plugin}: parameter 'to_world' is singular"
+    if row["outer"] == "sky" and row["inner"] in ("area", "spot"):
+        return "ValueError: polarized_sky: the nested emitter must be an infinite emitter"
+    if row["outer"] == "sky" and row["inner"] in ("filter", "stokes_envmap", "sky") \
+            and "polarized" in row["variant"]:
+        return "ValueError: polarized_sky: the nested emitter is polarized"
+    return None
+
+
+EMITTER_ROWS = sorted(pairwise(EMITTER_FACTORS), key=lambda r: r["variant"])
+
+
+def test_the_emitter_array_covers_every_pair():
+    assert not uncovered(EMITTER_FACTORS, EMITTER_ROWS)
+    assert len(EMITTER_ROWS) <= 30
+
+
+@pytest.mark.parametrize("row", EMITTER_ROWS, ids=["-".join(r.values()) for r in EMITTER_ROWS])
+def test_nested_emitters_compose(row, tmp_path):
+    """Each row: the outer plugin's value is its Mueller matrix (NumPy) times
+    the bare inner emitter's value from the same call on the same inputs, or
+    the sky's pattern on the inner's intensity, or a named refusal. Rows
+    where the bare lamp returns nothing (a spot's ``eval``) still check that
+    nothing NaN comes out."""
+    from mitsuba_pbrdf import use_variant
+    from proof import polarized_light as pl
+
+    use_variant(row["variant"])
+    inner = inner_dict(row["inner"], tmp_path)
+    expected_error = refusal(row)
+    if expected_error:
+        with pytest.raises(Exception) as raised:
+            load_emitter(outer_dict(row, inner), row["inner"])
+        assert str(raised.value).strip().splitlines()[-1].startswith(expected_error)
+        return
+    keep, outer = load_emitter(outer_dict(row, inner), row["inner"])
+    keep_bare, bare = load_emitter(inner, row["inner"])
+    row = dict(row, _scene=keep)
+    value, w = call(outer, row, 11)
+    row["_scene"] = keep_bare
+    bare_value, w_bare = call(bare, row, 11)
+    assert np.abs(w - w_bare).max() < 1e-6
+    if not mi.is_polarized:
+        got, ref = np.array(value, np.float64), np.array(bare_value, np.float64)
+        scale = 1.0 if row["outer"] == "sky" else \
+            np.prod([t for _, _, t in OUTER_FILTERS[row["outer"]]])
+        assert np.all(np.isfinite(got)) and np.allclose(got, scale * ref, rtol=1e-6, atol=0)
+        return
+    got, ref = first_column(value), first_column(bare_value)
+    assert np.all(np.isfinite(got))
+    peak = max(ref[:, 0].max(), 1e-30)
+    m = outer_mueller(row, w)
+    if m is not None:
+        want = np.einsum("nij,nj->ni", m, ref)
+    else:       # the sky: Rayleigh's pattern (proof's form) on the inner's intensity
+        sun = pl.unit(np.array(SUN))
+        degree, e = pl.rayleigh(-w, sun, 0.7)
+        x = vectors(mi.mueller.stokes_basis(mi.Vector3f(*w.T)))
+        q, u = pl.linear_stokes(degree, e, x, np.cross(w, x))
+        want = ref[:, :1] * np.stack([np.ones_like(q), q, u, np.zeros_like(q)], -1)
+    assert np.abs(got - want).max() < TOL * peak, np.abs(got - want).max() / peak
