@@ -411,14 +411,14 @@ BSDF_FACTORS = {
 }
 
 
-def perturbation(kind, normal, nested):
+def perturbation(kind, normal, nested, flip=True):
     from proof import tilted_plane as tp
 
     n = tp.tilted_normal(*normal)
     texture = tp.normalmap_bitmap(n) if kind == "normalmap" else \
         tp.height_ramp_bitmap(n, extent=EXTENT)
     return {"type": f"polarized_{kind}", kind if kind == "normalmap" else "height": texture,
-            "use_shadowing_function": False, "nested": nested}
+            "use_shadowing_function": False, "flip_invalid_normals": flip, "nested": nested}
 
 
 def bsdf_dicts(row):
@@ -654,3 +654,98 @@ def variant_switch():
 
     yield use_variant
     use_variant("llvm_ad_spectral_polarized")
+
+
+# ------------------------------------------------------------ a perturbation of a perturbation
+
+def single_normal(normal):
+    """A polarized_normalmap of the constant ``normal`` (S-local) around pbrdf."""
+    from proof import tilted_plane as tp
+
+    return {"type": "polarized_normalmap", "normalmap": tp.normalmap_bitmap(normal),
+            "use_shadowing_function": False, "nested": PBRDF}
+
+
+@pytest.mark.parametrize("outer,inner", [("normalmap", "normalmap"), ("bumpmap", "normalmap"),
+                                         ("normalmap", "bumpmap")])
+def test_a_nested_perturbation_is_the_single_equivalent_one(outer, inner):
+    """Two constant perturbations, P1 (outer) around P2 (inner), are one
+    normal map whose normal is P2's normal carried into S by P1: the same
+    Mueller matrix (isotropic pbrdf: the frames' tangents differ, the
+    Stokes rotations take care of it), float32 products, 1e-4 of the
+    largest element."""
+    from bsdf_harness import hemisphere_pairs
+    from mitsuba_pbrdf.bsdfs.bumpmap import bumpmap_frame
+
+    inner_normal = INNER_NORMAL if inner == "normalmap" else INNER_BUMP
+    nested = mi.load_dict(perturbation(
+        outer, OUTER_NORMAL if outer == "normalmap" else OUTER_BUMP,
+        perturbation(inner, inner_normal, PBRDF, flip=False), flip=False))
+    wi, wo = hemisphere_pairs(64, seed=8)
+    si = plane_si(wi)
+    p1 = frame_of({}, nested, si)
+    if inner == "normalmap":
+        from proof import tilted_plane as tp
+        n_eff = np.einsum("nij,j->ni", p1, tp.tilted_normal(*inner_normal))
+    else:       # the bump map's own frame, from the interaction the outer hands on
+        from mitsuba_pbrdf.bsdfs.perturbed import perturbed_interaction
+
+        f1_si, f1_world = nested.frame(si)
+        psi = perturbed_interaction(si, f1_si, f1_world)
+        texture = nested.nested_bsdf.nested_texture
+        f2 = bumpmap_frame(texture, nested.nested_bsdf.scale, psi, False, True)[0]
+        n_eff = np.einsum("nij,nj->ni", p1, vectors(f2.n))
+    # constant perturbations: every pair has the same effective normal
+    assert np.abs(n_eff - n_eff[0]).max() < 1e-5
+    single = mi.load_dict(dict(single_normal(n_eff[0]), flip_invalid_normals=False))
+    frame = frame_of({}, single, si)
+    keep = np.ones(len(wi), bool)          # every frame's horizon well below both
+    for f in (frame, p1):
+        for w in (wi, wo):
+            keep &= np.einsum("nji,nj->ni", f, w)[:, 2] > 0.05
+    got, want = evaluate(nested, wi, wo)[keep], evaluate(single, wi, wo)[keep]
+    assert keep.sum() >= 8 and np.abs(want).max() > 0
+    assert np.abs(got - want).max() < 1e-4 * np.abs(want).max()
+
+
+# ------------------------------------------------------------ stokes_prb around them
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["twosided-normalmap-filters", "bumpmap-envmap"])
+def test_stokes_prb_renders_and_differentiates_the_nestings(case, tmp_path):
+    """``stokes_prb`` around nested plugins renders what ``stokes(path)``
+    renders with the same random numbers (1e-5 of the image's largest value,
+    tests/test_stokes_prb.py's bound) and differentiates it as ``path`` AD
+    does where that is exact (cosine sampling: 1e-4), through the wrappers'
+    parameters: the nested pbrdf's kdd and eta, the nested lamp's radiance."""
+    import test_stokes_prb as prb
+
+    from mitsuba_pbrdf.integrators import from_path
+
+    inner = prb.pbrdf()
+    if case == "twosided-normalmap-filters":
+        bsdf = {"type": "polarized_twosided",
+                "nested": perturbation("normalmap", OUTER_NORMAL, inner)}
+        extra = {}
+    else:
+        bsdf = perturbation("bumpmap", OUTER_BUMP, inner)
+        extra = {"sky": emitter_dict("stokes_envmap", tmp_path)}
+    d = prb.scene_dict("path", max_depth=3, bsdf=bsdf, extra=extra)
+    if case == "twosided-normalmap-filters":
+        d["key"]["emitter"] = filters((10.0, 0.9, 0.8), (55.0, 0.7, 0.9),
+                                      lamp=d["key"]["emitter"])
+    scene = mi.load_dict(d)
+    replay = from_path(scene)
+    a = np.array(mi.render(scene, spp=prb.SPP, seed=7))
+    b = np.array(mi.render(scene, integrator=replay, spp=prb.SPP, seed=7))
+    assert np.abs(a[..., 6:12]).max() > 1e-3 * np.abs(a).max()      # S1, S2 not empty
+    np.testing.assert_allclose(b, a, atol=1e-5 * np.abs(a).max(), rtol=0)
+    keys = [k for k in mi.traverse(scene).keys()
+            if k.startswith("object.") and k.endswith((".kdd.value", ".eta.value"))
+            or k.startswith("key.") and k.endswith("radiance.value")]
+    assert len(keys) == 3, keys
+    weights = prb.random_weights(4)
+    want = prb.reverse_gradient(scene, keys, weights)
+    got = prb.reverse_gradient(scene, keys, weights, integrator=replay)
+    assert np.all(np.isfinite(got)) and np.all(np.abs(want) > 0)
+    prb.assert_close(got, want)
