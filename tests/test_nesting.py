@@ -234,7 +234,8 @@ EMITTER_FACTORS = {
 
 def transform(name):
     """The outer plugin's ``to_world`` level as (Mitsuba transform or None, 3 x 3)."""
-    rotation = mi.ScalarTransform4f().rotate([1.0, 2.0, 0.5], 70.0)
+    rotation = mi.ScalarTransform4f().rotate((np.array([1.0, 2.0, 0.5]) / math.sqrt(5.25)).tolist(),
+                                             70.0)        # Mitsuba wants a unit axis
     t = {"identity": None, "rotation": rotation, "scaled": rotation.scale(2.0),
          "singular": singular()}[name]
     m = np.eye(3) if t is None else np.array(t.matrix, np.float64).reshape(4, 4)[:3, :3]
@@ -749,3 +750,81 @@ def test_stokes_prb_renders_and_differentiates_the_nestings(case, tmp_path):
     got = prb.reverse_gradient(scene, keys, weights, integrator=replay)
     assert np.all(np.isfinite(got)) and np.all(np.abs(want) > 0)
     prb.assert_close(got, want)
+
+
+# ------------------------------------------------------------ to_world turns the polarization
+
+def varied_map(path):
+    """A 32 x 17 Stokes EXR whose S0 and linear polarization vary smoothly
+    over the sphere (DoLP <= 0.6)."""
+    from mitsuba_pbrdf.stokes import write_stokes_exr
+
+    j, i = np.meshgrid(np.arange(17), np.arange(32), indexing="ij")
+    phi, theta = 2 * np.pi * (i + 0.5) / 32, np.pi * j / 16
+    s = np.zeros((17, 32, 4, 3), np.float32)
+    s[:, :, 0] = (1.5 + np.cos(phi) * np.sin(theta))[..., None]
+    dolp, chi = 0.6 * np.sin(theta) ** 2, phi + theta
+    s[:, :, 1] = (s[:, :, 0, 0] * dolp * np.cos(2 * chi))[..., None]
+    s[:, :, 2] = (s[:, :, 0, 0] * dolp * np.sin(2 * chi))[..., None]
+    write_stokes_exr(path, s, bands=list("RGB"))
+    return str(path)
+
+
+@pytest.mark.parametrize("kind", ["stokes_envmap", "sky-berry", "sky-texture", "filter"])
+@pytest.mark.parametrize("level", ["rotation", "scaled"])
+def test_to_world_turns_the_light_and_its_polarization(kind, level, tmp_path):
+    """An emitter turned by R, seen along R w, is the unturned one seen along
+    w, its Stokes vector rotated from Mitsuba's basis of R w to R times the
+    basis of w (AoLP follows the rotation); a uniform scale changes nothing.
+    Float32 lookups at rotated coordinates: 1e-4 of S0."""
+    t, m = transform(level)
+    rotation = m / np.cbrt(np.linalg.det(m))
+    sun = np.array([0.3, -0.2, 1.0])
+    texture = {"type": "bitmap", "raw": True, "filter_type": "bilinear",
+               "bitmap": mi.Bitmap(np.random.default_rng(1).uniform(
+                   0.5, 2.0, (8, 16, 1)).astype(np.float32))}
+
+    def make(to_world, turn):
+        extra = {} if to_world is None else {"to_world": to_world}
+        if kind == "stokes_envmap":
+            return dict({"type": "stokes_envmap", "filename": varied_map(tmp_path / "m.exr")},
+                        **extra)
+        if kind.startswith("sky"):
+            radiance = texture if kind == "sky-texture" else 1.0
+            return dict({"type": "polarized_sky", "sun_direction": (turn @ sun).tolist(),
+                         "model": "berry" if kind == "sky-berry" else "rayleigh",
+                         "radiance": radiance}, **extra)
+        return dict({"type": "polarized_emitter", "angle": 35.0, "degree": 0.8,
+                     "lamp": {"type": "constant"}}, **extra)
+
+    plain, turned = mi.load_dict(make(None, np.eye(3))), mi.load_dict(make(t, rotation))
+    # not the poles of the lat-long maps (local ±z, ±y), where the azimuth,
+    # hence the texel, is undefined
+    w = directions(80, 2)[2:]
+    w = w[np.abs(w[:, 2]) < 0.99][:62]
+    out = []
+    for emitter, dirs in ((plain, w), (turned, w @ rotation.T)):
+        si = dr.zeros(mi.SurfaceInteraction3f, len(dirs))
+        si.wi = mi.Vector3f(*dirs.T)
+        si.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
+        out.append(first_column(emitter.eval(si)))
+    (s, s_turned), w_turned = out, w @ rotation.T
+    x_turned = vectors(mi.mueller.stokes_basis(mi.Vector3f(*w_turned.T)))
+    target = vectors(mi.mueller.stokes_basis(mi.Vector3f(*w.T))) @ rotation.T
+    back = np.einsum("nij,nj->ni", rotator(w_turned, x_turned, target), s_turned)
+    assert np.abs(s[:, 1:3]).max() > 0.1 * s[:, 0].max()          # polarized
+    assert np.abs(back - s).max() < 1e-4 * s[:, 0].max(), np.abs(back - s).max() / s[:, 0].max()
+
+
+@pytest.mark.parametrize("matrix", [np.diag([1.0, 1.0, -1.0, 1.0]), np.diag([1.0, 2.0, 1.0, 1.0]),
+                                    np.array([[1, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0],
+                                              [0, 0, 0, 1.0]])],
+                         ids=["mirror", "uneven-scale", "shear"])
+def test_stokes_envmap_refuses_a_to_world_that_is_not_a_rotation(matrix, tmp_path):
+    """Mitsuba's envmap looks texels up at the un-normalized to_world⁻¹ w."""
+    with pytest.raises(Exception) as raised:
+        mi.load_dict(emitter_dict("stokes_envmap", tmp_path,
+                                  to_world=mi.ScalarTransform4f(matrix)))
+    last = str(raised.value).strip().splitlines()[-1]
+    assert last.startswith("ValueError: stokes_envmap: parameter 'to_world' must be a "
+                           "rotation"), last
