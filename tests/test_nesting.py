@@ -409,7 +409,9 @@ BSDF_FACTORS = {
     "outer": ["normalmap", "bumpmap", "twosided", "blendbsdf", "mask"],
     "variant": ["llvm_ad_spectral_polarized", "llvm_ad_mono_polarized", "llvm_ad_spectral"],
     "side": ["front", "back"],
+    "mode": ["radiance", "importance"],
 }
+MODES = {"radiance": mi.TransportMode.Radiance, "importance": mi.TransportMode.Importance}
 
 
 def perturbation(kind, normal, nested, flip=True):
@@ -487,7 +489,7 @@ def in_frame(value_p, frame, wi, wo):
     return np.einsum("nij,nwjk,nlk->nwil", r_out, value_p, r_in)
 
 
-def evaluate(bsdf, wi, wo, frame=None):
+def evaluate(bsdf, wi, wo, frame=None, mode="radiance"):
     """``bsdf.eval`` at S-local ``wi``, ``wo``, as NumPy; with ``frame``
     (N x 3 x 3), at the P-local directions with the interaction's shading
     frame P (as a perturbation hands it on)."""
@@ -501,7 +503,14 @@ def evaluate(bsdf, wi, wo, frame=None):
         f = dr.zeros(mi.Frame3f, len(wi))
         f.s, f.t, f.n = (mi.Vector3f(*frame[:, :, k].T) for k in range(3))
         si.sh_frame = f
-    return as_numpy(bsdf.eval(mi.BSDFContext(), si, to_vector(wo)))
+    return as_numpy(bsdf.eval(mi.BSDFContext(MODES[mode]), si, to_vector(wo)))
+
+
+def rebased(value, frame, wi, wo, mode):
+    """:func:`in_frame` in either transport mode: in Importance mode the
+    matrix maps light arriving along -wi to light leaving along wo."""
+    return in_frame(value, frame, wi, wo) if mode == "radiance" else \
+        in_frame(value, frame, wo, wi)
 
 
 BSDF_ROWS = sorted(pairwise(BSDF_FACTORS), key=lambda r: r["variant"])
@@ -532,7 +541,8 @@ def test_nested_bsdfs_compose(row):
     wi, wo = hemisphere_pairs(64, seed=3)
     sign = np.array([1, 1, 1.0]) if row["side"] == "front" else np.array([1, 1, -1.0])
     wi, wo = wi * sign, wo * sign
-    got = evaluate(outer, wi, wo)
+    mode = row["mode"]
+    got = evaluate(outer, wi, wo, mode=mode)
     assert np.all(np.isfinite(got))
     if row["outer"] in ("normalmap", "bumpmap"):
         frame = frame_of(row, outer, plane_si(wi))
@@ -544,24 +554,24 @@ def test_nested_bsdfs_compose(row):
             keep = np.ones(len(wi), bool)
             want = np.zeros_like(got)        # a one-sided BSDF's back
         else:
-            want = evaluate(inner, wi, wo, frame)
+            want = evaluate(inner, wi, wo, frame, mode)
             if mi.is_polarized:
-                want = in_frame(want, frame, wi, wo)
+                want = rebased(want, frame, wi, wo, mode)
         got, want = got[keep], want[keep]
     elif row["outer"] == "twosided":
         if row["side"] == "front":
-            want = evaluate(inner, wi, wo)
+            want = evaluate(inner, wi, wo, mode=mode)
         else:
             turn = np.diag([1.0, -1.0, -1.0])
             frame = np.broadcast_to(turn, (len(wi), 3, 3))
-            want = evaluate(inner, wi @ turn, wo @ turn)
+            want = evaluate(inner, wi @ turn, wo @ turn, mode=mode)
             if mi.is_polarized:
-                want = in_frame(want, frame, wi, wo)
+                want = rebased(want, frame, wi, wo, mode)
     else:
         weight = {"blendbsdf": 0.7, "mask": 0.6}[row["outer"]]
-        want = weight * evaluate(inner, wi, wo)
+        want = weight * evaluate(inner, wi, wo, mode=mode)
         if row["outer"] == "blendbsdf":
-            want = want + 0.3 * evaluate(mi.load_dict(ROUGH), wi, wo)
+            want = want + 0.3 * evaluate(mi.load_dict(ROUGH), wi, wo, mode=mode)
     assert len(got) >= 8
     peak = max(np.abs(want).max(), 1e-30)
     tol = 1e-4 if mi.is_polarized and row["outer"] in ("normalmap", "bumpmap") else 1e-5
