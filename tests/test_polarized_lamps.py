@@ -176,3 +176,27 @@ def test_an_area_lamp_in_its_filter_is_sampled_as_the_bare_lamp():
     assert np.array_equal(np.array(ds1.pdf), np.array(ds0.pdf))
     pdf = scenes[1].emitters()[0].pdf_direction(it, ds1)
     assert np.allclose(np.array(pdf), np.array(ds0.pdf), rtol=1e-6, atol=0)
+
+
+@pytest.mark.parametrize("outer", [90.0, 30.0])
+def test_crossed_lamp_filters_render_dark(outer):
+    """Issue 35's case, rendered: ideal filters (transmittance 0.5) at 0 and
+    ``outer`` degrees in front of an area lamp pass ``0.5 cos²(outer)`` of
+    the bare lamp on the optical axis (Malus), polarized along the outer
+    axis; crossed, nothing anywhere beyond the filters' obliquity (the
+    projected axes of a ray beta off the axis are crossed to beta²/2)."""
+    bare, _ = pl.render_stokes(lamp_scene(degree=0.0))
+    nested = lamp_scene()
+    nested["lamp"]["emitter"] = {"type": "polarized_emitter", "angle": outer, "transmittance": 0.5,
+                                 "inner": {"type": "polarized_emitter", "angle": 0.0,
+                                           "transmittance": 0.5,
+                                           "lamp": {"type": "area", "radiance": 1.0}}}
+    seen, _ = pl.render_stokes(nested)
+    s0, ref = seen.stokes[:, :, 0].sum(-1), bare.stokes[:, :, 0].sum(-1)
+    malus = 0.5 * math.cos(math.radians(outer)) ** 2
+    assert abs(s0[3, 4] / ref[3, 4] - malus) < TOL
+    if outer == 90.0:
+        assert np.all(s0 <= 1e-3 * ref)
+    else:
+        q, u, _, _ = pl.normalized(seen)
+        assert abs(0.5 * math.degrees(math.atan2(u[3, 4], q[3, 4])) - outer) < 1e-3
