@@ -124,6 +124,33 @@ def transform(props, plugin, name):
     return rows
 
 
+def rotation(props, plugin, name):
+    """The rotation (3 x 3 rows) of the transform *name* (:func:`transform`,
+    checked): its 3 x 3 part divided by its uniform scale. For infinite
+    emitters: Mitsuba's ``envmap`` and ``sunsky`` look their texels up at the
+    un-normalized ``to_world⁻¹ w``, right for rotations only (a scale of 2
+    moved an envmap's S0 by up to 48 % of its maximum, a sunsky's by 8 %),
+    and a mirror would flip a Stokes basis's handedness: any other transform
+    is refused."""
+    m = [row[:3] for row in transform(props, plugin, name)[:3]]
+    det = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+           - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+           + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+    r = [[c / math.copysign(abs(det) ** (1.0 / 3.0), det) for c in row] for row in m]
+    error = max(abs(sum(r[i][k] * r[j][k] for k in range(3)) - (i == j))
+                for i in range(3) for j in range(3))
+    if det <= 0 or error > 1e-4:
+        raise ValueError(f"{plugin}: parameter '{name}' must be a rotation (times a uniform "
+                         "scale, which changes nothing); it mirrors, shears or scales unevenly")
+    return r
+
+
+def as_transform(rows):
+    """A ``mi.ScalarTransform4f`` of the 3 x 3 ``rows`` (no translation)."""
+    m = [[float(c) for c in row] + [0.0] for row in rows] + [[0.0, 0.0, 0.0, 1.0]]
+    return mi.ScalarTransform4f(m)
+
+
 def leftover(props, plugin, allowed=()):
     """Raise naming the first property the plugin did not expect."""
     for key in props.keys():

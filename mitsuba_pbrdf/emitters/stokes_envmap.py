@@ -126,34 +126,16 @@ def _configure(props):
     if not os.path.isfile(path):
         raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
     scale = read.number(props, _NAME, "scale", 1.0, low=0.0)
-    m = _rotation(read.transform(props, _NAME, "to_world"))
+    m = np.array(read.rotation(props, _NAME, "to_world"), np.float64)
     s0, stokes = load_stokes_map(path)
     config = {"bitmap": mi.Bitmap(s0), "scale": scale}
     if "to_world" in props:
-        rows = np.eye(4)
-        rows[:3, :3] = m
-        config["to_world"] = mi.ScalarTransform4f(rows)
+        config["to_world"] = read.as_transform(m)
     return {"filename": filename, "inner": create("envmap", **config),
             "to_local": [[float(c) for c in row] for row in m.T],
             "to_world_rows": [[float(c) for c in row] for row in m],
             "height": stokes.shape[0], "width": stokes.shape[1],
             "stokes": mi.Float(stokes.ravel())}
-
-
-def _rotation(to_world):
-    """The rotation of ``to_world`` (4 x 4 rows, checked finite and invertible):
-    its 3 x 3 part divided by its uniform scale. Mitsuba's ``envmap`` looks
-    its texels up at the un-normalized ``to_world⁻¹ w``, which is right for
-    rotations only (a scale of 2 moved S0 by up to 48 % of its maximum), and
-    a mirror would flip the lat-long Stokes basis's handedness: anything
-    else is refused."""
-    m = np.array(to_world, np.float64)[:3, :3]
-    det = np.linalg.det(m)
-    rotation = m / np.cbrt(det) if det > 0 else m
-    if det <= 0 or np.abs(rotation @ rotation.T - np.eye(3)).max() > 1e-4:
-        raise ValueError(f"{_NAME}: parameter 'to_world' must be a rotation (times a uniform "
-                         "scale, which changes nothing); it mirrors, shears or scales unevenly")
-    return rotation
 
 
 class StokesEnvmap(mi.Emitter):
