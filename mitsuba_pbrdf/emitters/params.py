@@ -99,6 +99,13 @@ def nested_objects(props, kinds):
 SINGULAR = 1e-6
 
 
+def _det3(m):
+    """The determinant of a 3 x 3 list of rows."""
+    return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+
+
 def transform(props, plugin, name):
     """The transform *name* (``"to_world"``) as a 4 x 4 list of rows (identity
     if absent): finite, with an invertible 3 x 3 part (see :data:`SINGULAR`),
@@ -113,9 +120,7 @@ def transform(props, plugin, name):
     if not all(math.isfinite(c) for row in rows for c in row):
         raise ValueError(f"{plugin}: parameter '{name}' contains NaN or infinite values")
     m = [row[:3] for row in rows[:3]]
-    det = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-           - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-           + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+    det = _det3(m)
     bound = math.prod(math.sqrt(sum(m[i][j] ** 2 for i in range(3))) for j in range(3))
     if not abs(det) > SINGULAR * bound:
         raise ValueError(f"{plugin}: parameter '{name}' is singular (its 3 x 3 part has "
@@ -133,9 +138,7 @@ def rotation(props, plugin, name):
     and a mirror would flip a Stokes basis's handedness: any other transform
     is refused."""
     m = [row[:3] for row in transform(props, plugin, name)[:3]]
-    det = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-           - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-           + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+    det = _det3(m)
     r = [[c / math.copysign(abs(det) ** (1.0 / 3.0), det) for c in row] for row in m]
     error = max(abs(sum(r[i][k] * r[j][k] for k in range(3)) - (i == j))
                 for i in range(3) for j in range(3))
