@@ -36,8 +36,10 @@ the unperturbed frame S. Both are rotations about the propagation direction, so
 one Stokes rotator per side fixes the matrix.
 
 **Emitted light** (:func:`emitted`, :func:`basis`, :func:`intensity`,
-:func:`linear_ratios`). An emitter of Mitsuba's polarized variants returns a Mueller matrix from
-``eval``, ``eval_direction``, ``sample_direction`` (and ``sample_ray``,
+:func:`linear_ratios`; a filter in front of an emitter:
+:func:`linear_diattenuator`, :func:`times`). An emitter of Mitsuba's
+polarized variants returns a Mueller matrix from ``eval``,
+``eval_direction``, ``sample_direction`` (and ``sample_ray``,
 ``sample_wavelengths``); the integrator multiplies the path's Mueller matrices
 into it and reads its first column as the Stokes vector of the light. Mitsuba's
 own emitters return the depolarizer ``diag(L, 0, 0, 0)`` (unpolarized light).
@@ -170,6 +172,45 @@ def basis(w):
     along ``w`` (``x = mi.mueller.stokes_basis(w)``, ``y = w x x``)."""
     x = mi.mueller.stokes_basis(w)
     return x, dr.cross(w, x)
+
+
+def linear_diattenuator(e_x, e_y, degree, transmittance):
+    """The Mueller matrix (4 x 4 nested lists, row-major, of Floats or floats)
+    of a linear diattenuator whose transmission axis has components ``(e_x,
+    e_y)`` in the Stokes basis (any length; zero: no axis, the filter passes
+    every state, ``transmittance`` times the identity), polarizing
+    unpolarized light to ``degree`` p and passing ``transmittance`` T of its
+    intensity: principal transmittances T (1 + p) along the axis and
+    T (1 - p) across it, so that with ``c, s = cos 2chi, sin 2chi`` and
+    ``k = sqrt(1 - p²)``::
+
+        T [[1,   p c,            p s,            0],
+           [p c, c² + k s²,      (1 - k) c s,    0],
+           [p s, (1 - k) c s,    s² + k c²,      0],
+           [0,   0,              0,              k]]
+
+    (Chipman's homogeneous diattenuator). p = 1 is an ideal polarizer (of
+    gain 2T): two at angle theta pass ``cos² theta`` (Malus)."""
+    c, s = linear_ratios(e_x, e_y, 1.0)
+    off = 1.0 - (c * c + s * s)           # 1 where there is no axis, else 0
+    k = (1.0 - degree * degree) ** 0.5
+    p = degree
+    rows = [[1.0, p * c, p * s, 0.0],
+            [p * c, c * c + k * s * s + off, (1.0 - k) * c * s, 0.0],
+            [p * s, (1.0 - k) * c * s, s * s + k * c * c + off, 0.0],
+            [0.0, 0.0, 0.0, k + off * (1.0 - k)]]
+    return [[transmittance * e for e in row] for row in rows]
+
+
+def times(rows, value):
+    """``rows · value``: the Mueller matrix ``rows`` (4 x 4 nested lists of
+    Floats or floats, the same for every wavelength) applied to ``value``,
+    a ``mi.Spectrum`` Mueller matrix (polarized variants)."""
+    out = dr.zeros(mi.Spectrum, dr.width(value))
+    for i in range(4):
+        for j in range(4):
+            out[i, j] = sum(rows[i][k] * value[k, j] for k in range(4))
+    return out
 
 
 def linear_ratios(e_x, e_y, degree):

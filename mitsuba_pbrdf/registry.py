@@ -44,6 +44,7 @@ PLUGINS = (
     ("integrator", "stokes_prb", "mitsuba_pbrdf.integrators.stokes_prb", "StokesPRBIntegrator"),
     ("bsdf", "polarized_normalmap", "mitsuba_pbrdf.bsdfs.normalmap", "PolarizedNormalMap"),
     ("bsdf", "polarized_bumpmap", "mitsuba_pbrdf.bsdfs.bumpmap", "PolarizedBumpMap"),
+    ("bsdf", "polarized_twosided", "mitsuba_pbrdf.bsdfs.twosided", "PolarizedTwoSided"),
     ("emitter", "polarized_sky", "mitsuba_pbrdf.emitters.polarized_sky", "PolarizedSky"),
     ("emitter", "stokes_envmap", "mitsuba_pbrdf.emitters.stokes_envmap", "StokesEnvmap"),
     ("emitter", "polarized_emitter", "mitsuba_pbrdf.emitters.polarized_emitter",

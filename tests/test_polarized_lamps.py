@@ -155,3 +155,48 @@ def test_hostile_parameters_are_refused_in_one_line(params, text):
         mi.load_dict(dict({"type": "polarized_emitter"}, **params))
     last = str(error.value).strip().splitlines()[-1]
     assert last.split(":")[1].strip() == "polarized_emitter" and text in last, last
+
+
+def test_an_area_lamp_in_its_filter_is_sampled_as_the_bare_lamp():
+    """Mitsuba never calls a Python emitter's ``set_shape``: the wrapper hands
+    its shape to the lamp, whose direction samples (next-event estimation)
+    and pdfs are then the bare lamp's (a transparent filter: degree 0)."""
+    bare = {"type": "area", "radiance": 3.0}
+    scenes = [mi.load_dict({"type": "scene", "lamp": {"type": "rectangle", "emitter": e}})
+              for e in (bare, {"type": "polarized_emitter", "degree": 0.0, "lamp": dict(bare)})]
+    rng = np.random.default_rng(3)
+    n = 64
+    it = dr.zeros(mi.Interaction3f, n)
+    it.p = mi.Point3f(rng.uniform(-2, 2, n), rng.uniform(-2, 2, n), rng.uniform(0.5, 3, n))
+    it.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
+    sample = mi.Point2f(rng.uniform(size=n), rng.uniform(size=n))
+    (ds0, w0), (ds1, w1) = (s.emitters()[0].sample_direction(it, sample) for s in scenes)
+    assert np.all(np.array(w0[0, 0]) > 0)
+    assert np.array_equal(np.array(w1[0, 0]), np.array(w0[0, 0]))
+    assert np.array_equal(np.array(ds1.pdf), np.array(ds0.pdf))
+    pdf = scenes[1].emitters()[0].pdf_direction(it, ds1)
+    assert np.allclose(np.array(pdf), np.array(ds0.pdf), rtol=1e-6, atol=0)
+
+
+@pytest.mark.parametrize("outer", [90.0, 30.0])
+def test_crossed_lamp_filters_render_dark(outer):
+    """Issue 35's case, rendered: ideal filters (transmittance 0.5) at 0 and
+    ``outer`` degrees in front of an area lamp pass ``0.5 cos²(outer)`` of
+    the bare lamp on the optical axis (Malus), polarized along the outer
+    axis; crossed, nothing anywhere beyond the filters' obliquity (the
+    projected axes of a ray beta off the axis are crossed to beta²/2)."""
+    bare, _ = pl.render_stokes(lamp_scene(degree=0.0))
+    nested = lamp_scene()
+    nested["lamp"]["emitter"] = {"type": "polarized_emitter", "angle": outer, "transmittance": 0.5,
+                                 "inner": {"type": "polarized_emitter", "angle": 0.0,
+                                           "transmittance": 0.5,
+                                           "lamp": {"type": "area", "radiance": 1.0}}}
+    seen, _ = pl.render_stokes(nested)
+    s0, ref = seen.stokes[:, :, 0].sum(-1), bare.stokes[:, :, 0].sum(-1)
+    malus = 0.5 * math.cos(math.radians(outer)) ** 2
+    assert abs(s0[3, 4] / ref[3, 4] - malus) < TOL
+    if outer == 90.0:
+        assert np.all(s0 <= 1e-3 * ref)
+    else:
+        q, u, _, _ = pl.normalized(seen)
+        assert abs(0.5 * math.degrees(math.atan2(u[3, 4], q[3, 4])) - outer) < 1e-3

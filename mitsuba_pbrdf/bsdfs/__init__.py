@@ -9,7 +9,9 @@
   (:mod:`.bumpmap`): Mitsuba's shading-frame perturbations with the Stokes
   bases rotated (docs/normal-maps.md), their shared body in
   :mod:`.perturbed`; :func:`warn_unpolarized_wrappers` says when a polarized
-  render uses Mitsuba's own wrappers instead.
+  render uses Mitsuba's own wrappers instead;
+* ``polarized_twosided`` (:mod:`.twosided`): Mitsuba's ``twosided`` with the
+  back side's Stokes bases put right.
 
 The plugin modules subclass the active variant's ``mi.BSDF`` when they run, so
 they are loaded per variant by :func:`mitsuba_pbrdf.registry.variant_module`

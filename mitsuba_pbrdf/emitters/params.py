@@ -93,12 +93,65 @@ def nested_objects(props, kinds):
             if props.type(key) == mi.Properties.Type.Object and isinstance(props[key], kinds)}
 
 
-def transform(props, name):
-    """The transform *name* (``"to_world"``) as a 4 x 4 list of rows (identity if absent)."""
+#: A transform whose 3 x 3 part has |det| below this fraction of the product
+#: of its column lengths (the largest |det| such columns allow) is singular:
+#: it squeezes local directions into a plane, and no direction maps back.
+SINGULAR = 1e-6
+
+
+def _det3(m):
+    """The determinant of a 3 x 3 list of rows."""
+    return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+
+
+def transform(props, plugin, name):
+    """The transform *name* (``"to_world"``) as a 4 x 4 list of rows (identity
+    if absent): finite, with an invertible 3 x 3 part (see :data:`SINGULAR`),
+    which the emitters invert to map world directions back."""
     if name not in props:
         return [[1.0 if i == j else 0.0 for j in range(4)] for i in range(4)]
+    if props.type(name) != mi.Properties.Type.Transform:
+        raise TypeError(f"{plugin}: parameter '{name}' must be a transform, got "
+                        f"{props.type(name).name.lower()} {props.as_string(name)!r}")
     matrix = props[name].matrix
-    return [[float(matrix[i][j]) for j in range(4)] for i in range(4)]
+    rows = [[float(matrix[i][j]) for j in range(4)] for i in range(4)]
+    if not all(math.isfinite(c) for row in rows for c in row):
+        raise ValueError(f"{plugin}: parameter '{name}' contains NaN or infinite values")
+    m = [row[:3] for row in rows[:3]]
+    det = _det3(m)
+    bound = math.prod(math.sqrt(sum(m[i][j] ** 2 for i in range(3))) for j in range(3))
+    if not abs(det) > SINGULAR * bound:
+        raise ValueError(f"{plugin}: parameter '{name}' is singular (its 3 x 3 part has "
+                         f"determinant {det:.3g}): it must map local directions one to one, "
+                         "e.g. a rotation")
+    return rows
+
+
+def rotation(props, plugin, name):
+    """The rotation (3 x 3 rows) of the transform *name* (:func:`transform`,
+    checked): its 3 x 3 part divided by its uniform scale. For infinite
+    emitters: Mitsuba's ``envmap`` and ``sunsky`` look their texels up at the
+    un-normalized ``to_world⁻¹ w``, right for rotations only (a scale of 2
+    moved an envmap's S0 by up to 48 % of its maximum, a sunsky's by 8 %),
+    and a mirror would flip a Stokes basis's handedness: any other transform
+    is refused."""
+    m = [row[:3] for row in transform(props, plugin, name)[:3]]
+    det = _det3(m)
+    r = [[c / math.copysign(abs(det) ** (1.0 / 3.0), det) for c in row] for row in m]
+    error = max(abs(sum(r[i][k] * r[j][k] for k in range(3)) - (i == j))
+                for i in range(3) for j in range(3))
+    if det <= 0 or error > 1e-4:
+        raise ValueError(f"{plugin}: parameter '{name}' must be a rotation (times a uniform "
+                         "scale, which changes nothing); it mirrors, shears or scales unevenly")
+    return r
+
+
+def as_transform(rows):
+    """A ``mi.ScalarTransform4f`` of the 3 x 3 ``rows`` (no translation)."""
+    m = [[float(c) for c in row] + [0.0] for row in rows] + [[0.0, 0.0, 0.0, 1.0]]
+    return mi.ScalarTransform4f(m)
 
 
 def leftover(props, plugin, allowed=()):

@@ -23,37 +23,47 @@
      - --
    * - ``degree``
      - float
-     - Degree of linear polarization of the light, in [0, 1] (1: an ideal
-       polarizer; less: a leaky one).
+     - Degree of linear polarization the filter gives unpolarized light, in
+       [0, 1] (1: an ideal polarizer; less: a leaky one).
      - 1
      - --
    * - ``transmittance``
      - float
-     - Fraction of the lamp's radiance the filter passes, in [0, 1]. An ideal
-       polarizer in front of an unpolarized lamp passes 0.5; the default
-       keeps the lamp's radiance and polarizes it.
+     - Fraction of an unpolarized lamp's radiance the filter passes, in
+       [0, 1]. An ideal polarizer passes 0.5; the default keeps the lamp's
+       radiance and polarizes it (and so doubles light already polarized
+       along its axis, see below).
      - 1
      - --
    * - ``to_world``
      - transform
      - The polarizer's frame: its sheet is the local xy plane. Give a spot
        light's or a rectangle's own ``to_world`` to turn the axis with it.
+       Refused at load time if singular or not finite.
      - identity
      - --
 
-Light of the lamp propagating along ``w`` leaves with the Stokes vector
-``T L (1, p cos 2chi, p sin 2chi, 0)``: T the transmittance, L the lamp's
-radiance, p the degree, and the field along the axis ``a`` projected across
+The filter is a linear diattenuator (Chipman's homogeneous one) with
+principal transmittances ``T (1 + p)`` along its axis and ``T (1 - p)``
+across it: T the transmittance, p the degree, the axis ``a`` projected across
 the ray, ``a - (a.w) w`` (the tilted-polarizer approximation: exact for rays
 along the local z axis, the axis's projection for oblique ones), chi its angle
-in Mitsuba's Stokes basis of ``w``. Rays along the axis itself (``a`` parallel
-to ``w``: the polarizer seen edge-on) are left unpolarized. Malus's law
-follows: an analyzer at angle theta to the axis passes
-``T L (1 + p cos 2theta) / 2``.
+in Mitsuba's Stokes basis of the propagation direction ``w``
+(:func:`mitsuba_pbrdf.mueller.linear_diattenuator`). Its Mueller matrix
+multiplies the lamp's whole Mueller matrix, so an unpolarized lamp of
+radiance L leaves with ``T L (1, p cos 2chi, p sin 2chi, 0)``, and a lamp
+that is itself polarized (a nested ``polarized_emitter``, a
+``stokes_envmap``...) is filtered: two ideal filters at theta1 (inner) and
+theta2 pass ``2 T1 T2 L cos²(theta1 - theta2)`` (Malus's law), polarized
+along the outer axis. A physical (passive) filter has ``T (1 + p) <= 1``;
+the default T = 1 is a filter with gain. Rays along the axis itself (``a``
+parallel to ``w``: the polarizer seen edge-on) pass unchanged, times T. An
+analyzer at angle theta to the axis passes ``T L (1 + p cos 2theta) / 2`` of
+an unpolarized lamp.
 
 Everything else is the lamp's: its flags, sampling (``sample_direction``,
-``sample_ray``, ``sample_position``, ``pdf_direction``) and spectrum; the
-wrapper only multiplies the first column of the returned matrix. In
+``sample_ray``, ``sample_position``, ``pdf_direction``) and spectrum
+(``sample_wavelengths``, which has no direction, scales by T only). In
 unpolarized variants it is the lamp times the transmittance.
 
 What Mitsuba's plugin system does not allow: the wrapper cannot sit *between*
@@ -87,7 +97,7 @@ import drjit as dr
 import mitsuba as mi
 
 from . import params as read, wrapped
-from ..mueller import basis, emitted, intensity, linear_ratios
+from ..mueller import basis, linear_diattenuator, times
 
 #: The Mitsuba variant this module's class was built for (registry.variant_module).
 VARIANT = mi.variant()
@@ -105,7 +115,7 @@ def _configure(props):
     angle = math.radians(read.number(props, _NAME, "angle", 0.0))
     degree = read.number(props, _NAME, "degree", 1.0, 0.0, 1.0)
     transmittance = read.number(props, _NAME, "transmittance", 1.0, 0.0, 1.0)
-    m = read.transform(props, "to_world")
+    m = read.transform(props, _NAME, "to_world")
     local = (math.cos(angle), math.sin(angle), 0.0)
     axis = read.unit_vector(_NAME, "to_world",
                             [sum(m[i][j] * local[j] for j in range(3)) for i in range(3)])
@@ -134,12 +144,15 @@ class PolarizedEmitter(mi.Emitter):
             return value * self.transmittance
         x, y = basis(w)
         a = mi.Vector3f(self.axis)
-        q, u = linear_ratios(dr.dot(a, x), dr.dot(a, y), self.degree)
-        return emitted(intensity(value) * self.transmittance, q, u)
+        # the filter's Mueller matrix times the lamp's whole matrix: a lamp
+        # that is itself polarized (another polarized_emitter, a
+        # stokes_envmap...) is filtered as Malus's law says
+        return times(linear_diattenuator(dr.dot(a, x), dr.dot(a, y), self.degree,
+                                         self.transmittance), value)
 
     def eval(self, si, active=True):
         w = si.to_world(si.wi) if self.surface else si.wi
-        return self.light(self.inner.eval(si, active), w)
+        return self.light(wrapped.nested(self).eval(si, active), w)
 
     eval_direction = wrapped.eval_direction
     sample_direction = wrapped.sample_direction
@@ -149,10 +162,10 @@ class PolarizedEmitter(mi.Emitter):
     bbox = wrapped.bbox
 
     def pdf_position(self, ps, active=True):
-        return self.inner.pdf_position(ps, active)
+        return wrapped.nested(self).pdf_position(ps, active)
 
     def sample_wavelengths(self, si, sample, active=True):
-        wavelengths, weight = self.inner.sample_wavelengths(si, sample, active)
+        wavelengths, weight = wrapped.nested(self).sample_wavelengths(si, sample, active)
         return wavelengths, weight * self.transmittance
 
     def set_shape(self, shape):

@@ -79,12 +79,17 @@
    * - (nested emitter)
      - emitter
      - An infinite emitter (``envmap``, ``constant``, ``sunsky``...) whose
-       radiance and sampling replace the ``sunsky`` intensity.
+       radiance and sampling replace the ``sunsky`` intensity. A polarized
+       one (``stokes_envmap``, a ``polarized_emitter``...) is refused at
+       load time: the sky would replace its polarization.
      - --
      - ``intensity.*``
    * - ``to_world``
      - transform
-     - Local-to-world transform of the sky (``sunsky``'s: its local +Z is up).
+     - Local-to-world transform of the sky (``sunsky``'s: its local +Z is up):
+       a rotation (a uniform scale and a translation change nothing); refused
+       at load time if singular, not finite, mirroring, shearing or scaling
+       unevenly.
      - identity
      - --
 
@@ -212,6 +217,13 @@ def _intensity_emitter(props, up, sun, when):
         if not emitter.is_environment():
             raise ValueError(f"{_NAME}: the nested emitter must be an infinite emitter "
                              f"(envmap, constant, sunsky), got {emitter.class_name()}")
+        dop = wrapped.max_dop(emitter)
+        if dop > 1e-6:
+            # the sky's pattern would replace that polarization, silently
+            raise ValueError(f"{_NAME}: the nested emitter is polarized (degree up to "
+                             f"{dop:.3g}), and the sky replaces the polarization of its "
+                             "intensity: nest an unpolarized emitter (envmap, constant, "
+                             "sunsky), or put a polarized_emitter around the sky to filter it")
         return emitter, "nested", None, None, sun
     if "radiance" in props:
         texture, varying = _texture(props)
@@ -237,7 +249,7 @@ def _intensity_emitter(props, up, sun, when):
         else:
             config["albedo"] = props["albedo"]
     if "to_world" in props:
-        config["to_world"] = props["to_world"]
+        config["to_world"] = read.as_transform(read.rotation(props, _NAME, "to_world"))
     try:
         emitter = create("sunsky", **config)
     except RuntimeError as error:
@@ -268,7 +280,7 @@ def _configure(props):
     if model != "berry" and "neutral_point_separation" in props:
         raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
                          "model 'berry' only")
-    to_world = read.transform(props, "to_world")
+    to_world = read.rotation(props, _NAME, "to_world")
     up = read.unit_vector(_NAME, "to_world", [to_world[i][2] for i in range(3)])
     horizontal = read.unit_vector(_NAME, "to_world", [to_world[i][0] for i in range(3)])
     when = _sun_position(props)
@@ -283,19 +295,10 @@ def _configure(props):
     sun = None if when else read.direction(props, _NAME, "sun_direction")
     emitter, kind, half_aperture, texture, sun = _intensity_emitter(props, up, sun, when)
     return {"model": model, "dolp_max": mi.Float(dolp_max), "separation": separation,
-            "up": up, "horizontal": horizontal, "to_local": _inverse_rows(to_world),
+            "up": up, "horizontal": horizontal,
+            "to_local": [list(column) for column in zip(*to_world)],   # R⁻¹ = Rᵀ
             "sun": sun, "when": when, "inner": emitter, "kind": kind,
             "sun_half_aperture": half_aperture, "texture": texture}
-
-
-def _inverse_rows(to_world):
-    """The rows of the inverse of ``to_world``'s 3 x 3 part (plain Python)."""
-    m = [row[:3] for row in to_world[:3]]
-    cof = [[m[(j + 1) % 3][(i + 1) % 3] * m[(j + 2) % 3][(i + 2) % 3]
-            - m[(j + 1) % 3][(i + 2) % 3] * m[(j + 2) % 3][(i + 1) % 3] for j in range(3)]
-           for i in range(3)]
-    det = sum(m[0][k] * cof[k][0] for k in range(3))
-    return [[c / det for c in row] for row in cof]
 
 
 class PolarizedSky(mi.Emitter):

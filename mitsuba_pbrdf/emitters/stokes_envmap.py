@@ -26,7 +26,10 @@
      - ``intensity.scale``
    * - ``to_world``
      - transform
-     - Local-to-world transform, as Mitsuba's ``envmap`` (local +Y up).
+     - Local-to-world transform, as Mitsuba's ``envmap`` (local +Y up): a
+       rotation (a uniform scale and a translation change nothing); refused
+       at load time if singular, not finite, mirroring, shearing or scaling
+       unevenly.
      - identity
      - --
 
@@ -123,13 +126,13 @@ def _configure(props):
     if not os.path.isfile(path):
         raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
     scale = read.number(props, _NAME, "scale", 1.0, low=0.0)
+    m = np.array(read.rotation(props, _NAME, "to_world"), np.float64)
     s0, stokes = load_stokes_map(path)
     config = {"bitmap": mi.Bitmap(s0), "scale": scale}
     if "to_world" in props:
-        config["to_world"] = props["to_world"]
-    m = np.array(read.transform(props, "to_world"), np.float64)[:3, :3]
+        config["to_world"] = read.as_transform(m)
     return {"filename": filename, "inner": create("envmap", **config),
-            "to_local": [[float(c) for c in row] for row in np.linalg.inv(m)],
+            "to_local": [[float(c) for c in row] for row in m.T],
             "to_world_rows": [[float(c) for c in row] for row in m],
             "height": stokes.shape[0], "width": stokes.shape[1],
             "stokes": mi.Float(stokes.ravel())}

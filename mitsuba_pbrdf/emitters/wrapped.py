@@ -21,6 +21,13 @@ occluder farther away: light leaked through the ground of a scene 20 units
 wide (``tests/test_sky_radiance_texture.py``). :func:`sample_direction` puts
 the point :data:`FAR` away instead. ``sample_ray`` (light tracing) still
 starts its rays on that unit sphere (docs/polarized-light.md).
+
+**No** ``set_shape`` either (measured: a shape holding a Python emitter sets
+the emitter's shape in C++, ``get_shape()``, and never calls the Python
+override): an inner ``area`` lamp of ``polarized_emitter`` kept no shape, and
+its ``sample_direction`` returned zero weights, so emitter sampling lit
+nothing and only BSDF-sampled paths found the lamp. :func:`nested` hands the
+wrapper's shape on before each call.
 """
 
 from __future__ import annotations
@@ -34,40 +41,79 @@ import mitsuba as mi
 FAR = 1e7
 
 
+def nested(self):
+    """``self.inner``, given this emitter's shape first if it has none
+    (module docstring)."""
+    inner = self.inner
+    if inner.get_shape() is None:
+        shape = self.get_shape()
+        if shape is not None:
+            inner.set_shape(shape)
+    return inner
+
+
 def eval(self, si, active=True):
     """An infinite emitter seen along ``-si.wi``: its light propagates along
     ``si.wi`` (world space)."""
-    return self.light(self.inner.eval(si, active), si.wi, si.wavelengths)
+    return self.light(nested(self).eval(si, active), si.wi, si.wavelengths)
 
 
 def eval_direction(self, it, ds, active=True):
-    return self.light(self.inner.eval_direction(it, ds, active), -ds.d, it.wavelengths)
+    return self.light(nested(self).eval_direction(it, ds, active), -ds.d, it.wavelengths)
 
 
 def sample_direction(self, it, sample, active=True):
     """The inner emitter's sample, named as this emitter's (an adjoint pass
     that re-evaluates ``ds.emitter`` then sees the polarization); an infinite
     one's point :data:`FAR` away (module docstring)."""
-    ds, weight = self.inner.sample_direction(it, sample, active)
+    ds, weight = nested(self).sample_direction(it, sample, active)
     ds.emitter = mi.EmitterPtr(self)
-    if self.inner.is_environment():
+    if nested(self).is_environment():
         ds.p = dr.fma(ds.d, FAR, it.p)
         ds.dist = FAR
     return ds, self.light(weight, -ds.d, it.wavelengths)
 
 
 def pdf_direction(self, it, ds, active=True):
-    return self.inner.pdf_direction(it, ds, active)
+    return nested(self).pdf_direction(it, ds, active)
 
 
 def sample_ray(self, time, sample1, sample2, sample3, active=True):
-    ray, weight = self.inner.sample_ray(time, sample1, sample2, sample3, active)
+    ray, weight = nested(self).sample_ray(time, sample1, sample2, sample3, active)
     return ray, self.light(weight, ray.d, ray.wavelengths)
 
 
 def sample_position(self, time, sample, active=True):
-    return self.inner.sample_position(time, sample, active)
+    return nested(self).sample_position(time, sample, active)
 
 
 def bbox(self):
     return self.inner.bbox()
+
+
+def max_dop(emitter, n=64):
+    """The largest degree of polarization of an infinite ``emitter``'s light
+    over ``n`` directions spread over the sphere (a Fibonacci lattice) at
+    four wavelengths: 0 for Mitsuba's own emitters (depolarizers) and in
+    unpolarized variants. A load-time check (plain floats)."""
+    import numpy as np
+
+    if not mi.is_polarized:
+        return 0.0
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = np.pi * (3.0 - np.sqrt(5.0)) * k
+    r = np.sqrt(1.0 - z * z)
+    w = np.stack([r * np.cos(phi), r * np.sin(phi), z], -1)
+    scalar = mi.variant().startswith("scalar")
+    worst = 0.0
+    for rows in ([[*v] for v in w] if scalar else [w.T]):
+        si = dr.zeros(mi.SurfaceInteraction3f) if scalar else dr.zeros(mi.SurfaceInteraction3f, n)
+        si.wi = mi.Vector3f(*rows)
+        if mi.is_spectral:
+            si.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
+        value = emitter.eval(si)
+        s = [np.asarray(value[i, 0], np.float64) for i in range(4)]
+        dop = np.sqrt(s[1] ** 2 + s[2] ** 2 + s[3] ** 2) / np.maximum(np.abs(s[0]), 1e-30)
+        worst = max(worst, float(np.max(np.where(np.abs(s[0]) > 0, dop, 0.0))))
+    return worst
