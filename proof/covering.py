@@ -33,6 +33,9 @@ def pairwise(factors: Dict[str, Sequence],
     ``allowed(partial_row)`` says whether a (partial) row may exist; it sees
     only the factors set so far."""
     names = list(factors)
+    if len(names) == 1:  # no pairs: each allowed level once
+        return [{names[0]: v} for v in factors[names[0]]
+                if allowed is None or allowed({names[0]: v})]
     missing = _pairs(factors, allowed)
     rows = []
     while missing:

@@ -23,6 +23,7 @@ import pytest
 from mitsuba_pbrdf import variant as variant_module
 from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.outputs import OutputPlanError, check_plan, escape_text, same_file
+from proof.covering import pairwise
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
 CSV = os.path.join(ROOT, "tests", "data", "fit_example.csv")
@@ -32,31 +33,6 @@ ODD = "odd al---é 'q\"<&>\n\x1b"   # a valid name: the refusal of its row is an
 FAULTS = ("input", "other", "format", "noext", "unwritable", "notfolder")
 
 pytestmark = pytest.mark.usefixtures("restore_variant")
-
-
-def pairwise(factors: dict) -> list:
-    """Rows (dicts) in which every pair of values of every two factors occurs
-    (one factor: each of its values), built greedily."""
-    names = list(factors)
-    if len(names) == 1:
-        return [{names[0]: v} for v in factors[names[0]]]
-
-    def key(a, va, b, vb):
-        return (a, va, b, vb) if names.index(a) < names.index(b) else (b, vb, a, va)
-
-    uncovered = {key(a, va, b, vb) for a, b in itertools.combinations(names, 2)
-                 for va in factors[a] for vb in factors[b]}
-    rows = []
-    while uncovered:
-        a, va, b, vb = min(uncovered)
-        row = {a: va, b: vb}
-        for n in names:
-            if n not in row:
-                row[n] = max(factors[n], key=lambda v: sum(key(x, row[x], n, v) in uncovered
-                                                           for x in row))
-        uncovered -= {key(x, row[x], y, row[y]) for x, y in itertools.combinations(names, 2)}
-        rows.append(row)
-    return rows
 
 
 # command: (argv before the outputs, {option: (kind, extension, values)}); kind "file" or
