@@ -12,7 +12,7 @@ from .. import reference as ref
 from ..measured.measurements import Measurements
 from .layout import SHARED
 
-__all__ = ["model_observables", "observables_from_mueller", "synthetic_measurements"]
+__all__ = ["model_observables", "observables_from_mueller", "linear_ratios", "synthetic_measurements"]
 
 
 def _per_point(data, per_wavelength):
@@ -21,14 +21,25 @@ def _per_point(data, per_wavelength):
     return np.asarray(per_wavelength, dtype=np.float64)[index]
 
 
+def linear_ratios(M):
+    """``(q, u, ok)``: the normalized linear Stokes ratios ``M10 / M00`` and
+    ``M20 / M00`` of unpolarized light reflected by Mueller matrices ``M``
+    (N, 4, 4), 0 where ``ok`` (``M00 > 0``) is False. DoLP is ``hypot(q, u)``.
+    Ratios first: a lobe far from its peak underflows (M00 ~ 1e-318 at a
+    narrow width) and a square or product of such values is 0, a ratio is not."""
+    m00 = M[:, 0, 0]
+    ok = m00 > 0
+    safe = np.where(ok, m00, 1.0)
+    return np.where(ok, M[:, 1, 0] / safe, 0.0), np.where(ok, M[:, 2, 0] / safe, 0.0), ok
+
+
 def observables_from_mueller(M, names):
     """{name: value at every measurement} from Mueller matrices ``M`` (N, 4, 4)."""
     out = {}
     for name in names:
         if name == "dolp":
-            with np.errstate(divide="ignore", invalid="ignore"):
-                out[name] = np.where(M[:, 0, 0] > 0, np.hypot(M[:, 1, 0], M[:, 2, 0])
-                                     / M[:, 0, 0], 0.0)
+            q, u, _ = linear_ratios(M)
+            out[name] = np.hypot(q, u)
         else:
             out[name] = M[:, int(name[1]), int(name[2])]
     return out
