@@ -68,3 +68,70 @@ def test_two_component_fit_with_kid_fixed_runs(capsys):
     captured = capsys.readouterr()
     assert status == 0, captured.err
     assert "| kid | 0 (fixed) |" in captured.out
+
+
+# ---------------------------------------------------------------- a model knows its parameters
+
+def test_a_value_the_two_component_model_lacks_is_not_carried_into_it():
+    """``--model both --fix kdd=0.5``: the three-component fit holds kdd = 0.5;
+    the two-component one (kdd = 0 by definition) drops the value with a note,
+    where it used to carry kdd = 0.5 under a title saying kdd = 0."""
+    data = small()
+    results = fitting.fit_models(data, ("three", "two"), fix={"kdd": 0.5}, starts=1)
+    three, two = results["three"], results["two"]
+    assert three.values["kdd"] == 0.5 and "kdd" in three.fixed
+    assert two.values["kdd"] == 0.0 and set(two.absent) == {"kdd", "sigma_dd"}
+    assert any("kdd=0.5 not used in the two-component fit" in n for n in two.notes)
+    text = fitting.report(data, results)
+    assert "fix kdd=0.5 not used in the two-component fit" in text
+    # the two-component fit is the same as one given no kdd
+    plain = fitting.fit_model(data, "two", starts=1)
+    assert two.chi2 == pytest.approx(plain.chi2, rel=1e-9)
+
+
+@pytest.mark.parametrize("what", ["fix", "init"])
+@pytest.mark.parametrize("name", ["kdd", "sigma_dd"])
+def test_a_single_model_refuses_a_parameter_it_lacks(what, name):
+    from mitsuba_pbrdf.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=f"two-component model has no {name}") as e:
+        fitting.fit_model(small(), "two", **{what: {name: 0.5}})
+    assert e.value.parameter == what
+
+
+def test_the_command_refuses_a_parameter_the_model_lacks(capsys):
+    assert main(["fit", EXAMPLE, "--model", "two", "--fix", "kdd=0.5"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--fix: kdd: the two-component model has no kdd" in err
+
+
+def test_a_lobe_whose_weight_is_fixed_at_0_has_no_parameters():
+    """kdd fixed at 0 leaves sigma_dd nothing to act on: it is not fitted (it
+    was, as an undetermined parameter), nor reported, and a value for it is
+    refused; the fit is the two-component one. ks fixed at 0 does the same for
+    the index and the specular width."""
+    from mitsuba_pbrdf.errors import ParameterError
+
+    data = small()
+    off = fitting.fit_model(data, "three", fix={"kdd": 0.0}, starts=1)
+    assert "sigma_dd" not in off.free and "sigma_dd" in off.absent and not off.undetermined
+    assert off.chi2 == pytest.approx(fitting.fit_model(data, "two", starts=1).chi2, rel=1e-6)
+    assert "| sigma_dd |" not in fitting.report(data, {"three": off})
+    with pytest.raises(ParameterError, match="kdd is fixed at 0"):
+        fitting.fit_model(data, "three", fix={"kdd": 0.0, "sigma_dd": 0.3})
+    diffuse = fitting.fit_model(data, "three", fix={"ks": 0.0}, material="Al", starts=1)
+    assert set(diffuse.free) == {"kdd", "sigma_dd", "kid"}
+
+
+def test_drjit_backend_with_the_directional_lobe_off_fits():
+    """``--backend drjit --fix kdd=0``: the plugin drops the lobe of a weight
+    fixed at 0, so its width had no parameter to differentiate ('internal
+    error: KeyError: sigma_dd.value'). Now the width is not fitted, and the
+    plugin's fit is the reference's (as tests/test_fit.py's backend test)."""
+    data = small()
+    ref_fit = fitting.fit_model(data, "three", fix={"kdd": 0.0}, material="Al", starts=1)
+    dr_fit = fitting.fit_model(data, "three", fix={"kdd": 0.0}, material="Al", starts=1,
+                               backend="drjit")
+    for p in ("sigma", "ks", "kid"):
+        assert abs(dr_fit.values[p] - ref_fit.values[p]) < 0.2 * ref_fit.errors[p], p
+    assert dr_fit.chi2 == pytest.approx(ref_fit.chi2, rel=1e-3)

@@ -17,7 +17,7 @@ from ..outputs import atomic_path, write_json
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..errors import one_line
 from .arguments import check_outputs, float_list, positive_int, require_file
-from .errors import CliError
+from .errors import CliError, option_message
 from .fit_progress import FitProgressDisplay
 from .model_options import add_model_arguments
 
@@ -134,7 +134,7 @@ def run(args) -> int:
                                  anisotropic=args.anisotropic, objective=args.objective,
                                  log_floor=args.log_floor, progress=shown)
     except ValueError as e:
-        raise CliError(one_line(e)) from e
+        raise CliError(option_message(e, args)) from e
     if table is not None:
         print(f"table: {table.describe()}; fitted {len(data)} cell-wavelength entries "
               f"({len(data) // max(data.wavelengths.size, 1)} cells at "
