@@ -135,3 +135,19 @@ def test_drjit_backend_with_the_directional_lobe_off_fits():
     for p in ("sigma", "ks", "kid"):
         assert abs(dr_fit.values[p] - ref_fit.values[p]) < 0.2 * ref_fit.errors[p], p
     assert dr_fit.chi2 == pytest.approx(ref_fit.chi2, rel=1e-3)
+
+
+# ---------------------------------------------------------------- an index table in memory
+
+@pytest.mark.parametrize("n, detail", [(-1.0, "n = -1 is not physical"),
+                                       (math.nan, "not finite")])
+def test_an_index_table_in_memory_is_checked_as_a_file_is(n, detail):
+    """``fit_model(nk=IndexTable(n=-1))`` returned n = -1 (the reader of a
+    file refuses it); a NaN n stopped in SciPy ('Initial guess is outside of
+    provided bounds'). Both are refused, naming the table, before the fit."""
+    from mitsuba_pbrdf.measured import IndexTable, IndexTableError
+
+    w = np.array([500.0, 700.0])
+    table = IndexTable(w, np.array([n, n]), w, np.array([7.0, 7.0]), source="<my table>")
+    with pytest.raises(IndexTableError, match=f"<my table>: .*{detail}"):
+        fitting.fit_model(small(), "three", nk=table, starts=1)

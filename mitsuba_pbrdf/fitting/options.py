@@ -84,6 +84,7 @@ def index_from(material, nk, wavelengths):
         return n0, k0, f"material {material}"
     if nk is not None:
         table = nk if isinstance(nk, IndexTable) else read_index_table(nk)
+        table.check()
         n0, k0 = table.at(wavelengths)
         return n0, k0, f"index table {table.source}"
     return None
