@@ -151,3 +151,41 @@ def test_an_index_table_in_memory_is_checked_as_a_file_is(n, detail):
     table = IndexTable(w, np.array([n, n]), w, np.array([7.0, 7.0]), source="<my table>")
     with pytest.raises(IndexTableError, match=f"<my table>: .*{detail}"):
         fitting.fit_model(small(), "three", nk=table, starts=1)
+
+
+# ---------------------------------------------------------------- columns without values
+
+def _example_with(tmp_path, column, value):
+    """The example file with every cell of *column* set to *value*."""
+    lines = open(EXAMPLE).read().splitlines()
+    header = next(line for line in lines if line.startswith("theta_i")).split(",")
+    i = header.index(column)
+    out = [",".join(header)]
+    for line in lines:
+        if line[:1].isdigit():
+            cells = line.split(",")
+            cells[i] = value
+            out.append(",".join(cells))
+    path = tmp_path / f"{column}_{value or 'empty'}.csv"
+    path.write_text("\n".join(out) + "\n")
+    return str(path)
+
+
+@pytest.mark.parametrize("column, value, message", [
+    ("m00", "", "the m00 column has no values"),
+    ("dolp", "", "the dolp column has no values"),
+    ("m00", "0", "m00 is 0 or negative in every row: no reflectance to fit")])
+@pytest.mark.parametrize("objective", ["auto", "cosine"])
+def test_a_column_without_values_is_named_before_the_fit(tmp_path, capsys, column, value,
+                                                         message, objective):
+    """An empty m00 or dolp column gave NumPy's 'zero-size array to reduction
+    operation maximum' (cosine) or RuntimeWarnings and a fit of the rest; m00 = 0
+    in every row gave 'inf %' and RuntimeWarnings, with the cosine objective
+    SciPy's 'Residuals are not finite in the initial point'. Now one line,
+    naming the file and the column, before any work."""
+    path = _example_with(tmp_path, column, value)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        status = main(["fit", path, "--objective", objective, "--starts", "1"])
+    err = capsys.readouterr().err
+    assert status == 2 and err == f"pbrdf fit: error: {path}: {message}\n"

@@ -19,11 +19,23 @@ from ..measured.index_table import IndexTable, read_index_table
 from .backends import BACKENDS
 from .layout import MODELS, absent_parameters, parse_assignments
 
-__all__ = ["check_arguments", "assignments_by_model", "index_from", "with_index"]
+__all__ = ["check_arguments", "check_data", "assignments_by_model", "index_from", "with_index"]
+
+
+def check_data(data):
+    """Every measured column holds a value, and m00 (where measured) a positive one."""
+    for q, y in data.observed.items():
+        if not np.isfinite(y).any():
+            raise ValueError(f"{data.source}: the {q} column has no values")
+    if "m00" in data.observed:
+        y = data.observed["m00"]
+        if not (y[np.isfinite(y)] > 0).any():
+            raise ValueError(f"{data.source}: m00 is 0 or negative in every row: no "
+                             f"reflectance to fit")
 
 
 def check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty):
-    """The options of one fit."""
+    """The options of one fit, and the data (:func:`check_data`)."""
     if model not in MODELS:
         raise ParameterError("model", f"must be one of {', '.join(MODELS)}, not {model!r}")
     if backend not in BACKENDS:
@@ -37,6 +49,7 @@ def check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertain
     if rel_uncertainty == 0 and abs_uncertainty == 0 and set(data.observed) - set(data.uncertainty):
         raise ValueError("rel_uncertainty and abs_uncertainty are both 0: the measurements "
                          "without given uncertainties would have none")
+    check_data(data)
 
 
 def assignments_by_model(models, init, fix):
