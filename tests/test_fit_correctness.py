@@ -189,3 +189,24 @@ def test_a_column_without_values_is_named_before_the_fit(tmp_path, capsys, colum
         status = main(["fit", path, "--objective", objective, "--starts", "1"])
     err = capsys.readouterr().err
     assert status == 2 and err == f"pbrdf fit: error: {path}: {message}\n"
+
+
+# ---------------------------------------------------------------- an objective per observable
+
+def test_an_objective_names_the_observables_it_applies_to(capsys):
+    """``--observables dolp --objective log`` reported the log objective while
+    every residual was linear: now refused, naming the option; with m00 the
+    report names each observable's residuals."""
+    from mitsuba_pbrdf.errors import ParameterError
+
+    assert main(["fit", EXAMPLE, "--observables", "dolp", "--objective", "log"]) == 2
+    err = capsys.readouterr().err
+    assert err == ("pbrdf fit: error: --objective: log applies to m00, which this fit does not "
+                   "measure (dolp: linear residuals); give auto or linear\n")
+    with pytest.raises(ParameterError, match="cosine applies to m00"):
+        fitting.fit_model(small(("dolp",)), "two", objective="cosine")
+    data = small()
+    r = fitting.fit_model(data, "two", objective="log", starts=1)
+    assert r.objectives == {"m00": "log", "dolp": "linear"}
+    assert "per observable: m00 log, dolp linear" in fitting.report(data, {"two": r})
+    assert r.as_dict()["objectives"] == r.objectives

@@ -44,8 +44,10 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["OBJECTIVES", "LIKELIHOODS", "Term", "make_terms", "choose_objective", "log_floor",
-           "decades"]
+from ..errors import ParameterError
+
+__all__ = ["OBJECTIVES", "APPLIES_TO", "LIKELIHOODS", "Term", "make_terms", "choose_objective",
+           "objective_of", "log_floor", "decades"]
 
 #: Objective -> one line of what it is, for reports and ``--help``.
 OBJECTIVES = {
@@ -55,8 +57,18 @@ OBJECTIVES = {
     "cosine": "(model - data) cos(theta_i), uniform weights (Ngan et al. 2005)",
     "log-cosine": "ln(1 + model cos(theta_i)) - ln(1 + data cos(theta_i)) (Löw et al. 2012)",
 }
+#: Objective -> the observables whose residuals it shapes (None: all); the
+#: others keep linear residuals (:func:`objective_of`).
+APPLIES_TO = {"linear": None, "log": ("m00",), "relative": ("m00",), "cosine": ("m00",),
+              "log-cosine": ("m00",)}
 #: Objectives that are a noise model's likelihood (the others weight).
 LIKELIHOODS = ("linear", "log", "relative")
+
+
+def objective_of(objective, quantity) -> str:
+    """The objective that the residuals of *quantity* follow under *objective*."""
+    applies = APPLIES_TO[objective]
+    return objective if applies is None or quantity in applies else "linear"
 #: m00 spanning more decades than this gets the ``log`` objective under ``auto``.
 AUTO_DECADES = 2.0
 
@@ -82,6 +94,10 @@ def choose_objective(data, names, requested="auto"):
         if requested not in OBJECTIVES:
             raise ValueError(f"objective must be auto or one of {', '.join(OBJECTIVES)}, "
                              f"not {requested!r}")
+        if all(objective_of(requested, q) != requested for q in names):
+            raise ParameterError("objective", (
+                f"{requested} applies to {', '.join(APPLIES_TO[requested])}, which this fit "
+                f"does not measure ({', '.join(names)}: linear residuals); give auto or linear"))
         return requested, "as requested"
     if "m00" not in names:
         return "linear", "no m00 is fitted (the other quantities are always linear)"
@@ -151,7 +167,7 @@ def make_terms(data, objective, rel, abs_, floor=None):
     cos_i = np.cos(np.radians(data.theta_i))
     terms = []
     for q, y, u, rows in zip(*weights(data, rel, abs_)):
-        kind = objective if q == "m00" else "linear"
+        kind = objective_of(objective, q)
         f = log_floor(y, floor) if q == "m00" else 0.0
         if q in data.uncertainty:
             s = u / np.maximum(np.abs(y), max(f, 1e-300))

@@ -56,7 +56,8 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
                   f"{r.seconds:.2f} s; {'converged' if r.success else 'NOT converged'} "
                   f"({r.message})",
                   f"objective: {r.objective}{floor}, {OBJECTIVES[r.objective]}: "
-                  f"{r.objective_reason}"]
+                  f"{r.objective_reason}; per observable: "
+                  + ", ".join(f"{q} {o}" for q, o in r.objectives.items())]
         if r.distribution_choice:
             lines.append(f"distribution: {r.distribution_choice}")
         if r.index_note:

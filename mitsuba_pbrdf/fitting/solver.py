@@ -90,6 +90,7 @@ class FitResult:
     anisotropy: Dict = field(default_factory=dict)
     objective: str = "linear"
     objective_reason: str = ""
+    objectives: Dict[str, str] = field(default_factory=dict)   # quantity -> its residuals' objective
     log_floor: Optional[float] = None     # 1/sr, the log and relative objectives' floor
     index_note: str = ""                  # why n, k are fixed, where they are
     starts: int = 1
@@ -132,6 +133,7 @@ class FitResult:
                 "anisotropy": {base: {"difference": d, "uncertainty": conv(float(sd))}
                                for base, (d, sd) in self.anisotropy.items()},
                 "objective": self.objective, "objective_reason": self.objective_reason,
+                "objectives": self.objectives,
                 "log_floor": self.log_floor, "index_note": self.index_note,
                 "starts": self.starts, "formal_uncertainties": self.formal,
                 "regions": [r.as_dict() for r in self.regions], "warnings": self.warnings,
@@ -320,6 +322,7 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
                         if n not in layout.free], bool(anisotropic), distribution, anisotropy)
     result.rms_ln = rms_ln
     result.objective, result.objective_reason = objective, objective_reason
+    result.objectives = {t.name: t.objective for t in terms}
     result.log_floor = next((t.floor for t in terms if t.name == "m00"
                              and t.objective in ("log", "relative")), None)
     result.index_note, result.starts, result.formal = index_note, len(points), formal
