@@ -210,3 +210,25 @@ def test_an_objective_names_the_observables_it_applies_to(capsys):
     assert r.objectives == {"m00": "log", "dolp": "linear"}
     assert "per observable: m00 log, dolp linear" in fitting.report(data, {"two": r})
     assert r.as_dict()["objectives"] == r.objectives
+
+
+# ---------------------------------------------------------------- the log objective's floor
+
+def test_the_log_floor_follows_a_robust_level_of_the_data():
+    """The default floor was 1 % of the smallest positive m00, so one dark
+    reading (a detector's noise, 1e-12 /sr) moved it by eight decades and gave
+    the deepest tail the weight of the reflection. It is now 1 % of the median
+    positive value: a few dark rows barely move it. ``log_floor`` still sets it."""
+    data = small(("m00",))
+    data.uncertainty = {}
+    y = data.observed["m00"]
+    r = fitting.fit_model(data, "two", objective="log", starts=1)
+    assert r.log_floor == pytest.approx(0.01 * np.median(y[y > 0]), rel=1e-12)
+    dark = data.observed["m00"].copy()
+    dark[:2] = 1e-12
+    data.observed["m00"] = dark
+    moved = fitting.fit_model(data, "two", objective="log", starts=1)
+    assert moved.log_floor == pytest.approx(r.log_floor, rel=0.05)
+    given = fitting.fit_model(data, "two", objective="log", starts=1, log_floor=1e-3)
+    assert given.log_floor == 1e-3
+    assert "floor f = 0.001 1/sr" in fitting.report(data, {"two": given})

@@ -212,7 +212,7 @@ def add_parser(subparsers):
                         "docs/fitting.md")
     p.add_argument("--log-floor", type=float, default=None, metavar="F",
                    help="floor f of the log and relative objectives, 1/sr (default: 1 %% of "
-                        "the smallest positive m00)")
+                        "the median positive m00)")
     p.add_argument("--init", default="", help="starting values, e.g. sigma=0.1,n=1.2")
     p.add_argument("--fix", default="", help="fixed values, e.g. n=1.2,k=7 or kid=0")
     add_model_arguments(p, kinds=("choice",), skip=("distribution", "dd_distribution"))

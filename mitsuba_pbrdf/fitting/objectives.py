@@ -13,7 +13,7 @@ the relative uncertainty (``u / y`` where given, else ``rel``):
   measurement's own uncertainties; with assumed ones (a few per cent of the
   largest value) everything far below the peak counts for nothing.
 * ``log``: ``ln((m + f) / (y + f)) / s``, with a stated floor ``f`` (default
-  1 % of the smallest positive ``y``; ``y < 0`` counts as 0). The likelihood
+  1 % of the median positive ``y``, :func:`log_floor`; ``y < 0`` counts as 0). The likelihood
   of multiplicative (log-normal) noise: every decade weighs the same, so the
   spike and the tail are both fitted. BRDF fitting poses it this way when data
   span decades (e.g. Ngan, Durand and Matusik 2005, who found linear errors
@@ -73,13 +73,20 @@ def objective_of(objective, quantity) -> str:
 AUTO_DECADES = 2.0
 
 
+#: The ``log`` objective's default floor, as a fraction of the median positive m00.
+FLOOR_FRACTION = 0.01
+
+
 def log_floor(y, floor: Optional[float] = None) -> float:
-    """The ``log`` objective's floor f (1/sr): *floor* when given, else 1 % of
-    the smallest positive value (1e-12 where none is)."""
+    """The ``log`` objective's floor f (1/sr): *floor* when given, else
+    :data:`FLOOR_FRACTION` of the median positive value (1e-12 where none is).
+    A robust level, not the minimum: the smallest values of a campaign are its
+    detector's noise, and a floor under them gave them the weight of the
+    reflection itself (the fit then bends the model toward the noise)."""
     if floor is not None:
         return float(floor)
     positive = y[np.isfinite(y) & (y > 0)]
-    return 0.01 * float(positive.min()) if positive.size else 1e-12
+    return FLOOR_FRACTION * float(np.median(positive)) if positive.size else 1e-12
 
 
 def decades(y) -> float:
