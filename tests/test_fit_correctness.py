@@ -232,3 +232,24 @@ def test_the_log_floor_follows_a_robust_level_of_the_data():
     given = fitting.fit_model(data, "two", objective="log", starts=1, log_floor=1e-3)
     assert given.log_floor == 1e-3
     assert "floor f = 0.001 1/sr" in fitting.report(data, {"two": given})
+
+
+# ---------------------------------------------------------------- synthetic data's noise floor
+
+def test_synthetic_noise_floor_follows_the_intensity():
+    """The absolute noise of every Mueller element is a fraction of the largest
+    M00, as a polarimeter's: it was a fraction of the element's own largest
+    value, so an element that vanishes by symmetry (m03, round-off ~1e-21)
+    carried uncertainties of ~1e-26 and a fit of all 16 elements fitted the
+    round-off (reduced chi-square ~1e5, the index stuck at its start)."""
+    from mitsuba_pbrdf.measured.measurements import ELEMENTS
+
+    data = fitting.synthetic_measurements(
+        TRUTH, theta_i=(30.0,), theta_r=np.arange(-76.0, 77.0, 8.0), quantities=ELEMENTS,
+        noise=0.005, noise_floor=1e-5, seed=1)
+    floor = 1e-5 * np.abs(data.observed["m00"]).max()
+    for q in ELEMENTS:
+        assert data.uncertainty[q].min() >= 0.999 * floor, q
+    n0 = TRUTH["n"] * 1.1
+    r = fitting.fit_model(data, "three", init=dict(TRUTH, n=n0), starts=1, objective="linear")
+    assert r.reduced_chi2 < 2 and abs(r.values["n"][0] - TRUTH["n"]) < 5 * r.errors["n"][0]
