@@ -253,3 +253,41 @@ def test_synthetic_noise_floor_follows_the_intensity():
     n0 = TRUTH["n"] * 1.1
     r = fitting.fit_model(data, "three", init=dict(TRUTH, n=n0), starts=1, objective="linear")
     assert r.reduced_chi2 < 2 and abs(r.values["n"][0] - TRUTH["n"]) < 5 * r.errors["n"][0]
+
+
+def test_scatmech_data_with_dolp_and_the_diffuse_lobes_fixed():
+    """The issue's regression: NIST SCATMECH's Shadowed_Facet_BRDF_Model
+    (n = 1.2, k = 7.26, sigma = 0.1, at validation/fit_pbsdf.py's goniometer
+    geometries; conventions as tests/test_scatmech.py: its light at azimuth
+    180 deg, no normal viewing) as m00 and DoLP with 1 % noise, fitted with
+    ``--model three --fix kdd=0,kid=0 --rel-uncertainty 0.01``, stopped with
+    'array must not contain infs or NaNs' (the narrow starts' m00 underflows).
+    Now it recovers SCATMECH's parameters within 3 standard uncertainties."""
+    brdf = pytest.importorskip("pySCATMECH.brdf")
+    from mitsuba_pbrdf.measured.measurements import Measurements
+
+    truth = dict(n=1.2, k=7.26, sigma=0.1)
+    model = brdf.BRDF_Model("Shadowed_Facet_BRDF_Model",
+                            sdf="Gaussian_Slope_Distribution_Function")
+    model.setParameters({"lambda": 0.633, "substrate": f"({truth['n']},{truth['k']})",
+                         "sdf.s": repr(float(np.sqrt(2) * truth["sigma"])), "type": "0"})
+    rows = [(ti, abs(tr), 0.0 if tr >= 0 else 180.0) for ti in (20.0, 45.0, 70.0)
+            for tr in np.arange(-78.0, 78.1, 4.0)]
+    rows += [(ti, tr, ps) for ti in (20.0, 45.0, 70.0) for tr in (20.0, 40.0, 60.0)
+             for ps in (30.0, 60.0, 90.0, 150.0)]
+    rows = np.array(rows)
+    # the circular sign (D M D) leaves M00, M10, M20 as they are
+    M = np.array([np.array(model.MuellerBRDF(*np.radians(r))) for r in rows])
+    M += np.random.default_rng(1).normal(size=M.shape) * (0.01 * np.abs(M)
+                                                          + 0.001 * M[:, :1, :1])
+    data = Measurements(rows[:, 0], np.full(len(rows), 180.0), rows[:, 1], rows[:, 2],
+                        np.full(len(rows), 633.0),
+                        {"m00": np.abs(M[:, 0, 0]),
+                         "dolp": observables_from_mueller(M, ["dolp"])["dolp"]}, {}, "SCATMECH")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        r = fitting.fit_model(data, "three", fix="kdd=0,kid=0", shadowing="vgroove",
+                              rel_uncertainty=0.01, distribution="beckmann")
+    for p in ("n", "k", "sigma"):
+        v, e = np.atleast_1d(r.values[p])[0], np.atleast_1d(r.errors[p])[0]
+        assert abs(v - truth[p]) <= 3 * e, (p, v, e)
