@@ -17,7 +17,7 @@ from ..outputs import atomic_path, escape_text, write_json
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..errors import one_line
 from .arguments import check_outputs, float_list, positive_int, require_file
-from .errors import CliError
+from .errors import CliError, option_message
 from .fit_progress import FitProgressDisplay
 from .model_options import add_model_arguments
 
@@ -136,7 +136,7 @@ def run(args) -> int:
                                  anisotropic=args.anisotropic, objective=args.objective,
                                  log_floor=args.log_floor, progress=shown)
     except ValueError as e:
-        raise CliError(one_line(e)) from e
+        raise CliError(option_message(e, args)) from e
     if table is not None:
         print(f"table: {table.describe()}; fitted {len(data)} cell-wavelength entries "
               f"({len(data) // max(data.wavelengths.size, 1)} cells at "
@@ -214,7 +214,7 @@ def add_parser(subparsers):
                         "docs/fitting.md")
     p.add_argument("--log-floor", type=float, default=None, metavar="F",
                    help="floor f of the log and relative objectives, 1/sr (default: 1 %% of "
-                        "the smallest positive m00)")
+                        "the median positive m00)")
     p.add_argument("--init", default="", help="starting values, e.g. sigma=0.1,n=1.2")
     p.add_argument("--fix", default="", help="fixed values, e.g. n=1.2,k=7 or kid=0")
     add_model_arguments(p, kinds=("choice",), skip=("distribution", "dd_distribution"))

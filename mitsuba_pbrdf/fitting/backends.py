@@ -121,10 +121,12 @@ class DrJitResiduals:
             if name == "dolp":
                 dr = self.dr
                 m00 = M[0, 0][0]
-                r2 = dr.square(M[1, 0][0]) + dr.square(M[2, 0][0])
+                # ratios first (as observables.linear_ratios): the squares of
+                # float32 values below ~1e-19 underflow to 0, their ratios do not
+                m00s = dr.select(m00 > 0, m00, 1.0)
+                r2 = dr.square(M[1, 0][0] / m00s) + dr.square(M[2, 0][0] / m00s)
                 ok = (m00 > 0) & (r2 > 0)  # guard both branches: no NaN derivatives
-                out.append(dr.select(ok, dr.sqrt(dr.select(ok, r2, 1.0))
-                                     / dr.select(ok, m00, 1.0), 0.0))
+                out.append(dr.select(ok, dr.sqrt(dr.select(ok, r2, 1.0)), 0.0))
             else:
                 out.append(M[int(name[1]), int(name[2])][0])
         return out

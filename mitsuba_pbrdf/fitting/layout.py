@@ -14,9 +14,11 @@ import math
 import numpy as np
 
 from .. import schema
+from ..errors import ParameterError
 
 __all__ = ["PER_WAVELENGTH", "SHARED", "ANISOTROPIC", "shared_names", "DEFAULTS", "BOUNDS", "SCALE_FLOORS", "PLUGIN_NAMES", "MODELS",
-           "TWO_COMPONENT_FIXED", "parse_assignments", "ParameterLayout"]
+           "TWO_COMPONENT_FIXED", "LOBE_PARAMETERS", "absent_parameters", "parse_assignments",
+           "ParameterLayout"]
 
 _FITTED = [p for p in schema.PARAMETERS if p.fit is not None]
 
@@ -48,6 +50,29 @@ MODELS = {"three": "three-component (specular + directional diffuse + ideal diff
           "two": "two-component (specular + ideal diffuse, kdd = 0)"}
 #: What the two-component model fixes: the directional diffuse lobe's parameters (kdd = 0).
 TWO_COMPONENT_FIXED = tuple(name for name in schema.LOBES["directional_diffuse"] if name)
+#: Each lobe's weight -> the fitted parameters that act through that lobe alone
+#: (the index n, k through the specular lobe's Fresnel factor): with the
+#: weight fixed at 0 the model has none of them.
+LOBE_PARAMETERS = {
+    weight: ((PER_WAVELENGTH if lobe == "specular" else ())
+             + tuple(p.fit.name or p.name for p in _FITTED if p.lobe == lobe and p.role != "weight"))
+    for lobe, (weight, _) in schema.LOBES.items() if weight in SHARED}
+
+
+def absent_parameters(model, fix=None):
+    """``{parameter: why the model lacks it}`` for *model* with the values
+    *fix* holds: the two-component model's directional diffuse lobe (kdd = 0),
+    and the parameters of a lobe whose weight is fixed at 0."""
+    fix = fix or {}
+    absent = {}
+    if model == "two":
+        absent.update({name: "it is the three-component model with kdd = 0"
+                       for name in TWO_COMPONENT_FIXED})
+    for weight, names in LOBE_PARAMETERS.items():
+        if weight not in absent and fix.get(weight) == 0:
+            absent.update({name: f"{weight} is fixed at 0, so its lobe is off" for name in names
+                           if name not in absent})
+    return absent
 
 
 def parse_assignments(text, what):
@@ -93,6 +118,8 @@ class ParameterLayout:
                 self.values.update({r: float(DEFAULTS[base]) for r in refs})
         init, fix = (self._refined(source) for source in (init, fix))
         self.fixed = set()
+        #: parameters the model lacks (:func:`absent_parameters`): neither fitted nor reported
+        self.absent = absent_parameters(model, fix)
         if model == "two":
             self.values[TWO_COMPONENT_FIXED[0]] = 0.0       # the lobe's weight
             self.fixed |= set(TWO_COMPONENT_FIXED)
@@ -100,9 +127,14 @@ class ParameterLayout:
             for key, v in source.items():
                 name, _, at = key.partition("@")
                 if name not in PER_WAVELENGTH + SHARED:
-                    raise ValueError(f"unknown parameter {name!r}; parameters: "
-                                     f"{', '.join(PER_WAVELENGTH + SHARED)} "
-                                     f"(n@<nm>, k@<nm> for one wavelength)")
+                    raise ParameterError("fix" if is_fix else "init",
+                                         f"unknown parameter {name!r}; parameters: "
+                                         f"{', '.join(PER_WAVELENGTH + SHARED)} "
+                                         f"(n@<nm>, k@<nm> for one wavelength)")
+                if name in self.absent:
+                    raise ParameterError("fix" if is_fix else "init",
+                                         f"{key}: the {model}-component model has no {name} "
+                                         f"({self.absent[name]})")
                 if name in PER_WAVELENGTH:
                     if at:
                         j = np.flatnonzero(np.isclose(self.wavelengths, float(at)))
@@ -117,14 +149,16 @@ class ParameterLayout:
                         if is_fix:
                             self.fixed |= {f"{name}@{j}" for j in range(W)}
                 else:
-                    if model == "two" and name in TWO_COMPONENT_FIXED and not is_fix:
-                        continue
                     self.values[name] = float(v)
                     if is_fix:
                         self.fixed.add(name)
+        self.fixed |= {f"{p}@{j}" for p in PER_WAVELENGTH if p in self.absent for j in range(W)}
+        self.fixed |= set(self.absent) & set(self.shared)
         self.free = [f"{p}@{j}" for p in PER_WAVELENGTH for j in range(W)
                      if f"{p}@{j}" not in self.fixed]
         self.free += [p for p in self.shared if p not in self.fixed]
+        if not self.free:
+            raise ParameterError("fix", "every parameter of the model is fixed: nothing to fit")
 
     def _refined(self, assignments):
         """*assignments* with a refined parameter's value given to each of its

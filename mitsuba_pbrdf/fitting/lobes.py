@@ -24,7 +24,7 @@ import numpy as np
 
 from .. import reference as ref
 from .layout import SCALE_FLOORS
-from .observables import observables_from_mueller
+from .observables import linear_ratios, observables_from_mueller
 
 __all__ = ["LobeModel", "observable_derivatives"]
 
@@ -41,15 +41,20 @@ WEIGHTS = {"ks": "specular", "kdd": "directional", "kid": "ideal"}
 
 
 def observable_derivatives(M, dM, names):
-    """Derivatives of the observables along a change ``dM`` (N, 4, 4) of ``M``."""
+    """Derivatives of the observables along a change ``dM`` (N, 4, 4) of ``M``.
+    DoLP ``= hypot(q, u)`` of the ratios ``q = M10 / M00``, ``u = M20 / M00``
+    (:func:`.observables.linear_ratios`): ``dq = (dM10 - q dM00) / M00``, so
+    nothing is squared that may underflow; 0 where DoLP or M00 is 0."""
     out = {}
     for name in names:
         if name == "dolp":
-            m00, lin = M[:, 0, 0], np.hypot(M[:, 1, 0], M[:, 2, 0])
-            ok = (m00 > 0) & (lin > 0)
-            m00s, lins = np.where(ok, m00, 1.0), np.where(ok, lin, 1.0)
-            dlin = (M[:, 1, 0] * dM[:, 1, 0] + M[:, 2, 0] * dM[:, 2, 0]) / lins
-            out[name] = np.where(ok, dlin / m00s - lins * dM[:, 0, 0] / m00s ** 2, 0.0)
+            q, u, ok = linear_ratios(M)
+            dolp = np.hypot(q, u)
+            ok &= dolp > 0
+            m00, d = np.where(ok, M[:, 0, 0], 1.0), np.where(ok, dolp, 1.0)
+            dq = (dM[:, 1, 0] - q * dM[:, 0, 0]) / m00
+            du = (dM[:, 2, 0] - u * dM[:, 0, 0]) / m00
+            out[name] = np.where(ok, (q * dq + u * du) / d, 0.0)
         else:
             out[name] = dM[:, int(name[1]), int(name[2])]
     return out

@@ -13,7 +13,7 @@ the relative uncertainty (``u / y`` where given, else ``rel``):
   measurement's own uncertainties; with assumed ones (a few per cent of the
   largest value) everything far below the peak counts for nothing.
 * ``log``: ``ln((m + f) / (y + f)) / s``, with a stated floor ``f`` (default
-  1 % of the smallest positive ``y``; ``y < 0`` counts as 0). The likelihood
+  1 % of the median positive ``y``, :func:`log_floor`; ``y < 0`` counts as 0). The likelihood
   of multiplicative (log-normal) noise: every decade weighs the same, so the
   spike and the tail are both fitted. BRDF fitting poses it this way when data
   span decades (e.g. Ngan, Durand and Matusik 2005, who found linear errors
@@ -44,8 +44,10 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["OBJECTIVES", "LIKELIHOODS", "Term", "make_terms", "choose_objective", "log_floor",
-           "decades"]
+from ..errors import ParameterError
+
+__all__ = ["OBJECTIVES", "APPLIES_TO", "LIKELIHOODS", "Term", "make_terms", "choose_objective",
+           "objective_of", "log_floor", "decades"]
 
 #: Objective -> one line of what it is, for reports and ``--help``.
 OBJECTIVES = {
@@ -55,19 +57,36 @@ OBJECTIVES = {
     "cosine": "(model - data) cos(theta_i), uniform weights (Ngan et al. 2005)",
     "log-cosine": "ln(1 + model cos(theta_i)) - ln(1 + data cos(theta_i)) (Löw et al. 2012)",
 }
+#: Objective -> the observables whose residuals it shapes (None: all); the
+#: others keep linear residuals (:func:`objective_of`).
+APPLIES_TO = {"linear": None, "log": ("m00",), "relative": ("m00",), "cosine": ("m00",),
+              "log-cosine": ("m00",)}
 #: Objectives that are a noise model's likelihood (the others weight).
 LIKELIHOODS = ("linear", "log", "relative")
+
+
+def objective_of(objective, quantity) -> str:
+    """The objective that the residuals of *quantity* follow under *objective*."""
+    applies = APPLIES_TO[objective]
+    return objective if applies is None or quantity in applies else "linear"
 #: m00 spanning more decades than this gets the ``log`` objective under ``auto``.
 AUTO_DECADES = 2.0
 
 
+#: The ``log`` objective's default floor, as a fraction of the median positive m00.
+FLOOR_FRACTION = 0.01
+
+
 def log_floor(y, floor: Optional[float] = None) -> float:
-    """The ``log`` objective's floor f (1/sr): *floor* when given, else 1 % of
-    the smallest positive value (1e-12 where none is)."""
+    """The ``log`` objective's floor f (1/sr): *floor* when given, else
+    :data:`FLOOR_FRACTION` of the median positive value (1e-12 where none is).
+    A robust level, not the minimum: the smallest values of a campaign are its
+    detector's noise, and a floor under them gave them the weight of the
+    reflection itself (the fit then bends the model toward the noise)."""
     if floor is not None:
         return float(floor)
     positive = y[np.isfinite(y) & (y > 0)]
-    return 0.01 * float(positive.min()) if positive.size else 1e-12
+    return FLOOR_FRACTION * float(np.median(positive)) if positive.size else 1e-12
 
 
 def decades(y) -> float:
@@ -82,6 +101,10 @@ def choose_objective(data, names, requested="auto"):
         if requested not in OBJECTIVES:
             raise ValueError(f"objective must be auto or one of {', '.join(OBJECTIVES)}, "
                              f"not {requested!r}")
+        if all(objective_of(requested, q) != requested for q in names):
+            raise ParameterError("objective", (
+                f"{requested} applies to {', '.join(APPLIES_TO[requested])}, which this fit "
+                f"does not measure ({', '.join(names)}: linear residuals); give auto or linear"))
         return requested, "as requested"
     if "m00" not in names:
         return "linear", "no m00 is fitted (the other quantities are always linear)"
@@ -151,7 +174,7 @@ def make_terms(data, objective, rel, abs_, floor=None):
     cos_i = np.cos(np.radians(data.theta_i))
     terms = []
     for q, y, u, rows in zip(*weights(data, rel, abs_)):
-        kind = objective if q == "m00" else "linear"
+        kind = objective_of(objective, q)
         f = log_floor(y, floor) if q == "m00" else 0.0
         if q in data.uncertainty:
             s = u / np.maximum(np.abs(y), max(f, 1e-300))

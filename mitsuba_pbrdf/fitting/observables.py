@@ -12,7 +12,7 @@ from .. import reference as ref
 from ..measured.measurements import Measurements
 from .layout import SHARED
 
-__all__ = ["model_observables", "observables_from_mueller", "synthetic_measurements"]
+__all__ = ["model_observables", "observables_from_mueller", "linear_ratios", "synthetic_measurements"]
 
 
 def _per_point(data, per_wavelength):
@@ -21,14 +21,25 @@ def _per_point(data, per_wavelength):
     return np.asarray(per_wavelength, dtype=np.float64)[index]
 
 
+def linear_ratios(M):
+    """``(q, u, ok)``: the normalized linear Stokes ratios ``M10 / M00`` and
+    ``M20 / M00`` of unpolarized light reflected by Mueller matrices ``M``
+    (N, 4, 4), 0 where ``ok`` (``M00 > 0``) is False. DoLP is ``hypot(q, u)``.
+    Ratios first: a lobe far from its peak underflows (M00 ~ 1e-318 at a
+    narrow width) and a square or product of such values is 0, a ratio is not."""
+    m00 = M[:, 0, 0]
+    ok = m00 > 0
+    safe = np.where(ok, m00, 1.0)
+    return np.where(ok, M[:, 1, 0] / safe, 0.0), np.where(ok, M[:, 2, 0] / safe, 0.0), ok
+
+
 def observables_from_mueller(M, names):
     """{name: value at every measurement} from Mueller matrices ``M`` (N, 4, 4)."""
     out = {}
     for name in names:
         if name == "dolp":
-            with np.errstate(divide="ignore", invalid="ignore"):
-                out[name] = np.where(M[:, 0, 0] > 0, np.hypot(M[:, 1, 0], M[:, 2, 0])
-                                     / M[:, 0, 0], 0.0)
+            q, u, _ = linear_ratios(M)
+            out[name] = np.hypot(q, u)
         else:
             out[name] = M[:, int(name[1]), int(name[2])]
     return out
@@ -57,8 +68,9 @@ def synthetic_measurements(values, theta_i=(20.0, 45.0, 70.0), theta_r=None, wav
     :func:`model_observables`) on a goniometer grid (in plane, detector from
     -80 to 80 deg in 2-deg steps, plus an out-of-plane ring at 30 and 90 deg
     azimuth), with Gaussian noise of standard deviation ``noise * |value| +
-    noise_floor * max|column|`` (given as the uncertainty). ``phi_i``: the light's
-    azimuths (deg; the grid turns with it), several to resolve anisotropy."""
+    noise_floor * max|m00|`` (DoLP: ``max|dolp|``; given as the uncertainty).
+    ``phi_i``: the light's azimuths (deg; the grid turns with it), several to
+    resolve anisotropy."""
     rng = np.random.default_rng(seed)
     theta_r = np.arange(-80.0, 80.1, 2.0) if theta_r is None else np.asarray(theta_r, float)
     rows = []
@@ -77,9 +89,15 @@ def synthetic_measurements(values, theta_i=(20.0, 45.0, 70.0), theta_r=None, wav
     vals = dict(values)
     if "material" in vals:
         vals["n"], vals["k"] = ref.conductor_ior(vals.pop("material"), wl)
-    clean = model_observables(data, vals, shadowing, dd_distribution, quantities, distribution)
-    for q, y in clean.items():
-        u = noise * np.abs(y) + noise_floor * np.abs(y).max()
+    names = list(dict.fromkeys(("m00",) + tuple(quantities)))
+    clean = model_observables(data, vals, shadowing, dd_distribution, names, distribution)
+    for q in quantities:
+        y = clean[q]
+        # a polarimeter's floor is a fraction of the intensity it measures (M00),
+        # not of the element's own largest value: an element that vanishes by
+        # symmetry (m03 ~ 1e-21, round-off) would get uncertainties of 1e-26
+        level = clean["dolp" if q == "dolp" else "m00"]
+        u = noise * np.abs(y) + noise_floor * np.abs(level).max()
         obs = y + rng.normal(size=y.shape) * u
         if q == "dolp":
             obs = np.clip(obs, 0.0, 1.0)

@@ -56,22 +56,29 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
                   f"{r.seconds:.2f} s; {'converged' if r.success else 'NOT converged'} "
                   f"({r.message})",
                   f"objective: {r.objective}{floor}, {OBJECTIVES[r.objective]}: "
-                  f"{r.objective_reason}"]
+                  f"{r.objective_reason}; per observable: "
+                  + ", ".join(f"{q} {o}" for q, o in r.objectives.items())]
         if r.distribution_choice:
             lines.append(f"distribution: {r.distribution_choice}")
         if r.index_note:
             lines.append(r.index_note)
+        lines += r.notes
+        off = {}
+        for p, why in r.absent.items():          # the two-component model's own: its title
+            if not (r.model == "two" and p in TWO_COMPONENT_FIXED):
+                off.setdefault(why, []).append(p)
+        lines += [f"not in this model: {', '.join(ps)} ({why})" for why, ps in off.items()]
         header = "| parameter | fitted | " + ("true |" if truth else "")
         lines += ["", header, "|---|---|" + ("---|" if truth else "")]
         for p in ("n", "k"):
-            for j, w in enumerate(r.wavelengths):
+            for j, w in enumerate(r.wavelengths if p not in r.absent else ()):
                 t = ""
                 if truth:
                     tv = np.broadcast_to(truth[p], r.wavelengths.shape)[j]
                     t = f" {tv:.5g} |"
                 lines.append(f"| {p} ({w:g} nm) | {_fmt(r.values[p][j], r.errors[p][j])} |{t}")
         for p in SHARED:
-            if p not in r.values or (r.model == "two" and p in TWO_COMPONENT_FIXED):
+            if p not in r.values or p in r.absent:
                 continue
             t = f" {truth[p]:.5g} |" if truth else ""
             lines.append(f"| {p} | {_fmt(r.values[p], r.errors[p])} |{t}")

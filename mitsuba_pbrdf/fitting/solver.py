@@ -39,14 +39,14 @@ from typing import Callable, Dict, List, Optional
 
 import numpy as np
 
-from .. import reference as ref
+from ..errors import ParameterError
 from ..measured.measurements import Measurements
-from ..measured.index_table import IndexTable, read_index_table
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from .backends import BACKENDS
 from .diagnosis import diagnose, regional_fit
 from .identifiability import analyze
-from .layout import ANISOTROPIC, MODELS, ParameterLayout, parse_assignments
+from .layout import ANISOTROPIC, PER_WAVELENGTH, ParameterLayout, absent_parameters
+from .options import assignments_by_model, check_arguments, with_index
 from .objectives import LIKELIHOODS, choose_objective, make_terms
 from .observables import model_observables
 from .starts import WidthOrder, default_starts, start_points
@@ -90,6 +90,7 @@ class FitResult:
     anisotropy: Dict = field(default_factory=dict)
     objective: str = "linear"
     objective_reason: str = ""
+    objectives: Dict[str, str] = field(default_factory=dict)   # quantity -> its residuals' objective
     log_floor: Optional[float] = None     # 1/sr, the log and relative objectives' floor
     index_note: str = ""                  # why n, k are fixed, where they are
     starts: int = 1
@@ -100,6 +101,9 @@ class FitResult:
     rms_ln: float = math.nan              # RMS of ln(model / data) of m00 where both > 0
     rel_uncertainty: float = 0.05         # the assumed uncertainties (where the file gives none)
     abs_uncertainty: float = 0.005
+    #: parameters the model lacks -> why (:func:`.layout.absent_parameters`): not reported
+    absent: Dict[str, str] = field(default_factory=dict)
+    notes: List[str] = field(default_factory=list)      # init/fix values not used, and why
 
     @property
     def reduced_chi2(self):
@@ -129,11 +133,12 @@ class FitResult:
                 "anisotropy": {base: {"difference": d, "uncertainty": conv(float(sd))}
                                for base, (d, sd) in self.anisotropy.items()},
                 "objective": self.objective, "objective_reason": self.objective_reason,
+                "objectives": self.objectives,
                 "log_floor": self.log_floor, "index_note": self.index_note,
                 "starts": self.starts, "formal_uncertainties": self.formal,
                 "regions": [r.as_dict() for r in self.regions], "warnings": self.warnings,
                 "distribution_choice": self.distribution_choice,
-                "rms_ln_m00": conv(self.rms_ln)}
+                "rms_ln_m00": conv(self.rms_ln), "absent": self.absent, "notes": self.notes}
 
 
 @dataclass
@@ -153,58 +158,6 @@ class FitProgress:
 
 #: Residual evaluations between two progress reports within a start.
 PROGRESS_EVERY = 25
-
-
-def _index_from(material, nk, wavelengths):
-    """(n, k, source) at *wavelengths* from a named material or an index table, or None."""
-    if nk is not None and material is not None:
-        raise ValueError("give material or nk (an index table), not both")
-    if material is not None:
-        try:
-            n0, k0 = ref.conductor_ior(material, wavelengths)
-        except ValueError as e:
-            raise ValueError(f"material {material!r}: {e}") from None
-        return n0, k0, f"material {material}"
-    if nk is not None:
-        table = nk if isinstance(nk, IndexTable) else read_index_table(nk)
-        n0, k0 = table.at(wavelengths)
-        return n0, k0, f"index table {table.source}"
-    return None
-
-
-def _check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty):
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {', '.join(MODELS)}, not {model!r}")
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, not {backend!r}")
-    if starts is not None and (isinstance(starts, bool) or not isinstance(starts, (int, np.integer))
-                               or starts < 1):
-        raise ValueError(f"starts must be a whole number >= 1, got {starts!r}")
-    for name, v in (("rel_uncertainty", rel_uncertainty), ("abs_uncertainty", abs_uncertainty)):
-        if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
-    if rel_uncertainty == 0 and abs_uncertainty == 0 and set(data.observed) - set(data.uncertainty):
-        raise ValueError("rel_uncertainty and abs_uncertainty are both 0: the measurements "
-                         "without given uncertainties would have none")
-
-
-def _with_index(data, init, fix, material, nk):
-    """``(init, fix, note)``: the named material's (or table's) n, k at the
-    data's wavelengths as starting values, or, for unpolarized data whose
-    n, k ``init``/``fix`` do not name, as fixed values (the note says why)."""
-    index = _index_from(material, nk, data.wavelengths)
-    if index is None:
-        return init, fix, ""
-    n0, k0, source = index
-    per_wavelength = {f"n@{w:g}": v for w, v in zip(data.wavelengths, n0)}
-    per_wavelength.update({f"k@{w:g}": v for w, v in zip(data.wavelengths, k0)})
-    named = {key.partition("@")[0] for key in list(init) + list(fix)}
-    polarized = any(q != "m00" for q in data.observed)
-    if not polarized and not named & {"n", "k"}:
-        return init, dict(per_wavelength, **fix), (
-            f"n, k fixed from {source} at the data's wavelengths: unpolarized data (m00 alone) "
-            f"cannot determine the index")
-    return dict(per_wavelength, **init), fix, ""
 
 
 class _Residuals:
@@ -293,11 +246,12 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     result's ``anisotropy`` gives their difference and its uncertainty.
     ``progress``: called with a :class:`FitProgress` as the fit goes.
     """
-    _check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty)
-    init, fix = parse_assignments(init, "init"), parse_assignments(fix, "fix")
+    check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty)
+    init, fix, notes = assignments_by_model((model,), init, fix)[model]
     objective, objective_reason = choose_objective(data, list(data.observed), objective)
     terms = make_terms(data, objective, rel_uncertainty, abs_uncertainty, log_floor)
-    init, fix, index_note = _with_index(data, init, fix, material, nk)
+    init, fix, index_note = with_index(data, init, fix, material, nk,
+                                       absent_parameters(model, fix))
     wavelengths = data.wavelengths
     layout = ParameterLayout(wavelengths, model, init, fix, anisotropic)
     n_obs = sum(len(t.y) for t in terms)
@@ -368,10 +322,14 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
                         if n not in layout.free], bool(anisotropic), distribution, anisotropy)
     result.rms_ln = rms_ln
     result.objective, result.objective_reason = objective, objective_reason
+    result.objectives = {t.name: t.objective for t in terms}
     result.log_floor = next((t.floor for t in terms if t.name == "m00"
                              and t.objective in ("log", "relative")), None)
     result.index_note, result.starts, result.formal = index_note, len(points), formal
     result.rel_uncertainty, result.abs_uncertainty = rel_uncertainty, abs_uncertainty
+    result.absent = {p: why for p, why in layout.absent.items()
+                     if p in PER_WAVELENGTH or p in layout.shared}
+    result.notes = notes
     result.regions = regional_fit(data, final, terms)
     result.warnings = diagnose(result, data, material)
     return result
@@ -393,14 +351,18 @@ def fit_models(data: Measurements, models=("three", "two"), distribution="beckma
     candidates = DISTRIBUTIONS if distribution == "auto" else (distribution,)
     for d in candidates:
         if d not in DISTRIBUTIONS:
-            raise ValueError(f"distribution must be auto or one of {', '.join(DISTRIBUTIONS)}, "
-                             f"not {d!r}")
+            raise ParameterError("distribution", f"must be auto or one of "
+                                                 f"{', '.join(DISTRIBUTIONS)}, not {d!r}")
+    shares = assignments_by_model(tuple(models), options.pop("init", None),
+                                  options.pop("fix", None))
     out = {}
     for m in models:
-        fits = [fit_model(data, model=m, distribution=d,
+        init, fix, notes = shares[m]
+        fits = [fit_model(data, model=m, distribution=d, init=init, fix=fix,
                           dd_distribution=d if dd_distribution is None else dd_distribution,
                           **options) for d in candidates]
         best = min(fits, key=lambda r: r.chi2)
+        best.notes = notes + best.notes
         if len(fits) > 1:
             best.distribution_choice = (
                 f"{best.distribution} kept: chi2 " + ", ".join(

@@ -40,6 +40,28 @@ class IndexTable:
     k: np.ndarray
     source: str = "<memory>"
 
+    def check(self):
+        """Raise :class:`IndexTableError` unless the table is usable: what
+        :func:`read_index_table` requires of a file's rows, for a table built
+        in memory too (at least one row, finite values, n > 0, k >= 0,
+        increasing wavelengths)."""
+        for name, grid, values in (("n", self.n_wavelengths, self.n),
+                                   ("k", self.k_wavelengths, self.k)):
+            grid, values = np.asarray(grid, np.float64), np.asarray(values, np.float64)
+            if grid.ndim != 1 or grid.shape != values.shape or not grid.size:
+                raise IndexTableError(f"{self.source}: {name} needs one value per wavelength "
+                                      f"and at least one row")
+            if not (np.all(np.isfinite(grid)) and np.all(np.isfinite(values))):
+                raise IndexTableError(f"{self.source}: {name} or its wavelengths are not finite")
+            bad = values[values <= 0] if name == "n" else values[values < 0]
+            if bad.size:
+                raise IndexTableError(f"{self.source}: {name} = {bad[0]:g} is not physical "
+                                      f"({'n > 0' if name == 'n' else 'k >= 0'})")
+            if np.any(np.diff(grid) <= 0) or grid[0] <= 0:
+                raise IndexTableError(f"{self.source}: the wavelengths of {name} must be > 0 "
+                                      f"and increase")
+        return self
+
     def at(self, wavelengths_nm):
         """(n, k) at *wavelengths_nm*, linearly interpolated."""
         w = np.asarray(wavelengths_nm, dtype=np.float64)
@@ -137,4 +159,4 @@ def read_index_table(path) -> IndexTable:
     if "n" not in series:
         raise IndexTableError(f"{path}: no n column (expected wavelength, n, k)")
     k = series.get("k", (series["n"][0], np.zeros_like(series["n"][1])))
-    return IndexTable(series["n"][0], series["n"][1], k[0], k[1], source=path)
+    return IndexTable(series["n"][0], series["n"][1], k[0], k[1], source=path).check()
