@@ -1,5 +1,5 @@
 """The fitter's options in combination (issue 35): a pairwise covering array
-(:mod:`pairwise`) over objective x observables x model x fix x backend x
+(:mod:`proof.covering`) over objective x observables x model x fix x backend x
 distribution x wavelengths x data shape, every row fitted to small synthetic
 data made with the NumPy reference evaluator. Each row ends with a named
 refusal exactly where the combination is invalid, else with finite values, no
@@ -21,7 +21,7 @@ from mitsuba_pbrdf.errors import ParameterError
 from mitsuba_pbrdf.measured import read_measurements
 from mitsuba_pbrdf.measured.measurements import ELEMENTS
 
-from pairwise import covering_array, uncovered_pairs
+from proof.covering import pairwise, uncovered
 
 FACTORS = {
     "objective": ["auto", "linear", "log", "relative", "cosine", "log-cosine"],
@@ -33,7 +33,7 @@ FACTORS = {
     "wavelengths": [1, 2, 4],
     "shape": ["spike", "broad", "zeros", "one incidence"],
 }
-ROWS = covering_array(FACTORS)
+ROWS = pairwise(FACTORS)
 WAVELENGTHS = {1: (633.0,), 2: (500.0, 633.0), 4: (450.0, 550.0, 633.0, 750.0)}
 #: The truth of each data shape: a near-mirror spike (sigma 0.03) or a broad lobe.
 SPIKE = dict(sigma=0.03, ks=1.0, kdd=0.08, sigma_dd=0.25, kid=0.01)
@@ -46,7 +46,7 @@ ZERO_BELOW = 1e-5
 
 
 def test_the_array_covers_every_pair():
-    assert not uncovered_pairs(FACTORS, ROWS)
+    assert not uncovered(FACTORS, ROWS)
     assert len(ROWS) == 38           # against 6 x 5 x 3 x 6 x 2 x 3 x 3 x 4 = 38,880 in all
 
 
