@@ -139,6 +139,24 @@ ROWS = [
     Hostile("fit: a file with NUL bytes",
             ["fit", "{nul_csv}"],
             status=2, text="nul.csv: not a text CSV file (it holds NUL bytes)"),
+    # convert: never over an input, nothing half-done
+    Hostile("convert: --out is the scene",
+            ["convert", "{metal}", "--out", "{metal}"],
+            status=2, text="--out: ", absent="{tmp}/metal_pbrdf.xml"),
+    Hostile("convert: --out is an included file",
+            ["convert", "{metal}", "--out", "{tmp}/part.xml"],
+            status=2, text="is an input of the conversion (", absent="{tmp}/metal_pbrdf.xml"),
+    Hostile("convert: --out not .xml",
+            ["convert", "{metal}", "--out", "{tmp}/new.exr"],
+            status=2, text="--out: must name an .xml file", absent="{tmp}/new.exr"),
+    Hostile("convert: a scene without metals",
+            ["convert", "{scene}", "--out", "{tmp}/none.xml"],
+            status=2, text="no conductor or roughconductor in the scene or its includes",
+            absent="{tmp}/none.xml"),
+    Hostile("convert: alpha as a bitmap",
+            ["convert", "{metal_bitmap}", "--out", "{tmp}/b.xml"],
+            status=2, text="alpha given as a bitmap texture cannot be converted",
+            absent="{tmp}/b.xml"),
 ]
 
 
@@ -174,6 +192,13 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
     many = "".join(f"p{i} = {list(range(10))}\n" for i in range(7))
     (tmp_path / "binary.csv").write_bytes(bytes(range(256)) * 8)
     (tmp_path / "nul.csv").write_text("theta_i,phi_i\n\0\0\n")
+    (tmp_path / "part.xml").write_text('<scene version="3.0.0"><bsdf type="conductor" id="m"/>'
+                                       '</scene>')
+    (tmp_path / "metal.xml").write_text('<scene version="3.0.0"><include filename="part.xml"/>'
+                                        '</scene>')
+    (tmp_path / "metal_bitmap.xml").write_text(
+        '<scene version="3.0.0"><bsdf type="roughconductor"><texture name="alpha" '
+        'type="bitmap"><string name="filename" value="a.png"/></texture></bsdf></scene>')
     return dict(
         sweep_huge_spp=sweep("huge_spp", f"spp = {2 ** 63 - 1}\n"),
         sweep_denormal_bands=sweep("denormal", 'bands = "400:500:1e-320"\n'),
@@ -184,6 +209,7 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
         cube_pixel_nan=_cube(tmp_path / "cube_pixel_nan.exr", set_((1, 1), np.nan)),
         negative_exr=stokes_exr(tmp_path / "negative.exr", set_((Ellipsis, 0, slice(None)), -1.0)),
         binary=str(tmp_path / "binary.csv"), nul_csv=str(tmp_path / "nul.csv"),
+        metal=str(tmp_path / "metal.xml"), metal_bitmap=str(tmp_path / "metal_bitmap.xml"),
         exr8=stokes_exr(tmp_path / "good8.exr", h=8, w=8),
         zero8=stokes_exr(tmp_path / "zero8.exr", set_((Ellipsis,), 0.0), h=8, w=8),
         negative8=stokes_exr(tmp_path / "negative8.exr", set_((Ellipsis, 0, slice(None)), -1.0),
