@@ -72,6 +72,16 @@ def test_params_command_says_where_the_samples_are_set(tmp_path, capsys):
         capsys.readouterr().out
 
 
+def test_params_command_counts_one_parameter_in_the_singular(tmp_path, capsys):
+    scene = tmp_path / "one.xml"
+    scene.write_text(NO_SPP.replace('<integer name="width" value="4"/>',
+                                    '<integer name="width" value="$width"/>')
+                     .replace("<integrator type=\"stokes\">",
+                              '<default name="width" value="4"/><integrator type="stokes">'))
+    assert main(["params", str(scene)]) == 0
+    assert capsys.readouterr().out.startswith(f"{scene}: 1 parameter (pbrdf render")
+
+
 def test_unknown_key_gets_the_closest_name_and_the_list(capsys, tmp_path):
     assert main(["render", DEFAULT, "-D", "materal=Au", "--out", str(tmp_path / "x")]) == 2
     err = error_of(capsys)

@@ -96,8 +96,10 @@ class MicrofacetLobe:
     ``distribution`` (``mi.MicrofacetType``), ``shadowing`` (a function of
     :data:`.microfacet.SHADOWING`), ``flags`` (its lobe type, ``GlossyReflection``),
     ``index`` (component index), ``polarizing``
-    (Fresnel Mueller matrix or depolarizer) and ``textures``, its parameters by
-    name as ``traverse`` exposes them."""
+    (Fresnel Mueller matrix or depolarizer), ``textures``, its parameters by
+    name as ``traverse`` exposes them, and ``projected``: whether Smith's G1
+    projects the widths on the azimuth (anisotropic widths that may differ,
+    decided when the lobe is built, never from traced values)."""
 
     name: str
     weight: object
@@ -109,6 +111,7 @@ class MicrofacetLobe:
     polarizing: bool
     textures: Dict[str, object]
     width_v: Optional[object] = None
+    projected: bool = False
 
     @property
     def anisotropic(self):
@@ -144,7 +147,7 @@ class MicrofacetLobe:
         """``prob`` times the density of sampling ``wo``: the visible-normal
         density mapped through the reflection Jacobian."""
         distribution = self.microfacets(ev.si, ev.active)
-        return (prob * self._D(distribution, ev.half) * visible_g1(distribution, ev.si.wi)
+        return (prob * self._D(distribution, ev.half) * visible_g1(distribution, ev.si.wi, self.projected)
                 * ev.half.inv_4cos_i)
 
     def sample_alone(self, si, sample2, active) -> LobeSample:
@@ -156,7 +159,7 @@ class MicrofacetLobe:
         wo = mi.reflect(si.wi, m)
         cos_beta = dr.dot(si.wi, m)
         active = active & (mi.Frame3f.cos_theta(wo) > 0) & (cos_beta > 0)
-        g1 = visible_g1(distribution, si.wi)
+        g1 = visible_g1(distribution, si.wi, self.projected)
         pdf = distribution.eval(m) * g1 * dr.rcp(4.0 * mi.Frame3f.cos_theta(si.wi))
         G = self.shadowing(distribution, si.wi, wo, mi.Frame3f.cos_theta(m), cos_beta)
         return LobeSample(wo, pdf, G * dr.rcp(g1) * pdf, m, active)

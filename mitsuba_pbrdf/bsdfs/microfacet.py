@@ -17,7 +17,7 @@ def smith_g1(distribution, v):
     return distribution.smith_g1(v, mi.Vector3f(0.0, 0.0, 1.0))
 
 
-def visible_g1(distribution, wi):
+def visible_g1(distribution, wi, projected):
     """Smith G1(wi) of the distribution that visible-normal sampling draws
     from, exactly: Mitsuba samples Beckmann's visible normals exactly but its
     ``smith_g1`` uses a rational approximation (< 0.35 % error), which would bias
@@ -27,12 +27,15 @@ def visible_g1(distribution, wi):
     Beckmann: G1 = 1 / (1 + Lambda(a)), Lambda = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi)),
     a = 1 / (alpha tan(theta)). Anisotropic: alpha is the roughness projected on
     wi's azimuth phi, alpha(phi)^2 = cos^2(phi) alpha_u^2 + sin^2(phi) alpha_v^2,
-    so a = cos(theta) / sqrt(x^2 alpha_u^2 + y^2 alpha_v^2) for wi = (x, y, cos).
+    so a = cos(theta) / sqrt(x^2 alpha_u^2 + y^2 alpha_v^2) for wi = (x, y, cos),
+    used where ``projected`` (a Python bool fixed when the lobe is built: the
+    widths may be traced texture values, which cannot be compared while a
+    kernel is recorded; the projected form is exact for equal widths too).
     """
     if distribution.type() != mi.MicrofacetType.Beckmann:
         return smith_g1(distribution, wi)
     cos = mi.Frame3f.cos_theta(wi)
-    if distribution.is_anisotropic():
+    if projected:
         projected = dr.sqrt(dr.square(wi.x * distribution.alpha_u())
                             + dr.square(wi.y * distribution.alpha_v()))
         a = cos / projected

@@ -196,6 +196,13 @@ def _eval_1_values(name, tex):
                          f"{reason}; give a number or a one-channel bitmap (raw = true)") from None
 
 
+def constant(tex):
+    """The texture's value where it holds one number (a float or uniform
+    texture), else None."""
+    values = texture_values(tex)
+    return float(values[0][0]) if len(values) == 1 and values[0].size == 1 else None
+
+
 def is_constant_zero(tex):
     """True when the texture holds only zeros (its lobe can be skipped)."""
     values = texture_values(tex)

@@ -205,6 +205,17 @@ def _read_refinement(props, name, refined):
     return None
 
 
+def _projected(width_u, width_v):
+    """Whether a lobe of widths ``width_u``, ``width_v`` (None: isotropic)
+    needs Smith's G1 projected on the azimuth: anisotropic, unless both are
+    the same number. Decided from the textures at load time, as
+    roughconductor decides ``Anisotropic``: their values may be traced."""
+    if width_v is None:
+        return False
+    u, v = params.constant(width_u), params.constant(width_v)
+    return u is None or v is None or u != v
+
+
 class Exposed(NamedTuple):
     """A parameter as ``traverse`` exposes it: its texture, its flags, and what
     ``parameters_changed`` re-checks (> 0 where ``positive``, >= ``floor``; a
@@ -265,7 +276,8 @@ class PolarizedBRDF(mi.BSDF):
                 textures = {"ks": self.ks, "sigma_u": self.sigma_u, "sigma_v": self.sigma_v}
             lobes.append(MicrofacetLobe("specular", self.ks, widths[0], types[self.distribution],
                                         shadowing, glossy, len(lobes), polarizing=True,
-                                        textures=textures, width_v=widths[1]))
+                                        textures=textures, width_v=widths[1],
+                                        projected=_projected(*widths)))
         if not params.is_constant_zero(self.kdd):
             if self.sigma_dd_u is None:
                 widths = (self.sigma_dd, None)
@@ -276,7 +288,8 @@ class PolarizedBRDF(mi.BSDF):
                             "sigma_dd_v": self.sigma_dd_v}
             lobes.append(MicrofacetLobe("directional_diffuse", self.kdd, widths[0],
                                         types[self.dd_distribution], shadowing, glossy, len(lobes),
-                                        polarizing=False, textures=textures, width_v=widths[1]))
+                                        polarizing=False, textures=textures, width_v=widths[1],
+                                        projected=_projected(*widths)))
         if not params.is_constant_zero(self.kid):
             lobes.append(LambertianLobe("ideal_diffuse", self.kid, diffuse, len(lobes),
                                         textures={"kid": self.kid}))

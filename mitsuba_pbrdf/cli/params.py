@@ -28,7 +28,8 @@ def _scene(path: str) -> str:
 
 def format_parameters(scene: str, parameters, width: int = 100) -> str:
     """The listing ``pbrdf params`` prints."""
-    lines = [f"{scene}: {len(parameters)} parameters "
+    count = len(parameters)
+    lines = [f"{scene}: {count} parameter{'s' if count != 1 else ''} "
              f"(pbrdf render {scene} -D key=value ...)" if parameters
              else f"{scene} takes no -D parameters"]
     name_width = max([len(p.name) for p in parameters], default=0)
