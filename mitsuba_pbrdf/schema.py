@@ -24,10 +24,10 @@ its physics in ``bsdfs/`` and ``reference/``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional, Tuple
 
-__all__ = ["Parameter", "Fit", "PARAMETERS", "MIN_SIGMA", "LOBES", "DEFAULTS", "SHADOWING",
+__all__ = ["Parameter", "Fit", "Alias", "ALIASES", "PARAMETERS", "MIN_SIGMA", "LOBES", "DEFAULTS", "SHADOWING",
            "REFERENCE_SHADOWING", "DD_DISTRIBUTIONS", "DISTRIBUTIONS", "SAMPLING",
            "REFINEMENTS", "ANISOTROPIC_WIDTHS", "exposed_widths", "parameter", "names",
            "markdown_table", "rst_table"]
@@ -35,6 +35,10 @@ __all__ = ["Parameter", "Fit", "PARAMETERS", "MIN_SIGMA", "LOBES", "DEFAULTS", "
 #: Smallest accepted RMS slope (``sigma``, ``sigma_dd``): Mitsuba's microfacet
 #: distributions clamp the Beckmann/GGX width alpha = sqrt(2) sigma to 1e-4.
 MIN_SIGMA = 1e-4 / math.sqrt(2.0)
+
+#: Mitsuba's roughness ``alpha`` per RMS slope ``sigma``: Beckmann's width
+#: alpha = sqrt(2) sigma (paper Eq. 3); the plugin's GGX takes the same alpha.
+ALPHA_PER_SIGMA = math.sqrt(2.0)
 
 
 @dataclass(frozen=True)
@@ -48,6 +52,17 @@ class Fit:
     name: Optional[str] = None        # its name in fits, if not the parameter's (n for eta)
     per_wavelength: bool = False      # one value per measured wavelength (n, k)
     scale_floor: float = 0.0          # uncertainty is judged against max(|value|, scale_floor)
+
+
+@dataclass(frozen=True)
+class Alias:
+    """Another name a parameter is given under, in other units: a value given
+    as ``name`` is ``scale`` times the parameter's (Mitsuba's ``alpha`` is
+    sqrt(2) times the paper's ``sigma``). Only the plugin takes aliases."""
+
+    name: str
+    scale: float
+    doc: str
 
 
 @dataclass(frozen=True)
@@ -67,7 +82,10 @@ class Parameter:
     it (in ``traverse``, in fits); where none is, the parameter stands alone
     and the refinements are None. ``plugin``/``reference``/``cli``: whether
     the plugin, the reference evaluator, the model options of the commands
-    take it.
+    take it. ``alias``: the :class:`Alias` the plugin also takes it under
+    (one of the two names, never both); ``parameter(alias.name)`` is the
+    declaration as given under that name, whose ``stands_for`` names the
+    parameter and whose values are ``scale`` times the parameter's.
     """
 
     name: str
@@ -91,6 +109,9 @@ class Parameter:
     default_doc: Optional[str] = None         # the default as the docs state it
     unit: str = "dimensionless"
     typical: str = ""                         # typical values, for the docs
+    alias: Optional[Alias] = None
+    stands_for: Optional[str] = None          # an alias's parameter (``sigma`` for ``alpha``)
+    scale: float = 1.0                        # an alias's values per the parameter's
 
     @property
     def option(self) -> str:
@@ -130,21 +151,31 @@ PARAMETERS: Tuple[Parameter, ...] = (
               "width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor).",
               positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
               lobe="specular", role="width", fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3),
-              unit="dimensionless (slope)", typical="0.02 polished – 0.5 rough"),
+              unit="dimensionless (slope)", typical="0.02 polished – 0.5 rough",
+              alias=Alias("alpha", ALPHA_PER_SIGMA,
+                          "Mitsuba's roughness (roughconductor's alpha, Beckmann or GGX as "
+                          "distribution says): the specular lobe's width alpha = sqrt(2) "
+                          "sigma, given instead of sigma.")),
     Parameter("sigma_u", "float", None,
               "RMS slope of the specular lobe along the shading frame's s axis (dp_du); "
               "alpha_u = sqrt(2) sigma_u. Giving sigma_u or sigma_v makes the lobe anisotropic.",
               positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
               lobe="specular", role="width_u", refines="sigma",
               fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3), default_doc="sigma",
-              unit="dimensionless (slope)", typical="brushed metal: sigma_u / sigma_v 2–10"),
+              unit="dimensionless (slope)", typical="brushed metal: sigma_u / sigma_v 2–10",
+              alias=Alias("alpha_u", ALPHA_PER_SIGMA,
+                          "Mitsuba's alpha_u: the specular lobe's width along s, "
+                          "alpha_u = sqrt(2) sigma_u, given instead of sigma_u.")),
     Parameter("sigma_v", "float", None,
               "RMS slope of the specular lobe along the shading frame's t axis "
               "(n x dp_du); alpha_v = sqrt(2) sigma_v.",
               positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
               lobe="specular", role="width_v", refines="sigma",
               fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3), default_doc="sigma",
-              unit="dimensionless (slope)", typical="as sigma_u"),
+              unit="dimensionless (slope)", typical="as sigma_u",
+              alias=Alias("alpha_v", ALPHA_PER_SIGMA,
+                          "Mitsuba's alpha_v: the specular lobe's width along t, "
+                          "alpha_v = sqrt(2) sigma_v, given instead of sigma_v.")),
     Parameter("distribution", "choice", "beckmann",
               "Normal distribution of the specular lobe: beckmann (the paper's Gaussian "
               "slopes) or ggx (Trowbridge-Reitz), both of width alpha = sqrt(2) sigma.",
@@ -190,11 +221,30 @@ PARAMETERS: Tuple[Parameter, ...] = (
               choices=("mixture", "cosine"), reference=False, cli=False, unit="–"),
 )
 
-_BY_NAME = {p.name: p for p in PARAMETERS}
+
+
+def _as_alias(p: Parameter) -> Parameter:
+    """Parameter *p* as given under its alias: its name, doc, bounds in the
+    alias's units; the plugin's only."""
+    a = p.alias
+
+    def scaled(x):
+        return None if x is None else x * a.scale
+
+    return replace(p, name=a.name, doc=a.doc, lower=scaled(p.lower), floor=scaled(p.floor),
+                   alias=None, stands_for=p.name, scale=a.scale, fit=None, reference=False,
+                   cli=False, typical="", unit="dimensionless (width)")
+
+
+#: The declarations as given under an alias, by alias name (``alpha`` ...).
+ALIASES = {p.alias.name: _as_alias(p) for p in PARAMETERS if p.alias}
+
+_BY_NAME = {**{p.name: p for p in PARAMETERS}, **ALIASES}
 
 
 def parameter(name: str) -> Parameter:
-    """The declaration of parameter *name*."""
+    """The declaration of parameter *name*, or of an alias (``alpha``) as
+    given under that name."""
     return _BY_NAME[name]
 
 
@@ -253,15 +303,24 @@ _KIND_DOC = {"spectrum": "spectrum or texture", "float": "float or texture",
              "choice": "string", "material": "string"}
 
 
+def _documented() -> Tuple[Parameter, ...]:
+    """The plugin's parameters in table order, each followed by its alias."""
+    return tuple(q for p in PARAMETERS if p.plugin
+                 for q in ((p, ALIASES[p.alias.name]) if p.alias else (p,)))
+
+
 def _flags(p: Parameter) -> str:
     if not p.differentiable:
         return "--"
     exposed = ("exposed where the lobe is anisotropic" if p.refines else
-               "exposed where the lobe is isotropic" if p.name in REFINEMENTS else "exposed")
+               "exposed where the lobe is isotropic" if (p.stands_for or p.name) in REFINEMENTS
+               else "exposed")
     return exposed + ", differentiable" + (", discontinuous" if p.discontinuous else "")
 
 
 def _default(p: Parameter) -> str:
+    if p.stands_for:
+        return "--"
     if p.refines:
         return f"``{p.default_doc}``"
     return p.default_doc if p.default_doc else f"``{p.default}``" if p.kind in (
@@ -272,7 +331,7 @@ def markdown_table() -> str:
     """The plugin's parameter table in Markdown (``docs/plugin.md``)."""
     rows = ["| name | type | default | unit | valid (typical) | meaning | flags |",
             "|---|---|---|---|---|---|---|"]
-    for p in PARAMETERS:
+    for p in _documented():
         if p.plugin:
             valid = p.bound_doc.replace("``", "`")
             if p.typical:
@@ -287,7 +346,7 @@ def rst_table() -> str:
     lines = [".. list-table::", "   :header-rows: 1", "",
              "   * - Parameter", "     - Type", "     - Description", "     - Default",
              "     - Flags"]
-    for p in PARAMETERS:
+    for p in _documented():
         if p.plugin:
             bound = f" Valid: {p.bound_doc}." if p.bound_doc else ""
             lines += [f"   * - ``{p.name}``", f"     - {_KIND_DOC[p.kind]}",

@@ -49,6 +49,10 @@ def cases() -> List[BadInput]:
         ({"sigma": NAN}, ValueError, "'sigma'"),
         ({"sigma": INF}, ValueError, "'sigma'"),
         ({"sigma": -INF}, ValueError, "'sigma'"),
+        ({"alpha": -0.1}, ValueError, "'alpha'"),              # Mitsuba's names, their bounds
+        ({"alpha": NAN}, ValueError, "'alpha'"),
+        ({"alpha_u": 5e-5}, ValueError, "'alpha_u'"),
+        ({"alpha_v": bitmap(-1.0)}, ValueError, "'alpha_v'"),
         ({"sigma_dd": -1.0, "kdd": 0.1}, ValueError, "'sigma_dd'"),
         ({"sigma_dd": 0.0, "kdd": 0.1}, ValueError, "'sigma_dd'"),
         ({"sigma_dd": NAN, "kdd": 0.1}, ValueError, "'sigma_dd'"),
@@ -97,6 +101,7 @@ def cases() -> List[BadInput]:
         ({"sigma": "0.1"}, TypeError, "'sigma'"),
         ({"sigma": True}, TypeError, "'sigma'"),
         ({"sigma_dd": True}, TypeError, "'sigma_dd'"),
+        ({"alpha_v": "0.1"}, TypeError, "'alpha_v'"),
         ({"eta": "Cu", "k": 1.0}, TypeError, "'eta'"),
         ({"kdd": {"type": "diffuse"}}, TypeError, "'kdd'"),
         ({"kid": mi.ScalarTransform4f()}, TypeError, "'kid'"),
@@ -120,6 +125,9 @@ def cases() -> List[BadInput]:
         ({"material": "Cu", "k": 3.0}, ValueError, "'material'"),
         ({"eta": 0.2}, ValueError, "'eta' and 'k'"),
         ({"k": 3.0}, ValueError, "'eta' and 'k'"),
+        ({"sigma": 0.1, "alpha": 0.2}, ValueError, "'sigma' or 'alpha'"),
+        ({"sigma_u": 0.1, "alpha_u": 0.2}, ValueError, "'sigma_u' or 'alpha_u'"),
+        ({"alpha_v": 0.1, "sigma_v": bitmap(0.2)}, ValueError, "'sigma_v' or 'alpha_v'"),
     ]]
 
 

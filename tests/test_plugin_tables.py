@@ -18,12 +18,17 @@ import textwrap
 
 import pytest
 
+from mitsuba_pbrdf import schema
 from mitsuba_pbrdf.registry import PLUGINS, plugin_class
 
 #: Parameters that a C++ base class of Mitsuba reads for the plugin.
 CPP_BASE_READS = {
     "stokes_prb": {"hide_emitters"},   # mi.SamplingIntegrator (src/render/integrator.cpp)
 }
+
+#: Parameters read under names the schema derives (Mitsuba's ``alpha`` beside
+#: ``sigma``: ``bsdfs/params.read_width``); tests/test_alpha_names.py loads each.
+SCHEMA_READS = {"pbrdf": set(schema.ALIASES)}
 
 
 def documented(docstring: str) -> set:
@@ -104,7 +109,8 @@ def test_the_table_lists_exactly_what_the_constructor_reads(kind, name, module, 
     docstring = ast.get_docstring(ast.parse(source))
     assert docstring and ".. list-table::" in docstring, f"{module}: no parameter table"
     table = documented(docstring)
-    read = reads(source) | python_base_reads(plugin_class(name)) | CPP_BASE_READS.get(name, set())
+    read = (reads(source) | python_base_reads(plugin_class(name)) | CPP_BASE_READS.get(name, set())
+            | SCHEMA_READS.get(name, set()))
     assert table == read, (f"{module}: documented but not read {sorted(table - read)}; "
                            f"read but not documented {sorted(read - table)}")
 

@@ -4,9 +4,10 @@ is loaded, that ``eval``, ``pdf`` and ``sample`` loop over.
 A lobe is a weight texture times a normalized shape. Two shapes exist:
 
 * :class:`MicrofacetLobe`: ``D(h) G / (4 cos_i cos_o)`` with a Beckmann or GGX
-  distribution of width ``alpha = sqrt(2) * sigma`` (``width`` is the RMS
-  slope sigma; an anisotropic lobe has ``width`` = sigma_u along the shading
-  frame's s axis and ``width_v`` = sigma_v along its t axis), sampled through
+  distribution of width ``alpha = sqrt(2) * sigma`` (``width`` is a
+  :class:`Width`: the RMS slope sigma, or Mitsuba's alpha; an anisotropic lobe
+  has ``width`` along the shading frame's s axis and ``width_v`` along its t
+  axis), sampled through
   its visible normals. The specular lobe
   (``polarizing``: its weight multiplies the facet's Fresnel Mueller matrix)
   and the directional diffuse lobe (depolarized) are of this shape.
@@ -32,9 +33,9 @@ import drjit as dr
 import mitsuba as mi
 
 from .microfacet import visible_g1
+from .params import Width
 
 _INV_PI = 1.0 / math.pi
-_SQRT2 = math.sqrt(2.0)
 
 
 @dataclass(frozen=True)
@@ -91,8 +92,8 @@ class LobeSample(NamedTuple):
 
 @dataclass(frozen=True)
 class MicrofacetLobe:
-    """A microfacet lobe: ``weight`` (texture), ``width`` (RMS slope sigma,
-    float texture; sigma_u where ``width_v``, sigma_v, is given: anisotropic),
+    """A microfacet lobe: ``weight`` (texture), ``width`` (a :class:`Width`;
+    along the s axis where ``width_v``, along t, is given: anisotropic),
     ``distribution`` (``mi.MicrofacetType``), ``shadowing`` (a function of
     :data:`.microfacet.SHADOWING`), ``flags`` (its lobe type, ``GlossyReflection``),
     ``index`` (component index), ``polarizing``
@@ -103,14 +104,14 @@ class MicrofacetLobe:
 
     name: str
     weight: object
-    width: object
+    width: Width
     distribution: object
     shadowing: Callable
     flags: object
     index: int
     polarizing: bool
     textures: Dict[str, object]
-    width_v: Optional[object] = None
+    width_v: Optional[Width] = None
     projected: bool = False
 
     @property
@@ -120,11 +121,11 @@ class MicrofacetLobe:
     def microfacets(self, si, active):
         """Mitsuba's distribution of this lobe at ``si`` (visible-normal sampling),
         alpha_u along the shading frame's s axis, alpha_v along t."""
-        alpha_u = _SQRT2 * self.width.eval_1(si, active)
+        alpha_u = self.width.alpha(si, active)
         if self.width_v is None:
             return mi.MicrofacetDistribution(self.distribution, alpha_u, True)
         return mi.MicrofacetDistribution(self.distribution, alpha_u,
-                                         _SQRT2 * self.width_v.eval_1(si, active), True)
+                                         self.width_v.alpha(si, active), True)
 
     def sample_direction(self, si, sample2, active):
         """A direction drawn from the visible normals seen from ``si.wi``."""

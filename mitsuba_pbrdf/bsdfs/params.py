@@ -6,10 +6,13 @@ fails at load time instead of rendering black or NaN pixels.
 """
 
 import math
+from typing import NamedTuple
 
 import drjit as dr
 import mitsuba as mi
 import numpy as np
+
+from .. import schema
 
 # Texture parameters holding values (as opposed to wavelengths or UV transforms).
 _VALUE_KEYS = ("value", "values", "data", "color")
@@ -38,6 +41,78 @@ def declared(props, parameter, default=None):
     return texture(props, parameter.name, parameter.default if default is None else default,
                    spectral=parameter.kind == "spectrum", positive=parameter.positive,
                    minimum=parameter.floor)
+
+
+class Width(NamedTuple):
+    """A lobe's width as the scene gives it: a float ``texture``, the ``name``
+    it is given (and exposed) under, ``sigma_u`` or Mitsuba's ``alpha_u``, and
+    ``to_alpha``, the distribution's alpha per value (sqrt(2) for a slope
+    sigma, 1 for an alpha)."""
+
+    texture: object
+    name: str
+    to_alpha: float
+
+    def alpha(self, si, active):
+        """The distribution's width alpha at ``si``."""
+        return self.to_alpha * self.texture.eval_1(si, active)
+
+    def __str__(self):  # an alias's value is not the slope: say so
+        if self.to_alpha == schema.ALPHA_PER_SIGMA:
+            return str(self.texture)
+        return f"{self.texture} (given as {self.name})"
+
+
+def read_width(props, name):
+    """Width parameter *name* (``sigma``, ``sigma_u`` ...) as a :class:`Width`,
+    given under its name or its alias (Mitsuba's ``alpha``, ``alpha_u`` ...),
+    checked against the declaration of the name it is given under; None
+    where neither is given. Both refused, naming both."""
+    p = schema.parameter(name)
+    given = [n for n in _names(name) if n in props]
+    if len(given) == 2:
+        a = p.alias
+        factor = "sqrt(2)" if a.scale == schema.ALPHA_PER_SIGMA else f"{a.scale:g}"
+        raise ValueError(f"pbrdf: give either '{name}' or '{a.name}' "
+                         f"({a.name} = {factor} {name}), not both")
+    as_given = schema.parameter(given[0] if given else name)
+    if not given and as_given.default is None:
+        return None
+    return Width(declared(props, as_given), as_given.name, schema.ALPHA_PER_SIGMA / as_given.scale)
+
+
+def _names(name):
+    """The names parameter *name* may be given under: its own, its alias."""
+    alias = schema.parameter(name).alias
+    return (name, alias.name) if alias else (name,)
+
+
+def read_refinement(props, name, refined):
+    """A refinement (``sigma_u``) as given, else the *refined* parameter's
+    :class:`Width` (``sigma``) where any of its refinements is given, else
+    None (the lobe is isotropic). Given under an alias, a refinement is
+    exposed under its alias (a defaulted one under the alias of its own name
+    where *refined* was given as an alias: ``alpha_u`` takes ``alpha``)."""
+    own = read_width(props, name)
+    if own is not None:
+        return own
+    refinements = schema.REFINEMENTS[schema.parameter(name).refines]
+    if not any(n in props for r in refinements for n in _names(r)):
+        return None
+    exposed = name if refined.name == schema.parameter(name).refines \
+        else schema.parameter(name).alias.name
+    return Width(refined.texture, exposed, refined.to_alpha)
+
+
+def projected(width_u, width_v):
+    """Whether a lobe of widths ``width_u``, ``width_v`` (None: isotropic)
+    needs Smith's G1 projected on the azimuth: anisotropic, unless both are
+    the same number. Decided from the textures at load time, as
+    roughconductor decides ``Anisotropic``: their values may be traced."""
+    if width_v is None:
+        return False
+    u, v = constant(width_u.texture), constant(width_v.texture)
+    return u is None or v is None or u * width_u.to_alpha != v * width_v.to_alpha
 
 
 def texture(props, name, default, *, spectral, positive=False, minimum=None):
@@ -105,7 +180,8 @@ def check_texture_values(name, tex, positive=False, minimum=None, spectral=True)
         if not np.all(np.isfinite(values)):
             raise ValueError(f"pbrdf: parameter '{name}' contains NaN or infinite values")
         low = float(values.min())
-        if minimum is not None and low < minimum:
+        # textures hold float32: a floor given in Python (1e-4) is as stored
+        if minimum is not None and low < float(np.float32(minimum)):
             raise ValueError(f"pbrdf: parameter '{name}' must be >= {minimum:.3g} everywhere, "
                              f"found {low:g}")
         if low < 0 or (positive and low <= 0):

@@ -33,15 +33,30 @@ two agree):
      - RMS microfacet slope per axis of the specular lobe (paper Eq. 3); Beckmann width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor). Valid: >= 7.07e-05.
      - 0.1
      - exposed where the lobe is isotropic, differentiable, discontinuous
+   * - ``alpha``
+     - float or texture
+     - Mitsuba's roughness (roughconductor's alpha, Beckmann or GGX as distribution says): the specular lobe's width alpha = sqrt(2) sigma, given instead of sigma. Valid: >= 0.0001.
+     - --
+     - exposed where the lobe is isotropic, differentiable, discontinuous
    * - ``sigma_u``
      - float or texture
      - RMS slope of the specular lobe along the shading frame's s axis (dp_du); alpha_u = sqrt(2) sigma_u. Giving sigma_u or sigma_v makes the lobe anisotropic. Valid: >= 7.07e-05.
      - ``sigma``
      - exposed where the lobe is anisotropic, differentiable, discontinuous
+   * - ``alpha_u``
+     - float or texture
+     - Mitsuba's alpha_u: the specular lobe's width along s, alpha_u = sqrt(2) sigma_u, given instead of sigma_u. Valid: >= 0.0001.
+     - --
+     - exposed where the lobe is anisotropic, differentiable, discontinuous
    * - ``sigma_v``
      - float or texture
      - RMS slope of the specular lobe along the shading frame's t axis (n x dp_du); alpha_v = sqrt(2) sigma_v. Valid: >= 7.07e-05.
      - ``sigma``
+     - exposed where the lobe is anisotropic, differentiable, discontinuous
+   * - ``alpha_v``
+     - float or texture
+     - Mitsuba's alpha_v: the specular lobe's width along t, alpha_v = sqrt(2) sigma_v, given instead of sigma_v. Valid: >= 0.0001.
+     - --
      - exposed where the lobe is anisotropic, differentiable, discontinuous
    * - ``distribution``
      - string
@@ -116,6 +131,9 @@ defaulting to ``sigma`` (``sigma_dd``); where neither is given the lobe is
 isotropic and ``traverse`` exposes ``sigma``, else the lobe is anisotropic and
 ``traverse`` exposes ``sigma_u`` and ``sigma_v`` instead (the schema's
 ``refines`` relation). ``distribution`` is the specular lobe's Beckmann or GGX.
+Mitsuba's names ``alpha``, ``alpha_u``, ``alpha_v`` (alpha = sqrt(2) sigma, for
+GGX too) are taken instead of ``sigma``, ``sigma_u``, ``sigma_v``, never both;
+``traverse`` exposes a width under the name it is given.
 
 The surface is one-sided: directions below the horizon give zero. A lobe whose
 weight is exactly zero at load time is dropped entirely (not evaluated, not
@@ -194,26 +212,9 @@ def _read_choice(props, name):
     return params.choice(props, name, p.choices, p.default)
 
 
-def _read_refinement(props, name, refined):
-    """A refinement (``sigma_u``) as given, else the *refined* parameter's
-    texture (``sigma``) where any of its refinements is given, else None
-    (the lobe is isotropic)."""
-    if name in props:
-        return _read(props, name)
-    if any(r in props for r in schema.REFINEMENTS[schema.parameter(name).refines]):
-        return refined
-    return None
-
-
-def _projected(width_u, width_v):
-    """Whether a lobe of widths ``width_u``, ``width_v`` (None: isotropic)
-    needs Smith's G1 projected on the azimuth: anisotropic, unless both are
-    the same number. Decided from the textures at load time, as
-    roughconductor decides ``Anisotropic``: their values may be traced."""
-    if width_v is None:
-        return False
-    u, v = params.constant(width_u), params.constant(width_v)
-    return u is None or v is None or u != v
+def _exposed_widths(widths):
+    """``{name: texture}`` of a lobe's widths (None: absent) as given."""
+    return {w.name: w.texture for w in widths if w is not None}
 
 
 class Exposed(NamedTuple):
@@ -236,15 +237,15 @@ class PolarizedBRDF(mi.BSDF):
         # Each parameter read once by name and checked (schema.py declares them;
         # tests/test_schema.py checks that these reads match the declarations).
         self.material, self.eta, self.k = _read_ior(props)
-        self.sigma = _read(props, "sigma")
-        self.sigma_u = _read_refinement(props, "sigma_u", self.sigma)
-        self.sigma_v = _read_refinement(props, "sigma_v", self.sigma)
+        self.sigma = params.read_width(props, "sigma")
+        self.sigma_u = params.read_refinement(props, "sigma_u", self.sigma)
+        self.sigma_v = params.read_refinement(props, "sigma_v", self.sigma)
         self.distribution = _read_choice(props, "distribution")
         self.ks = _read(props, "ks")
         self.kdd = _read(props, "kdd")
-        self.sigma_dd = _read(props, "sigma_dd")
-        self.sigma_dd_u = _read_refinement(props, "sigma_dd_u", self.sigma_dd)
-        self.sigma_dd_v = _read_refinement(props, "sigma_dd_v", self.sigma_dd)
+        self.sigma_dd = params.read_width(props, "sigma_dd")
+        self.sigma_dd_u = params.read_refinement(props, "sigma_dd_u", self.sigma_dd)
+        self.sigma_dd_v = params.read_refinement(props, "sigma_dd_v", self.sigma_dd)
         self.kid = _read(props, "kid")
         self.shadowing = _read_choice(props, "shadowing")
         self.dd_distribution = _read_choice(props, "dd_distribution")
@@ -269,27 +270,20 @@ class PolarizedBRDF(mi.BSDF):
         shadowing = SHADOWING[self.shadowing]
         lobes = []
         if not params.is_constant_zero(self.ks):
-            if self.sigma_u is None:
-                widths, textures = (self.sigma, None), {"ks": self.ks, "sigma": self.sigma}
-            else:
-                widths = (self.sigma_u, self.sigma_v)
-                textures = {"ks": self.ks, "sigma_u": self.sigma_u, "sigma_v": self.sigma_v}
+            widths = (self.sigma, None) if self.sigma_u is None else (self.sigma_u, self.sigma_v)
+            textures = {"ks": self.ks, **_exposed_widths(widths)}
             lobes.append(MicrofacetLobe("specular", self.ks, widths[0], types[self.distribution],
                                         shadowing, glossy, len(lobes), polarizing=True,
                                         textures=textures, width_v=widths[1],
-                                        projected=_projected(*widths)))
+                                        projected=params.projected(*widths)))
         if not params.is_constant_zero(self.kdd):
-            if self.sigma_dd_u is None:
-                widths = (self.sigma_dd, None)
-                textures = {"kdd": self.kdd, "sigma_dd": self.sigma_dd}
-            else:
-                widths = (self.sigma_dd_u, self.sigma_dd_v)
-                textures = {"kdd": self.kdd, "sigma_dd_u": self.sigma_dd_u,
-                            "sigma_dd_v": self.sigma_dd_v}
+            widths = ((self.sigma_dd, None) if self.sigma_dd_u is None
+                      else (self.sigma_dd_u, self.sigma_dd_v))
+            textures = {"kdd": self.kdd, **_exposed_widths(widths)}
             lobes.append(MicrofacetLobe("directional_diffuse", self.kdd, widths[0],
                                         types[self.dd_distribution], shadowing, glossy, len(lobes),
                                         polarizing=False, textures=textures, width_v=widths[1],
-                                        projected=_projected(*widths)))
+                                        projected=params.projected(*widths)))
         if not params.is_constant_zero(self.kid):
             lobes.append(LambertianLobe("ideal_diffuse", self.kid, diffuse, len(lobes),
                                         textures={"kid": self.kid}))
