@@ -15,8 +15,8 @@ from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.errors import ParameterError
 from mitsuba_pbrdf.rendering import render_scene
 from mitsuba_pbrdf.rendering.bands import MAX_BANDS, parse_bands
-from mitsuba_pbrdf.rendering.cube import scene_without_stokes
 from mitsuba_pbrdf.rendering.render import check_render
+from mitsuba_pbrdf.rendering.scene_setup import StokesSceneError
 from mitsuba_pbrdf.stokes import read_stokes_exr
 from mitsuba_pbrdf.stokes.exr import read_exr_channels
 from test_analytic_scene import SCENE
@@ -70,16 +70,23 @@ def test_band_counts_are_even():
     assert band_counts(64, 16).min() == 1 and band_counts(3, 3).sum() == 12
 
 
-def test_scene_without_a_stokes_integrator_is_refused(tmp_path):
+def test_a_scene_whose_integrator_cannot_be_run_is_refused_before_loading(tmp_path):
+    """The cube runs the integrator stokes wraps: stokes around two integrators,
+    or around prb, is refused by check_render (a bare path is run as it is)."""
     text = open(SCENE).read().replace('<integrator type="stokes">', '<integrator type="stokes">'
                                       '<integrator type="path"/>', 1)
     (tmp_path / "two.xml").write_text(text)
-    with pytest.raises(ParameterError, match="must nest one integrator"):
-        scene_without_stokes(tmp_path / "two.xml")
-    plain = open(SCENE).read().replace('type="stokes"', 'type="path"', 1)
-    (tmp_path / "plain.xml").write_text(plain)
-    with pytest.raises(ParameterError, match="needs its own <integrator type=\"stokes\">"):
-        scene_without_stokes(tmp_path / "plain.xml")
+    with pytest.raises(StokesSceneError, match="wraps no single integrator"):
+        check_render(tmp_path / "two.xml", variant=VARIANT, bands=BANDS)
+    prb = open(SCENE).read().replace('<integrator type="direct"/>', '<integrator type="prb"/>')
+    (tmp_path / "prb.xml").write_text(prb)
+    with pytest.raises(StokesSceneError, match="prb ignores Mueller frame rotations"):
+        check_render(tmp_path / "prb.xml", variant=VARIANT, bands=BANDS)
+    bare = open(SCENE).read().replace('<integrator type="stokes">', '', 1).replace(
+        '<integrator type="direct"/>\n    </integrator>', '<integrator type="direct"/>', 1)
+    (tmp_path / "bare.xml").write_text(bare)
+    request = check_render(tmp_path / "bare.xml", variant=VARIANT, bands=BANDS)
+    assert request.notice is None and request.setup.integrator == "nested"
 
 
 def cube_passes(passes=1, **options):

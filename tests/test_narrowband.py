@@ -18,7 +18,7 @@ from mitsuba_pbrdf.rendering.render import check_render
 from mitsuba_pbrdf.stokes import read_stokes_exr
 from mitsuba_pbrdf.stokes.exr import read_exr_channels
 from mitsuba_pbrdf.rendering.narrowband import (parse_wavelength, passband_response,
-                                                rgb_response, scene_with_passband)
+                                                rgb_response)
 from test_analytic_scene import LIGHT_DIR, SCENE, expected_stokes
 
 pytestmark = pytest.mark.usefixtures("restore_variant")
@@ -169,9 +169,17 @@ def test_cli_render_wavelength_then_polcam(tmp_path, capsys):
     assert mosaic.shape == (12, 16) and np.all(np.isfinite(mosaic))
 
 
-def test_scene_without_its_own_sensor_is_refused(tmp_path):
-    use_variant(VARIANT)
-    (tmp_path / "s.xml").write_text('<scene version="3.0.0"><include filename="x.xml"/></scene>')
-    with pytest.raises(ValueError, match="has no <sensor> of its own"):
-        scene_with_passband(tmp_path / "s.xml", passband_response(parse_wavelength("600")))
-    assert os.path.exists(tmp_path / "s.xml")
+def test_a_sensor_with_a_response_of_its_own_is_refused_before_loading(tmp_path):
+    """The passband is the sensor's spectral response: one the scene has
+    already, in an included file too, is refused by check_render, naming
+    the parameter."""
+    (tmp_path / "cam.xml").write_text(
+        '<scene version="3.0.0"><sensor type="perspective"><spectrum name="srf" '
+        'type="regular"><float name="wavelength_min" value="500"/><float '
+        'name="wavelength_max" value="600"/><string name="values" value="1, 1"/></spectrum>'
+        '</sensor></scene>')
+    (tmp_path / "s.xml").write_text('<scene version="3.0.0"><include filename="cam.xml"/>'
+                                    '</scene>')
+    with pytest.raises(ParameterError, match="has a spectral response") as error:
+        check_render(tmp_path / "s.xml", variant=VARIANT, wavelength="600")
+    assert error.value.parameter == "wavelength" and "cam.xml line 1" in str(error.value)

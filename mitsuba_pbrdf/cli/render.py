@@ -2,8 +2,9 @@
 
 Everything that can be checked is checked before rendering: the scene file
 (or a packaged scene of that name), the ``-D`` values against what the scene
-does with them, the variant (polarized), the picture options, and that both
-outputs can be written. The outputs are written atomically and replace
+does with them, the variant (polarized), ``--size``, the scene's integrator
+(wrapped in ``stokes`` where it has none, with a line on stderr, unless
+``--no-auto-stokes``), the picture options, and that both outputs can be written. The outputs are written atomically and replace
 existing files (as Mitsuba does; the command says so)."""
 
 from __future__ import annotations
@@ -59,7 +60,8 @@ def run(args) -> int:
     warn_unused_picture_options(args, picture["panels"], "render")
     # the library's checks, once (errors name the parameter; run_command names the option)
     request = check_render(scene, spp=args.spp, variant=chosen_variant(args), params=params,
-                           passes=args.passes, wavelength=args.wavelength, bands=args.bands)
+                           passes=args.passes, wavelength=args.wavelength, bands=args.bands,
+                           size=args.size, auto_stokes=args.auto_stokes)
     written = request.mode.band_names  # the Stokes bands the render writes
     if picture["band"] not in (None, *written):
         raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(written)}")
@@ -67,16 +69,16 @@ def run(args) -> int:
     exr_path, png_path = stem + ".exr", stem + ".png"
     check_outputs(("--out", exr_path), ("--out", png_path))
     existed = [os.path.exists(exr_path), os.path.exists(png_path)]
+    if request.notice:
+        print(f"{PROG} render: {request.notice} (--no-auto-stokes refuses instead)",
+              file=sys.stderr)
 
     try:
         image, timings = render_request(request, seed=args.seed, progress=show_progress(args))
     except SceneLoadError as e:
         raise CliError(f"cannot load {scene}: {e}") from e
-    except StokesChannelError as e:
-        raise CliError(
-            f"{e} (render with a *_polarized variant and the scene's integrator "
-            "wrapped in <integrator type=\"stokes\">)"
-        ) from e
+    except StokesChannelError as e:  # check_render made sure the scene gives Stokes output
+        raise CliError(f"{e} (a bug: please report it with the scene)") from e
     quality = report_quality(image, picture["band"], f"the render of {scene}", "render")
 
     name = os.path.splitext(os.path.basename(scene))[0]
@@ -124,6 +126,12 @@ def add_parser(subparsers):
                         "450:470,532:533,600:650 (LOW:HIGH bands); up to 64 bands within "
                         "360-830 nm, EXR channels S0.460nm ...; spectral variants only (see "
                         "docs/spectral-cube.md)")
+    r.add_argument("--size", metavar="WIDTHxHEIGHT", default=None,
+                   help="image size in pixels for any scene, e.g. 320x240, set on the scene's "
+                        "film wherever it is (default: the scene's)")
+    r.add_argument("--no-auto-stokes", dest="auto_stokes", action="store_false",
+                   help="refuse a scene whose integrator is not inside <integrator "
+                        "type=\"stokes\"> (default: render it wrapped in stokes, and say so)")
     r.add_argument("-D", dest="define", action="append", metavar="key=value",
                    help="override a scene <default> parameter (repeatable)")
     picture_options(r, "intensity,dolp")

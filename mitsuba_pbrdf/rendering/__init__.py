@@ -11,7 +11,10 @@
 * :mod:`.narrowband`: Stokes renders at one wavelength or averaged over a passband;
 * :mod:`.bands`, :mod:`.cube`: Stokes cubes, one image band per passband of a list;
 * :mod:`.scene_loading`: loading a scene file; Mitsuba's loader errors and Ctrl-C in the package's
-  terms; a rewritten scene's XML loaded as its file would be.
+  terms;
+* :mod:`.scene_setup`: a scene file as Mitsuba's parser reads it (``<include>`` s and ``<ref>`` s
+  resolved) made ready for a Stokes render: its integrator inside ``stokes``, its size, a
+  passband's sensor response; the checks of that before loading.
 
 Stokes images and their files are :mod:`mitsuba_pbrdf.stokes`, pictures of them
 :mod:`mitsuba_pbrdf.visualization`, what a polarization camera records

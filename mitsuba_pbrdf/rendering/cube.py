@@ -6,7 +6,8 @@ Mitsuba's ``stokes`` integrator writes R, G, B only (and its ``specfilm``
 does not work inside ``stokes``), so the cube has its own render loop, in
 Dr.Jit, over the scene's integrator *inside* ``stokes`` (``path``, ``direct``
 or ``volpath``; the scene file is loaded with that integrator in place of
-``stokes``):
+``stokes``, or with its own ``path`` ... where it has no ``stokes``, found
+through ``<include>`` s and ``<ref>`` s: :mod:`.scene_setup`):
 
 1. a sample per (pixel, spp) at a uniform position in its pixel, splatted
    with the film's reconstruction filter as Mitsuba's film does (weight
@@ -40,59 +41,18 @@ radiance (the band average of the spectral radiance); frames: the camera's
 
 The sensor's camera weight is taken as 1 (pinhole perspective, orthographic
 and thin-lens cameras); scenes with a spectral response (``srf``) or a
-``specfilm`` are refused.
+``specfilm`` are refused (:mod:`.scene_setup`).
 """
 
 from __future__ import annotations
-
-import os
-import xml.etree.ElementTree as ET
 
 import numpy as np
 
 from ..errors import ParameterError
 from ..stokes.image import StokesImage
 from .bands import PassbandList
-from .scene_loading import load_scene_text
 
-__all__ = ["scene_without_stokes", "load_cube_scene", "band_counts", "check_cube_spp",
-           "cube_pass", "cube_image"]
-
-
-def scene_without_stokes(scene_path) -> str:
-    """The scene file's XML with its ``stokes`` integrator replaced by the
-    integrator nested in it. :class:`ParameterError` (``bands``) if the scene
-    has no ``stokes`` integrator of its own, a sensor ``srf`` or a ``specfilm``."""
-    path = os.fspath(scene_path)
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as e:
-        raise ValueError(f"{path}: not readable XML ({e})") from None
-    children = list(root)
-    integrators = [c for c in children if c.tag == "integrator"]
-    if not integrators or integrators[0].get("type") != "stokes":
-        raise ParameterError("bands", f"{path} needs its own <integrator type=\"stokes\"> "
-                             "around path, direct or volpath")
-    stokes = integrators[0]
-    nested = [c for c in stokes if c.tag == "integrator"]
-    if len(nested) != 1:
-        raise ParameterError("bands", f"the stokes integrator of {path} must nest one integrator")
-    for sensor in root.findall("sensor"):
-        if any(child.get("name") == "srf" for child in sensor):
-            raise ParameterError("bands", f"the sensor of {path} has a spectral response (srf); "
-                                 "the bands replace it")
-        if any(child.tag == "film" and child.get("type") == "specfilm" for child in sensor):
-            raise ParameterError("bands", "the scene's film is a specfilm; use hdrfilm")
-    position = children.index(stokes)
-    root.remove(stokes)
-    root.insert(position, nested[0])
-    return ET.tostring(root, encoding="unicode")
-
-
-def load_cube_scene(scene_path, params):
-    """``mi.load_string`` of :func:`scene_without_stokes`, resolving relative
-    paths from the scene's folder as ``mi.load_file`` does."""
-    return load_scene_text(scene_without_stokes(scene_path), scene_path, params)
+__all__ = ["band_counts", "check_cube_spp", "cube_pass", "cube_image"]
 
 
 def band_counts(n_bands: int, total_spp: int) -> np.ndarray:

@@ -15,7 +15,11 @@ The interface, in the order a render uses it:
 
 * ``check_spp(total_spp)``: the samples per pixel the mode needs (a cube: a
   wavelength in every passband), a :class:`~mitsuba_pbrdf.errors.ParameterError`;
-* ``load(scene_path, params)``: the scene, loaded the mode's way (the variant set);
+* ``scene_setup(size, auto_stokes)``: how the mode loads a scene
+  (:class:`~.scene_setup.SceneSetup`: the integrator inside ``stokes``, or the one it
+  wraps for a cube; a passband's sensor response), which
+  :func:`~mitsuba_pbrdf.rendering.render.check_render` checks before anything loads;
+* ``load(scene_path, params, setup)``: the scene, loaded with that setup (the variant set);
 * ``render_pass(scene, spp, seed, first, total_spp)``: one pass of *spp* of the
   pixel's *total_spp* samples (*first* of them rendered before) as a float64
   array; the passes' arrays add up;
@@ -30,7 +34,7 @@ titles its picture before rendering): ``band_names``, the Stokes image's bands
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Tuple
 
@@ -39,10 +43,10 @@ import numpy as np
 from ..errors import ParameterError
 from ..stokes.image import StokesImage, from_mitsuba
 from .bands import PassbandList, parse_bands, require_spectral_bands
-from .cube import check_cube_spp, cube_image, cube_pass, load_cube_scene
-from .narrowband import (Passband, PassbandResponse, load_passband_scene, parse_wavelength,
-                         passband_image, passband_response, require_spectral)
-from .scene_loading import load_scene, require_scene_file
+from .cube import check_cube_spp, cube_image, cube_pass
+from .narrowband import (Passband, PassbandResponse, parse_wavelength, passband_image,
+                         passband_response, passband_srf, require_spectral)
+from .scene_setup import SceneSetup, load_scene_setup
 
 __all__ = ["RenderMode", "RgbMode", "PassbandMode", "CubeMode", "render_mode"]
 
@@ -62,9 +66,15 @@ class RenderMode:
     def check_spp(self, total_spp: int) -> None:
         """A :class:`~mitsuba_pbrdf.errors.ParameterError` if *total_spp* is too few."""
 
-    def load(self, scene_path, params):
-        """The scene, loaded for this mode (the variant set)."""
-        raise NotImplementedError
+    def scene_setup(self, size=None, auto_stokes: bool = True) -> SceneSetup:
+        """How this mode loads a scene: its integrator inside ``stokes`` (wrapped
+        there if need be, unless *auto_stokes* is False), its films *size*
+        (width, height) pixels if given."""
+        return SceneSetup(size=size, auto_stokes=auto_stokes)
+
+    def load(self, scene_path, params, setup: SceneSetup):
+        """The scene, loaded with *setup* (:meth:`scene_setup`; the variant set)."""
+        return load_scene_setup(scene_path, params, setup)
 
     def render_pass(self, scene, spp: int, seed: int, first: int, total_spp: int) -> np.ndarray:
         """One pass (see the module docstring); the passes' arrays add up."""
@@ -82,9 +92,6 @@ class RgbMode(RenderMode):
     @property
     def band_names(self) -> Tuple[str, ...]:
         return ("R", "G", "B")
-
-    def load(self, scene_path, params):
-        return load_scene(scene_path, params)
 
     def render_pass(self, scene, spp: int, seed: int, first: int, total_spp: int) -> np.ndarray:
         """``mi.render``'s tensor times spp / total_spp (reading it back runs the kernels)."""
@@ -118,9 +125,15 @@ class PassbandMode(RgbMode):
         render sets: Mitsuba's colour tables)."""
         return passband_response(self.passband)
 
-    def load(self, scene_path, params):
-        response = self.response
-        return load_passband_scene(require_scene_file(scene_path), params, response)
+    def scene_setup(self, size=None, auto_stokes: bool = True) -> SceneSetup:
+        """:class:`RgbMode`'s, with the sensors checked for a spectral response
+        of their own (the passband's is set when the scene loads)."""
+        low, high = self.passband.limits
+        return SceneSetup(size=size, auto_stokes=auto_stokes, srf=(low, high, None),
+                          error_parameter="wavelength")
+
+    def load(self, scene_path, params, setup: SceneSetup):
+        return load_scene_setup(scene_path, params, replace(setup, srf=passband_srf(self.response)))
 
     def assemble(self, total: np.ndarray, film) -> StokesImage:
         return passband_image(super().assemble(total, film), self.response)
@@ -142,8 +155,10 @@ class CubeMode(RenderMode):
     def check_spp(self, total_spp: int) -> None:
         check_cube_spp(self.passbands, total_spp)
 
-    def load(self, scene_path, params):
-        return load_cube_scene(require_scene_file(scene_path), params)
+    def scene_setup(self, size=None, auto_stokes: bool = True) -> SceneSetup:
+        """The integrator ``stokes`` wraps (or would wrap), which the cube runs itself."""
+        return SceneSetup(integrator="nested", size=size, auto_stokes=auto_stokes,
+                          error_parameter="bands")
 
     def render_pass(self, scene, spp: int, seed: int, first: int, total_spp: int) -> np.ndarray:
         return cube_pass(scene, self.passbands, spp, seed, first, total_spp)

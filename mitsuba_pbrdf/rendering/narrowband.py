@@ -15,7 +15,8 @@ wavelengths from: zero outside the passband [λ0 - W/2, λ0 + W/2], and inside i
 proportional to 1 / |K_c(λ)| for the colour channel c with the largest
 response (R at 632.8 nm), tabulated at :func:`passband_response`'s points (spacing
 at most 0.5 nm; K_c is smooth on that scale) and interpolated linearly, as
-Mitsuba's ``regular`` spectrum does. With that sampling pdf p(λ) = srf(λ) / Z,
+Mitsuba's ``regular`` spectrum does (:func:`passband_srf`; the sensors are
+found wherever the scene keeps them, :mod:`.scene_setup`). With that sampling pdf p(λ) = srf(λ) / Z,
 
     E[S_i.c] = ∫ p K_c S_i dλ = sign(K_c) / Z ∫_passband S_i dλ,
 
@@ -32,18 +33,15 @@ camera behind that filter.
 from __future__ import annotations
 
 import math
-import os
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import ParameterError
 from ..stokes.image import StokesImage
-from .scene_loading import load_scene_text
 
 __all__ = ["Passband", "parse_wavelength", "require_spectral", "passband_response",
-           "PassbandResponse", "scene_with_passband", "passband_image", "LINE_WIDTH"]
+           "PassbandResponse", "passband_srf", "passband_image", "LINE_WIDTH"]
 
 #: Width (nm) of the passband a laser line (no WIDTH) is rendered with; the
 #: materials' spectra do not change over it.
@@ -153,40 +151,12 @@ def passband_response(passband: Passband) -> PassbandResponse:
     return PassbandResponse(passband, channel, lam, values / values.max(), scale)
 
 
-def scene_with_passband(scene_path, response: PassbandResponse) -> str:
-    """The scene file's XML with the passband's response as its sensor's ``srf``
-    (a ``regular`` spectrum). ``ValueError`` if the file has no ``<sensor>``
-    (one in an included file is not supported), or one with an ``srf`` or a
-    spectral film of its own."""
-    path = os.fspath(scene_path)
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as e:
-        raise ValueError(f"{path}: not readable XML ({e})") from None
-    sensors = root.findall("sensor")
-    if not sensors:
-        raise ParameterError("wavelength", f"{path} has no <sensor> of its own (one in an "
-                             "included file is not supported)")
-    sensor = sensors[0]
-    if any(child.get("name") == "srf" for child in sensor):
-        raise ParameterError("wavelength", f"the sensor of {path} has a spectral response "
-                             "(srf) already")
-    if any(child.tag == "film" and child.get("type") == "specfilm" for child in sensor):
-        raise ParameterError("wavelength", "the scene's film is a specfilm; use hdrfilm")
-    srf = ET.SubElement(sensor, "spectrum", {"name": "srf", "type": "regular"})
+def passband_srf(response: PassbandResponse) -> tuple:
+    """The sensor's spectral response of *response* as
+    :class:`~.scene_setup.SceneSetup` takes it: ``(wavelength_min,
+    wavelength_max, values)``, nm, a ``regular`` spectrum."""
     lam = response.wavelengths
-    ET.SubElement(srf, "float", {"name": "wavelength_min", "value": repr(float(lam[0]))})
-    ET.SubElement(srf, "float", {"name": "wavelength_max", "value": repr(float(lam[-1]))})
-    ET.SubElement(srf, "string", {"name": "values",
-                                  "value": ", ".join(f"{v:.9g}" for v in response.values)})
-    return ET.tostring(root, encoding="unicode")
-
-
-def load_passband_scene(scene_path, params, response: PassbandResponse):
-    """``mi.load_string`` of :func:`scene_with_passband`, resolving the scene's
-    relative paths (includes, textures) from its folder, as ``mi.load_file``
-    does. Raises what :func:`~mitsuba_pbrdf.rendering.render.load_scene` raises."""
-    return load_scene_text(scene_with_passband(scene_path, response), scene_path, params)
+    return float(lam[0]), float(lam[-1]), tuple(float(v) for v in response.values)
 
 
 def passband_image(image: StokesImage, response: PassbandResponse) -> StokesImage:

@@ -16,8 +16,10 @@ to their sample counts. Between passes a progress bar advances
 Before anything renders, :func:`check_render` checks what needs no scene
 loaded, once: the variant must be polarized (:func:`require_polarized`), the
 ``params`` must suit what the scene does with them, a passband or a cube needs a
-spectral variant; after loading, the film and sampler must be usable
-(:mod:`mitsuba_pbrdf.rendering.scene_params`). Each failure is a one-line
+spectral variant, and the scene, read by Mitsuba's parser with its
+``<include>`` s, must be able to give Stokes output
+(:mod:`mitsuba_pbrdf.rendering.scene_setup`); after loading, the film and
+sampler must be usable (:mod:`mitsuba_pbrdf.rendering.scene_params`). Each failure is a one-line
 ``ValueError`` naming the parameter. A caller that checks early (``pbrdf
 render``, before it checks its output files) renders the checked request with
 :func:`render_request`. The request carries its render mode
@@ -28,10 +30,14 @@ The default variant is ``cuda_ad_spectral_polarized`` when a CUDA GPU is
 usable, else ``llvm_ad_spectral_polarized``
 (:func:`mitsuba_pbrdf.variant.default_variant`).
 
-The scene should wrap its integrator in Mitsuba's ``stokes`` integrator (around
-``path``, ``direct`` or ``volpath``, not ``prb``, which ignores Mueller frame
-rotations) and be rendered in a ``*_polarized`` variant; otherwise the image
-has no Stokes channels.
+A scene renders as published: where its integrator (``path``, ``direct``,
+``volpath``, ``volpathmis``, ``moment`` around one of them, or none: Mitsuba's
+default ``path``) is not inside Mitsuba's ``stokes`` integrator, it is wrapped
+there for the render, and a warning line says so (``auto_stokes=False`` refuses
+instead); an integrator that cannot give Stokes output (``prb``, which ignores
+Mueller frame rotations, ``aov``, ...) is refused before loading
+(:mod:`mitsuba_pbrdf.rendering.scene_setup`). ``size=(width, height)`` renders
+any scene at that resolution, whatever its film's properties are called.
 """
 
 from __future__ import annotations
@@ -54,11 +60,13 @@ from .scene_loading import SceneLoadError, interrupted, load_scene
 from .passes import pass_seeds, plan_passes, samples_per_pass
 from .progress import progress_reporter
 from .scene_params import check_loaded_scene, check_parameter_values
+from .scene_setup import SceneSetup, StokesSceneError, check_scene_setup, parse_size
 from ..stokes.image import StokesImage
 
 __all__ = [
     "RenderTimings",
     "SceneLoadError",
+    "StokesSceneError",
     "UnpolarizedVariantError",
     "require_polarized",
     "RenderRequest",
@@ -148,8 +156,10 @@ class RenderRequest:
     """A render whose inputs :func:`check_render` has checked: the scene file,
     the variant (polarized; spectral for a passband or a cube), the samples per
     pixel (None: the scene's), the number of passes (None: automatic), the
-    ``$key`` parameters and the render mode (:mod:`.modes`: the scene's R, G,
-    B; one passband; a Stokes cube)."""
+    ``$key`` parameters, the render mode (:mod:`.modes`: the scene's R, G,
+    B; one passband; a Stokes cube), how the scene loads for it
+    (:class:`~.scene_setup.SceneSetup`) and the one line saying what that
+    changes in the scene's integrator (None: nothing)."""
 
     scene_path: str
     variant: str
@@ -157,21 +167,29 @@ class RenderRequest:
     passes: Optional[int] = None
     params: Optional[Mapping[str, object]] = None
     mode: RenderMode = field(default_factory=RgbMode)
+    setup: SceneSetup = field(default_factory=SceneSetup)
+    notice: Optional[str] = None
 
 
 def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] = None,
                  params: Optional[Mapping[str, object]] = None, passes: Optional[int] = None,
-                 wavelength=None, bands=None) -> RenderRequest:
+                 wavelength=None, bands=None, size=None, auto_stokes: bool = True
+                 ) -> RenderRequest:
     """Every check of a render that needs no loaded scene, once: ``spp`` and
     ``passes`` at least 1, the variant polarized (:func:`require_polarized`),
     ``params`` suited to what the scene does with them
     (:func:`~mitsuba_pbrdf.rendering.scene_params.check_parameter_values`), and
     the render mode of ``wavelength`` and ``bands``
     (:func:`~mitsuba_pbrdf.rendering.modes.render_mode`: a passband, or a
-    list of passbands with enough ``spp``; spectral variants only, not both).
-    Raises a ``ValueError`` naming the parameter
-    (:class:`~mitsuba_pbrdf.errors.ParameterError` for ``spp``, ``passes``,
-    ``wavelength``, ``bands``). Sets no variant and loads nothing."""
+    list of passbands with enough ``spp``; spectral variants only, not both),
+    ``size`` (``"320x240"`` or (width, height)), and the scene as Mitsuba's
+    parser reads it (:func:`~.scene_setup.check_scene_setup`: an integrator
+    that gives Stokes output, or one that ``stokes`` can wrap when
+    ``auto_stokes``; sensors the mode can use). Raises a ``ValueError`` naming
+    the parameter (:class:`~mitsuba_pbrdf.errors.ParameterError` for ``spp``,
+    ``passes``, ``wavelength``, ``bands``, ``size``;
+    :class:`~.scene_setup.StokesSceneError` for the integrator). Sets no
+    variant and loads nothing."""
     for name, value in (("spp", spp), ("passes", passes)):
         if value is not None and int(value) < 1:
             raise ParameterError(name, f"must be at least 1, got {value}")
@@ -184,8 +202,10 @@ def check_render(scene_path, spp: Optional[int] = None, variant: Optional[str] =
     mode = render_mode(variant, wavelength, bands)
     if spp is not None:
         mode.check_spp(int(spp))
+    setup = mode.scene_setup(None if size is None else parse_size(size), bool(auto_stokes))
+    notice = check_scene_setup(scene_path, variant, params, setup)
     return RenderRequest(os.fspath(scene_path), variant, None if spp is None else int(spp),
-                         None if passes is None else int(passes), params, mode)
+                         None if passes is None else int(passes), params, mode, setup, notice)
 
 
 def render_scene_timed(
@@ -198,6 +218,8 @@ def render_scene_timed(
     progress=False,
     wavelength=None,
     bands=None,
+    size=None,
+    auto_stokes: bool = True,
 ):
     """Render the scene file; return its Stokes image and the timings:
     :func:`render_request` of :func:`check_render`'s request.
@@ -236,12 +258,23 @@ def render_scene_timed(
         passband, named after its centre (``460nm``), each the passband average
         of the Stokes vector, from one render (:mod:`mitsuba_pbrdf.rendering.cube`;
         spectral variants only).
+    size
+        None (the scene's film), or the image size for any scene: ``"320x240"``
+        or ``(320, 240)`` pixels, set on the sensors' films wherever the scene
+        keeps them.
+    auto_stokes
+        True (default): a scene whose integrator is not inside ``stokes`` is
+        rendered with it wrapped there, and a warning line says so; False:
+        such a scene is refused (:class:`~.scene_setup.StokesSceneError`).
 
     The returned image's ``metadata`` holds the scene, variant, spp, passes,
     seed, parameters and timings (keys ``time_<stage>_s``). Returns
     ``(image, timings)``; the timings are also logged at INFO level.
     """
-    request = check_render(scene_path, spp, variant, params, passes, wavelength, bands)
+    request = check_render(scene_path, spp, variant, params, passes, wavelength, bands, size,
+                           auto_stokes)
+    if request.notice:
+        log.warning(request.notice)
     return render_request(request, seed=seed, progress=progress)
 
 
@@ -252,7 +285,7 @@ def render_request(request: RenderRequest, seed: int = 0, progress=False):
     mode = request.mode
     use_variant(request.variant)
     t0 = time.perf_counter()
-    scene = mode.load(request.scene_path, request.params)
+    scene = mode.load(request.scene_path, request.params, request.setup)
     t1 = time.perf_counter()
     check_loaded_scene(scene, request.scene_path, request.params, request.spp)
     warn_unpolarized_wrappers(scene)

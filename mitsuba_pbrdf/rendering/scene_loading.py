@@ -1,9 +1,7 @@
-"""Loading scenes: :func:`load_scene` (a scene file as it is), Mitsuba's loader
-errors and Ctrl-C in the package's terms, shared by the scene loaders (of the
-render modes, :mod:`.modes`, :mod:`.narrowband`, :mod:`.cube`) and the pass
-loop, and :func:`load_scene_text`, a scene file's XML loaded after rewriting it (a sensor response for a narrow band, the
-``stokes`` integrator taken out for a Stokes cube) as ``mi.load_file`` would
-load the file itself.
+"""Loading scenes: :func:`load_scene` (a scene file as it is), and Mitsuba's
+loader errors and Ctrl-C in the package's terms, shared by the scene loader of
+the render modes (:mod:`.scene_setup`: a scene made ready for a Stokes render)
+and the pass loop.
 
 Mitsuba reports a scene it cannot load, and a Ctrl-C that reached Python code
 it was calling (the plugin's), as ``RuntimeError``: :func:`scene_load_errors`
@@ -21,7 +19,7 @@ from typing import Mapping, Optional
 from ..interrupts import held, interrupted
 
 __all__ = ["SceneLoadError", "interrupted", "condense", "scene_load_errors", "load_scene",
-           "load_scene_text"]
+           "require_scene_file"]
 
 
 class SceneLoadError(RuntimeError):
@@ -69,21 +67,3 @@ def require_scene_file(scene_path) -> str:
     if not os.path.isfile(scene_path):
         raise FileNotFoundError(f"{scene_path}: no such file")
     return scene_path
-
-
-def load_scene_text(text: str, scene_path, params=None):
-    """``mi.load_string(text)`` with the scene's ``$key`` *params*, resolving
-    relative paths (includes, textures) from *scene_path*'s folder; Mitsuba's
-    loader errors as :func:`scene_load_errors` turns them."""
-    import mitsuba as mi
-
-    resolver = mi.file_resolver()
-    saved = [resolver[i] for i in range(len(resolver))]
-    resolver.prepend(os.path.dirname(os.path.abspath(os.fspath(scene_path))))
-    try:
-        with scene_load_errors():
-            return mi.load_string(text, **{str(k): str(v) for k, v in (params or {}).items()})
-    finally:
-        resolver.clear()
-        for p in saved:
-            resolver.append(p)

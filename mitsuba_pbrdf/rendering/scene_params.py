@@ -39,6 +39,8 @@ __all__ = ["SceneParameterError", "ParameterUse", "SceneParameter", "parameter_u
 
 _REFERENCE = re.compile(r"\$(\w+)")
 _NUMBER_LISTS = ("rgb", "point", "vector", "spectrum")
+#: Keys users give for the image size; a scene without them takes ``size`` instead.
+_SIZE_KEYS = ("width", "height", "resx", "resy")
 #: Plugin kinds whose integer properties are sizes or counts.
 _COUNTING_PLUGINS = ("film", "sampler")
 
@@ -216,13 +218,15 @@ def did_you_mean(key: str, declared) -> str:
 
 def unknown_parameter_message(key: str, declared, scene_name: str) -> str:
     """``unknown scene parameter 'materal' (did you mean 'material'?); this
-    scene's parameters: ...``; for ``spp`` in a scene without one, where the
-    samples per pixel are set instead."""
+    scene's parameters: ...``; for ``spp`` (``width`` ...) in a scene without
+    one, where the samples per pixel (the image size) are set instead."""
     message = f"unknown scene parameter {key!r}" + did_you_mean(key, declared)
     message += (f"; this scene's parameters: {', '.join(sorted(declared))}" if declared
                 else f"; {scene_name} takes no parameters")
     if key == "spp":
         message += "; the samples per pixel are set with --spp N (spp= in Python)"
+    if key in _SIZE_KEYS:
+        message += "; the image size of any scene is set with --size WIDTHxHEIGHT (size= in Python)"
     return message
 
 
