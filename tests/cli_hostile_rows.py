@@ -153,9 +153,9 @@ ROWS = [
             ["convert", "{scene}", "--out", "{tmp}/none.xml"],
             status=2, text="no conductor or roughconductor in the scene or its includes",
             absent="{tmp}/none.xml"),
-    Hostile("convert: alpha as a bitmap",
-            ["convert", "{metal_bitmap}", "--out", "{tmp}/b.xml"],
-            status=2, text="alpha given as a bitmap texture cannot be converted",
+    Hostile("convert: alpha beside alpha_u",
+            ["convert", "{metal_both}", "--out", "{tmp}/b.xml"],
+            status=2, text="roughconductor needs both alpha_u and alpha_v, without alpha",
             absent="{tmp}/b.xml"),
 ]
 
@@ -196,9 +196,9 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
                                        '</scene>')
     (tmp_path / "metal.xml").write_text('<scene version="3.0.0"><include filename="part.xml"/>'
                                         '</scene>')
-    (tmp_path / "metal_bitmap.xml").write_text(
-        '<scene version="3.0.0"><bsdf type="roughconductor"><texture name="alpha" '
-        'type="bitmap"><string name="filename" value="a.png"/></texture></bsdf></scene>')
+    (tmp_path / "metal_both.xml").write_text(
+        '<scene version="3.0.0"><bsdf type="roughconductor"><float name="alpha" value="0.1"/>'
+        '<float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.2"/></bsdf></scene>')
     return dict(
         sweep_huge_spp=sweep("huge_spp", f"spp = {2 ** 63 - 1}\n"),
         sweep_denormal_bands=sweep("denormal", 'bands = "400:500:1e-320"\n'),
@@ -209,7 +209,7 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
         cube_pixel_nan=_cube(tmp_path / "cube_pixel_nan.exr", set_((1, 1), np.nan)),
         negative_exr=stokes_exr(tmp_path / "negative.exr", set_((Ellipsis, 0, slice(None)), -1.0)),
         binary=str(tmp_path / "binary.csv"), nul_csv=str(tmp_path / "nul.csv"),
-        metal=str(tmp_path / "metal.xml"), metal_bitmap=str(tmp_path / "metal_bitmap.xml"),
+        metal=str(tmp_path / "metal.xml"), metal_both=str(tmp_path / "metal_both.xml"),
         exr8=stokes_exr(tmp_path / "good8.exr", h=8, w=8),
         zero8=stokes_exr(tmp_path / "zero8.exr", set_((Ellipsis,), 0.0), h=8, w=8),
         negative8=stokes_exr(tmp_path / "negative8.exr", set_((Ellipsis, 0, slice(None)), -1.0),

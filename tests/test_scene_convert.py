@@ -102,6 +102,7 @@ def test_wrappers_refs_and_ids_stay_around_the_converted_metal(tmp_path):
     assert float(checker["color0"].get("value")) == pytest.approx(0.4 / SQRT2, rel=1e-8)
     assert float(checker["color1"].get("value")) == pytest.approx(0.3 / SQRT2, rel=1e-8)
     assert inner["ks"].get("value") == "0.8" and "sample_visible" not in inner
+    assert inner["eta"].get("value") == "360:1.2, 400:1.2, 700:0.3, 830:0.3"
     assert "a comment kept" in open(result.scene).read()
     mirror = props(root.find("bsdf[@id='masked']/bsdf"))
     # Mitsuba's conductor without material or eta: eta = 0, k = 1
@@ -113,6 +114,9 @@ def test_wrappers_refs_and_ids_stay_around_the_converted_metal(tmp_path):
                  "sample_visible false dropped (pbrdf always samples visible normals; the "
                  "renders agree in expectation, not per seed)",
                  "eta/k given as spectra kept",
+                 "eta spectrum covers 400-700 nm: its end values held out to 360-830 nm "
+                 "(Mitsuba's conductor has n = k = 0 there: black in polarized variants, a "
+                 "mirror in the others)",
                  "conductor #2 (no id): no material nor eta (Mitsuba's perfect mirror, eta = 0)"):
         assert line in notes
     assert all("\n" not in n for n in result.notes)
@@ -130,8 +134,6 @@ def test_wrappers_refs_and_ids_stay_around_the_converted_metal(tmp_path):
      "conductor takes no parameter 'alpha'"),
     ('<bsdf type="conductor"><string name="material" value="Unobtainium"/></bsdf>',
      "unknown material 'Unobtainium'"),
-    ('<bsdf type="roughconductor"><float name="alpha" value="$a"/></bsdf>',
-     "alpha given as <float> cannot be converted"),
     ('<bsdf type="diffuse"/>', "no conductor or roughconductor in the scene"),
 ])
 def test_what_mitsuba_refuses_or_cannot_be_scaled_is_refused_before_writing(tmp_path, body,
@@ -140,6 +142,24 @@ def test_what_mitsuba_refuses_or_cannot_be_scaled_is_refused_before_writing(tmp_
     with pytest.raises(ValueError, match=text.replace("(", r"\(").replace(")", r"\)")):
         convert_scene(path)
     assert sorted(os.listdir(tmp_path)) == ["s.xml"]
+
+
+def test_an_alpha_that_cannot_be_divided_here_keeps_mitsubas_name(tmp_path):
+    path = scene(tmp_path, """<default name="a" value="0.2"/>
+    <texture type="bitmap" id="rough"><string name="filename" value="r.png"/></texture>
+    <bsdf type="roughconductor" id="m1"><float name="alpha" value="$a"/></bsdf>
+    <bsdf type="roughconductor" id="m2"><ref name="alpha_u" id="rough"/>
+        <texture name="alpha_v" type="bitmap"><string name="filename" value="r.png"/></texture>
+    </bsdf>""")
+    result = convert_scene(path)
+    root = ET.parse(result.scene).getroot()
+    assert props(root.find("bsdf[@id='m1']"))["alpha"].get("value") == "$a"
+    assert set(props(root.find("bsdf[@id='m2']"))) >= {"alpha_u", "alpha_v"}
+    notes = "\n".join(result.notes)
+    assert "'m1': alpha given as $a kept as alpha (pbrdf's name for Mitsuba's width: " \
+           "sigma = alpha / sqrt(2))" in notes
+    assert "'m2': alpha_u given as a reference to 'rough' kept as alpha_u" in notes
+    assert "'m2': alpha_v given as a bitmap texture kept as alpha_v" in notes
 
 
 def test_out_in_another_folder_points_at_the_original_folder(tmp_path):

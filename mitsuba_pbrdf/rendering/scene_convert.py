@@ -155,8 +155,7 @@ def convert_scene(scene, out=None) -> Conversion:
     it must name an ``.xml`` file that is none of the files read.
 
     Raises ``FileNotFoundError``, ``ValueError`` naming the file and element
-    (no metal at all, a parameter Mitsuba would refuse too, an alpha that
-    cannot be scaled), :class:`~mitsuba_pbrdf.errors.ParameterError` for *out*,
+    (no metal at all, a parameter or material Mitsuba would refuse too), :class:`~mitsuba_pbrdf.errors.ParameterError` for *out*,
     or :class:`~mitsuba_pbrdf.outputs.OutputError`; nothing is written then."""
     scene = os.fspath(scene)
     if not os.path.isfile(scene):
@@ -284,6 +283,9 @@ def _index(element, props, kind, where) -> List[str]:
         props["eta"].set("value", f"{_EPSILON_ETA:g}")
         notes.append(f"{where}: eta 0 -> {_EPSILON_ETA:g}, as pbrdf needs eta > 0 "
                      f"(reflectance lower by <= {2 * _EPSILON_ETA:g})")
+    for name in ("eta", "k"):
+        if name in props:
+            notes += _held_spectrum(props[name], name, where)
     if "k" not in props:
         _append(element, ET.Element("float", name="k", value="1"))
         notes.append(f"{where}: k not given: Mitsuba's default 1 written out")
@@ -293,6 +295,38 @@ def _index(element, props, kind, where) -> List[str]:
         names = "/".join(n for n in ("eta", "k") if n in props)
         notes.append(f"{where}: {names} {' and '.join(kinds)} kept")
     return notes
+
+
+#: Mitsuba's spectral range (MI_CIE_MIN, MI_CIE_MAX), nm.
+_SPECTRAL_RANGE = (360.0, 830.0)
+
+
+def _held_spectrum(prop: ET.Element, name: str, where: str) -> List[str]:
+    """An eta or k ``<spectrum>`` of wavelength:value pairs that stops short of
+    Mitsuba's spectral range is 0 beyond its ends, where Mitsuba's conductors
+    then have n = k = 0 (a black lobe in polarized variants, whose Fresnel
+    matrix is undefined there; a perfect mirror in the others) and pbrdf
+    refuses eta = 0: its end values are held out to the range, as pbrdf does
+    for Mitsuba's own tables (``bsdfs/ior.py``). Returns the note, if any."""
+    if prop.tag != "spectrum" or ":" not in prop.get("value", ""):
+        return []
+    try:
+        pairs = [tuple(float(x) for x in item.split(":"))
+                 for item in prop.get("value").split(",") if item.strip()]
+    except ValueError:
+        return []  # Mitsuba's own parser reports it
+    low, high = _SPECTRAL_RANGE
+    if pairs[0][0] <= low and pairs[-1][0] >= high:
+        return []
+    covered = f"{pairs[0][0]:g}-{pairs[-1][0]:g} nm"
+    if pairs[0][0] > low:
+        pairs.insert(0, (low, pairs[0][1]))
+    if pairs[-1][0] < high:
+        pairs.append((high, pairs[-1][1]))
+    prop.set("value", ", ".join(f"{w:.9g}:{v:.9g}" for w, v in pairs))
+    return [f"{where}: {name} spectrum covers {covered}: its end values held out to "
+            f"{low:.0f}-{high:.0f} nm (Mitsuba's conductor has n = k = 0 there: black in "
+            "polarized variants, a mirror in the others)"]
 
 
 def _table_range(material: str, where: str) -> List[str]:
@@ -338,7 +372,8 @@ def _roughness(element, props, where) -> List[str]:
 
 def _scaled(prop: ET.Element, new_name: str, where: str) -> str:
     """Rename *prop* to *new_name* and divide its value(s) by sqrt(2): a
-    number, or a checkerboard of numbers; returns the note."""
+    number, or a checkerboard of numbers; anything else keeps Mitsuba's name,
+    which pbrdf also takes (``schema.Alias``). Returns the note."""
     old_name = prop.get("name")
     value = _number(prop)
     if value is not None:
@@ -359,9 +394,9 @@ def _scaled(prop: ET.Element, new_name: str, where: str) -> str:
             return (f"{old_name} checkerboard ({values['color0']:g}, {values['color1']:g}) -> "
                     f"{new_name} checkerboard ({values['color0'] / _SQRT2:.6g}, "
                     f"{values['color1'] / _SQRT2:.6g}) (alpha / sqrt(2))")
-    raise ValueError(f"{where}: {old_name} {_describe(prop)} cannot be converted: "
-                     f"pbrdf's {new_name} is alpha / sqrt(2), and only a number or a "
-                     "checkerboard of numbers is scaled here")
+    # a bitmap, a <ref>, a $parameter: pbrdf takes Mitsuba's name as it is
+    return (f"{old_name} {_describe(prop)} kept as {old_name} (pbrdf's name for Mitsuba's "
+            f"width: {new_name} = {old_name} / sqrt(2))")
 
 
 def _number(prop: ET.Element) -> Optional[float]:
@@ -382,6 +417,8 @@ def _number(prop: ET.Element) -> Optional[float]:
 def _describe(prop: ET.Element, plural: bool = False) -> str:
     """``0.8``, ``given as a spectrum``, ``given as RGB``, ``given as a texture``."""
     value = _number(prop)
+    if "$" in prop.get("value", ""):
+        return f"given as {prop.get('value')}"
     if value is not None and prop.tag != "rgb":
         return f"{value:g}" if not plural else "given as values"
     if prop.tag == "spectrum":
