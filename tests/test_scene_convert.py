@@ -186,3 +186,6 @@ def test_command_prints_each_change_and_each_file(tmp_path, capsys, monkeypatch)
                    f"{where}: alpha_u 0.05 -> sigma_u 0.0353553 (alpha / sqrt(2))",
                    f"{where}: alpha_v 0.3 -> sigma_v 0.212132 (alpha / sqrt(2))",
                    f"wrote {tmp_path / 's_pbrdf.xml'} (from {path})"]
+    assert main(["convert", path]) == 0   # again: the copy is replaced, and says so
+    assert capsys.readouterr().out.splitlines()[-1] == \
+        f"replaced {tmp_path / 's_pbrdf.xml'} (from {path})"

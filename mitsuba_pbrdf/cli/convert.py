@@ -20,7 +20,7 @@ def run(args) -> int:
     for note in result.notes:
         print(note)
     for original, new in result.files.items():
-        print(f"wrote {new} (from {original})")
+        print(f"{'replaced' if new in result.replaced else 'wrote'} {new} (from {original})")
     return 0
 
 

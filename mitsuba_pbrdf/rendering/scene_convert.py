@@ -60,11 +60,13 @@ _EPSILON_ETA = 1e-4
 class Conversion:
     """What :func:`convert_scene` did: *files* maps each original scene file it
     rewrote to its converted copy (the main scene first), *notes* says in one
-    line each what was changed and what was left."""
+    line each what was changed and what was left, *replaced* lists the
+    converted copies that replaced a file of that name (none of them an input)."""
 
     scene: str
     files: Dict[str, str] = field(default_factory=dict)
     notes: List[str] = field(default_factory=list)
+    replaced: List[str] = field(default_factory=list)
 
 
 def converted_name(path) -> str:
@@ -197,6 +199,7 @@ def convert_scene(scene, out=None) -> Conversion:
     for f in seen.values():
         if f.new_path is None:
             result.notes += f.notes
+    result.replaced = [f.new_path for f in copies if os.path.exists(f.new_path)]
     with together():
         for f in copies:
             write_text(f.new_path, f.head + ET.tostring(f.root, encoding="unicode") + f.tail)
