@@ -8,6 +8,7 @@ afterwards. ``{tmp}`` and the other names are the keys of
 :func:`hostile_files` and of the table's ``files`` fixture.
 """
 
+import re
 from typing import List, NamedTuple, Optional
 
 import numpy as np
@@ -38,6 +39,19 @@ ROWS = [
     Hostile("render: --passes 2^63-1",
             ["render", "{scene}", "--spp", "1", "--passes", str(2 ** 63 - 1)],
             status=2, text="--passes: must be an integer of at most 16777216", absent="{tmp}/out"),
+    # any scene's size (issue 36)
+    Hostile("render: --size not WIDTHxHEIGHT",
+            ["render", "{scene}", "--size", "320x"],
+            status=2, text="--size: expects WIDTHxHEIGHT in pixels", absent="{tmp}/out"),
+    Hostile("render: --size 0 pixels wide",
+            ["render", "{scene}", "--size", "0x240"],
+            status=2, text="--size: each side must be 1 to 32768 pixels", absent="{tmp}/out"),
+    Hostile("render: --size 2^63-1 pixels",
+            ["render", "{scene}", "--size", f"{2 ** 63 - 1}x2"],
+            status=2, text="--size: each side must be 1 to 32768 pixels", absent="{tmp}/out"),
+    Hostile("render: an integrator stokes cannot wrap (prb), before loading",
+            ["render", "{prb_scene}"],
+            status=2, text="prb ignores Mueller frame rotations", absent="{tmp}/out"),
     Hostile("export: --bands with a denormal step",
             ["export", "--bands", "400:500:1e-320", "--out", "{tmp}/h.pbsdf"],
             status=2, text="--bands: '400:500:1e-320' must be a whole number of nm",
@@ -199,6 +213,9 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
     (tmp_path / "metal_both.xml").write_text(
         '<scene version="3.0.0"><bsdf type="roughconductor"><float name="alpha" value="0.1"/>'
         '<float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.2"/></bsdf></scene>')
+    (tmp_path / "prb.xml").write_text(re.sub(  # the scene's stokes(path) made prb
+        r'<integrator type="stokes">.*?</integrator>\s*</integrator>', '<integrator type="prb"/>',
+        open(scene).read(), count=1, flags=re.S))
     return dict(
         sweep_huge_spp=sweep("huge_spp", f"spp = {2 ** 63 - 1}\n"),
         sweep_denormal_bands=sweep("denormal", 'bands = "400:500:1e-320"\n'),
@@ -210,6 +227,7 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
         negative_exr=stokes_exr(tmp_path / "negative.exr", set_((Ellipsis, 0, slice(None)), -1.0)),
         binary=str(tmp_path / "binary.csv"), nul_csv=str(tmp_path / "nul.csv"),
         metal=str(tmp_path / "metal.xml"), metal_both=str(tmp_path / "metal_both.xml"),
+        prb_scene=str(tmp_path / "prb.xml"),
         exr8=stokes_exr(tmp_path / "good8.exr", h=8, w=8),
         zero8=stokes_exr(tmp_path / "zero8.exr", set_((Ellipsis,), 0.0), h=8, w=8),
         negative8=stokes_exr(tmp_path / "negative8.exr", set_((Ellipsis, 0, slice(None)), -1.0),

@@ -520,8 +520,10 @@ def test_unpolarized_variant_is_refused_before_loading_the_scene(files, capfd, m
     def no_load(*args, **kwargs):
         raise AssertionError("the scene was loaded")
 
-    for loader in ("load_file", "load_string"):  # every render mode loads with one of them
+    for loader in ("load_file", "load_string"):
         monkeypatch.setattr(mi, loader, no_load)
+    # every render mode builds its scene there (mitsuba_pbrdf.rendering.scene_setup)
+    monkeypatch.setattr(mi.parser, "instantiate", no_load)
     assert main(["render", files["scene"], "--variant", "llvm_ad_rgb"]) == 2
     _, line = one_line_error(capfd, "render")
     assert "llvm_ad_spectral_polarized" in line and "llvm_ad_mono_polarized" in line
@@ -723,9 +725,10 @@ def test_ctrl_c_inside_the_plugin_is_reported_as_an_interruption(files, capfd, m
             raise RuntimeError("drjit.custom(): error while performing a custom "
                                "differentiable operation. (see above)") from e
 
-    for name in ("render", "load_file"):
+    # mi.parser.instantiate builds the scene's objects (the plugins' constructors)
+    for owner, name in ((mi, "render"), (mi.parser, "instantiate")):
         with monkeypatch.context() as m:
-            m.setattr(mi, name, wrapped)
+            m.setattr(owner, name, wrapped)
             assert main(["render", files["scene"], "--spp", "1",
                          "--out", files["tmp"] + "/w"]) == 130
         out, err = capfd.readouterr()

@@ -75,7 +75,7 @@ def published(folder, integrator="path", crop=""):
     return folder / "main.xml"
 
 
-@pytest.mark.parametrize("integrator", ["path", pytest.param("moment", marks=pytest.mark.slow),
+@pytest.mark.parametrize("integrator", ["path", "moment",
                                         pytest.param("none", marks=pytest.mark.slow)])
 def test_a_published_scene_renders_as_the_scene_wrapped_by_hand(integrator, tmp_path, caplog):
     """The automatic stokes gives the image a hand edit gives, seed for seed
@@ -201,3 +201,9 @@ def test_passbands_and_cubes_find_the_sensor_and_integrator_through_includes(opt
     image = render_scene(split(tmp_path), spp=4, seed=2, variant=VARIANT, params=tiny, **options)
     expected = render_scene(SCENE, spp=4, seed=2, variant=VARIANT, params=tiny, **options)
     assert image.bands == expected.bands and np.array_equal(image.stokes, expected.stokes)
+
+
+def test_a_file_that_is_not_a_scene_is_refused_before_loading(tmp_path):
+    (tmp_path / "bsdf.xml").write_text('<bsdf version="3.0.0" type="roughconductor"/>')
+    with pytest.raises(StokesSceneError, match="bsdf.xml is not a scene: its root is a BSDF"):
+        check_render(tmp_path / "bsdf.xml", variant=VARIANT)

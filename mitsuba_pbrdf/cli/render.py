@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import sys
+from contextlib import contextmanager
 from typing import Optional
 
 from ..outputs import together
@@ -43,6 +44,17 @@ def _scene(path: str) -> str:
     return found
 
 
+@contextmanager
+def _loading(scene: str):
+    """Mitsuba's loader errors as ``cannot load SCENE: ...``."""
+    from ..rendering.render import SceneLoadError
+
+    try:
+        yield
+    except SceneLoadError as e:
+        raise CliError(f"cannot load {scene}: {e}") from e
+
+
 def _wrote(path: str, existed: bool, detail: str = "") -> str:
     return f"{'replaced' if existed else 'wrote'} {path}{detail}"
 
@@ -50,18 +62,18 @@ def _wrote(path: str, existed: bool, detail: str = "") -> str:
 def run(args) -> int:
     """``pbrdf render``."""
     from ..visualization.panels import save_overview_png
-    from ..rendering.render import SceneLoadError, check_render, render_request
+    from ..rendering.render import check_render, render_request
     from ..stokes.exr import write_stokes_exr
-    from ..stokes.image import StokesChannelError
 
     scene = _scene(args.scene)
     params = parse_defines(args.define)
     picture = picture_kwargs(args)
     warn_unused_picture_options(args, picture["panels"], "render")
     # the library's checks, once (errors name the parameter; run_command names the option)
-    request = check_render(scene, spp=args.spp, variant=chosen_variant(args), params=params,
-                           passes=args.passes, wavelength=args.wavelength, bands=args.bands,
-                           size=args.size, auto_stokes=args.auto_stokes)
+    with _loading(scene):  # Mitsuba's parser reads the scene for the checks
+        request = check_render(scene, spp=args.spp, variant=chosen_variant(args), params=params,
+                               passes=args.passes, wavelength=args.wavelength, bands=args.bands,
+                               size=args.size, auto_stokes=args.auto_stokes)
     written = request.mode.band_names  # the Stokes bands the render writes
     if picture["band"] not in (None, *written):
         raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(written)}")
@@ -73,12 +85,8 @@ def run(args) -> int:
         print(f"{PROG} render: {request.notice} (--no-auto-stokes refuses instead)",
               file=sys.stderr)
 
-    try:
+    with _loading(scene):
         image, timings = render_request(request, seed=args.seed, progress=show_progress(args))
-    except SceneLoadError as e:
-        raise CliError(f"cannot load {scene}: {e}") from e
-    except StokesChannelError as e:  # check_render made sure the scene gives Stokes output
-        raise CliError(f"{e} (a bug: please report it with the scene)") from e
     quality = report_quality(image, picture["band"], f"the render of {scene}", "render")
 
     name = os.path.splitext(os.path.basename(scene))[0]

@@ -53,12 +53,11 @@ __all__ = ["SceneSetup", "Prepared", "StokesSceneError", "WRAPPABLE", "parse_siz
 #: Integrators that ``stokes`` can wrap: they carry Mueller matrices and rotate
 #: their Stokes frames along the path.
 WRAPPABLE = ("path", "direct", "volpath", "volpathmis")
-#: Integrators that write Stokes channels themselves.
-STOKES_INTEGRATORS = ("stokes", "stokes_prb")
 #: Mitsuba's default when a scene names no integrator.
 DEFAULT_INTEGRATOR = "path"
 _SIZE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
-#: Largest film side accepted from ``size`` (Mitsuba's films index pixels with 32 bits).
+#: Largest film side accepted from ``size``: a bound, so that no absurd size (2^63 - 1)
+#: reaches Mitsuba; 32768 x 32768 pixels (2^30) stay within 32-bit pixel indices.
 MAX_SIDE = 1 << 15
 
 
@@ -80,7 +79,7 @@ class SceneSetup:
     auto_stokes: bool = True
     size: Optional[Tuple[int, int]] = None
     srf: Optional[tuple] = None
-    error_parameter: str = "scene"
+    error_parameter: str = "srf"
 
 
 @dataclass
@@ -128,8 +127,13 @@ def parse_scene(scene_path, variant: str, params=None):
 def prepare(scene_path, variant: str, params=None, setup: SceneSetup = SceneSetup()) -> Prepared:
     """The scene file parsed (:func:`parse_scene`) and edited as *setup* asks;
     raises the module's one-line errors. Builds no object."""
+    import mitsuba as mi
+
     config, state = parse_scene(scene_path, variant, params)
     prepared = Prepared(config, state, os.fspath(scene_path))
+    if state.nodes[_ROOT].type != mi.ObjectType.Scene:
+        raise StokesSceneError(f"{os.path.basename(prepared.scene_path)} is not a scene: its "
+                               f"root is a {str(state.nodes[_ROOT].type).split('.')[-1]}")
     if setup.integrator != "as_is":
         prepared.notice = _integrator(prepared, setup)
     if setup.size is not None:
