@@ -82,7 +82,9 @@ class Parameter:
     it (in ``traverse``, in fits); where none is, the parameter stands alone
     and the refinements are None. ``plugin``/``reference``/``cli``: whether
     the plugin, the reference evaluator, the model options of the commands
-    take it. ``alias``: the :class:`Alias` the plugin also takes it under
+    take it. ``smooth_at_zero``: the plugin also takes exactly 0 (a constant
+    0, not a texture that is 0 somewhere) as the smooth limit, a delta lobe;
+    the reference does not. ``alias``: the :class:`Alias` the plugin also takes it under
     (one of the two names, never both); ``parameter(alias.name)`` is the
     declaration as given under that name, whose ``stands_for`` names the
     parameter and whose values are ``scale`` times the parameter's.
@@ -109,6 +111,7 @@ class Parameter:
     default_doc: Optional[str] = None         # the default as the docs state it
     unit: str = "dimensionless"
     typical: str = ""                         # typical values, for the docs
+    smooth_at_zero: bool = False
     alias: Optional[Alias] = None
     stands_for: Optional[str] = None          # an alias's parameter (``sigma`` for ``alpha``)
     scale: float = 1.0                        # an alias's values per the parameter's
@@ -123,7 +126,8 @@ class Parameter:
         if self.kind == "choice":
             return " or ".join(f"``{c}``" for c in self.choices)
         if self.floor is not None:
-            return f">= {self.floor:.3g}"
+            return (f"0 (smooth: a mirror) or >= {self.floor:.3g}" if self.smooth_at_zero
+                    else f">= {self.floor:.3g}")
         if self.positive:
             return "> 0"
         if self.lower is not None:
@@ -148,8 +152,9 @@ PARAMETERS: Tuple[Parameter, ...] = (
               default_doc="from material", typical="metals in the visible: 1.8–8"),
     Parameter("sigma", "float", 0.1,
               "RMS microfacet slope per axis of the specular lobe (paper Eq. 3); Beckmann "
-              "width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor).",
-              positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
+              "width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor). "
+              "0 is the smooth limit: a delta lobe, Mitsuba's conductor.",
+              positive=True, floor=MIN_SIGMA, smooth_at_zero=True, differentiable=True, discontinuous=True,
               lobe="specular", role="width", fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3),
               unit="dimensionless (slope)", typical="0.02 polished – 0.5 rough",
               alias=Alias("alpha", ALPHA_PER_SIGMA,
@@ -159,7 +164,7 @@ PARAMETERS: Tuple[Parameter, ...] = (
     Parameter("sigma_u", "float", None,
               "RMS slope of the specular lobe along the shading frame's s axis (dp_du); "
               "alpha_u = sqrt(2) sigma_u. Giving sigma_u or sigma_v makes the lobe anisotropic.",
-              positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
+              positive=True, floor=MIN_SIGMA, smooth_at_zero=True, differentiable=True, discontinuous=True,
               lobe="specular", role="width_u", refines="sigma",
               fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3), default_doc="sigma",
               unit="dimensionless (slope)", typical="brushed metal: sigma_u / sigma_v 2–10",
@@ -168,8 +173,8 @@ PARAMETERS: Tuple[Parameter, ...] = (
                           "alpha_u = sqrt(2) sigma_u, given instead of sigma_u.")),
     Parameter("sigma_v", "float", None,
               "RMS slope of the specular lobe along the shading frame's t axis "
-              "(n x dp_du); alpha_v = sqrt(2) sigma_v.",
-              positive=True, floor=MIN_SIGMA, differentiable=True, discontinuous=True,
+              "(n x dp_du); alpha_v = sqrt(2) sigma_v. 0 only with sigma_u = 0 (smooth).",
+              positive=True, floor=MIN_SIGMA, smooth_at_zero=True, differentiable=True, discontinuous=True,
               lobe="specular", role="width_v", refines="sigma",
               fit=Fit(0.15, 1e-3, 2.0, scale_floor=1e-3), default_doc="sigma",
               unit="dimensionless (slope)", typical="as sigma_u",

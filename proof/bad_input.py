@@ -45,7 +45,9 @@ def cases() -> List[BadInput]:
     return [BadInput(*row) for row in [
         # negative, zero (where > 0 is required), NaN, infinite
         ({"sigma": -0.1}, ValueError, "'sigma'"),
-        ({"sigma": 0.0}, ValueError, "'sigma'"),
+        ({"sigma": 1e-9}, ValueError, "'sigma'"),              # 0 is the smooth limit
+        ({"sigma_u": 0.0, "sigma_v": 0.1}, ValueError, "'sigma_u' is 0"),
+        ({"sigma": 0.0, "sampling": "cosine"}, ValueError, "'sampling'"),
         ({"sigma": NAN}, ValueError, "'sigma'"),
         ({"sigma": INF}, ValueError, "'sigma'"),
         ({"sigma": -INF}, ValueError, "'sigma'"),

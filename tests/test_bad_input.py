@@ -44,7 +44,8 @@ BAD_XML = [
     ('<float name="sigma" value="-2"/>', "'sigma'"),
     ('<float name="sigma" value="nan"/>', "'sigma'"),
     ('<float name="sigma" value="inf"/>', "'sigma'"),
-    ('<integer name="sigma" value="0"/>', "'sigma'"),
+    ('<integer name="sigma_dd" value="0"/><float name="kdd" value="0.2"/>', "'sigma_dd'"),
+    ('<integer name="sigma_u" value="0"/>', "'sigma_u' is 0"),   # sigma = 0 is a mirror
     ('<string name="sigma" value="rough"/>', "'sigma'"),
     ('<float name="sigma_dd" value="-1"/><float name="kdd" value="0.2"/>', "'sigma_dd'"),
     ('<rgb name="kid" value="-0.1, 0.2, 0.3"/>', "'kid'"),

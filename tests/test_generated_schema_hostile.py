@@ -13,7 +13,8 @@ texel cannot get through), so such a row is either refused or the BSDF it
 loads evaluates to finite Mueller matrices (no NaN can render silently).
 
 Bad values of a ``float``/``spectrum`` parameter: NaN, +inf, -1 (every one
-is >= 0), 0 where it must be > 0, half its floor where it has one; of a
+is >= 0), 0 where it must be > 0 (as a texture only where a constant 0 is
+the smooth limit: tests/test_smooth_limit.py), half its floor where it has one; of a
 ``choice`` or ``material``: an unknown name and a number.
 """
 
@@ -61,8 +62,9 @@ def rows():
     for p in PARAMETERS:
         if p.kind in ("float", "spectrum"):
             for v in bad_numbers(p):
-                out += [(p, "number", v), (p, "bitmap1", v), (p, "checkerboard", v),
-                        (p, "bitmap3", v), (p, "xml", v), (p, "traverse", v)]
+                constant = [] if p.smooth_at_zero and v == 0 else [(p, "number", v), (p, "xml", v)]
+                out += constant + [(p, "bitmap1", v), (p, "checkerboard", v),
+                                   (p, "bitmap3", v), (p, "traverse", v)]
         else:
             out += [(p, "number", "bogus"), (p, "number", 1.0), (p, "xml", "bogus")]
     return out

@@ -42,7 +42,7 @@ def test_plugin_checks_each_declared_bound(p):
     """A value below the declared bound, and NaN, are refused at load time
     with the parameter named."""
     extra = {"k": 1.0} if p.name == "eta" else {"eta": 1.0} if p.name == "k" else {}
-    bad = [float("nan"), -0.5] + ([0.0] if p.positive else [])
+    bad = [float("nan"), -0.5] + ([0.0] if p.positive and not p.smooth_at_zero else [])
     if p.floor is not None:
         bad.append(p.floor * 0.5)
     for value in bad:
@@ -50,6 +50,9 @@ def test_plugin_checks_each_declared_bound(p):
             mi.load_dict({"type": "pbrdf", p.name: value, **extra})
     ok = 0.2 if p.floor is None else max(0.2, p.floor)
     mi.load_dict({"type": "pbrdf", p.name: ok, **extra})
+    if p.smooth_at_zero:   # the smooth limit (tests/test_smooth_limit.py)
+        smooth = {q: 0.0 for q in schema.REFINEMENTS.get(p.refines or p.name, ())}
+        mi.load_dict({"type": "pbrdf", **smooth, p.name: 0.0, **extra})
 
 
 @pytest.mark.parametrize("p", [p for p in schema.PARAMETERS if p.plugin and p.kind == "choice"],

@@ -13,6 +13,10 @@ A lobe is a weight texture times a normalized shape. Two shapes exist:
   and the directional diffuse lobe (depolarized) are of this shape.
 * :class:`LambertianLobe`: ``1 / pi``, cosine-sampled, depolarized: the ideal
   diffuse lobe.
+* :class:`DeltaLobe`: the specular lobe's smooth limit (sigma = 0), a mirror:
+  ``eval`` and ``pdf`` are 0 (a delta has no density), sampling returns the
+  mirror direction with pdf 1 (times its selection probability), as Mitsuba's
+  ``conductor`` does.
 
 Each lobe has four straight methods, all in the local shading frame:
 ``value`` (the *unweighted* value times ``cos_o``, what Mitsuba's ``eval``
@@ -113,6 +117,7 @@ class MicrofacetLobe:
     textures: Dict[str, object]
     width_v: Optional[Width] = None
     projected: bool = False
+    delta: bool = False
 
     @property
     def anisotropic(self):
@@ -178,6 +183,7 @@ class LambertianLobe:
     textures: Dict[str, object]
     polarizing: bool = False
     anisotropic: bool = False
+    delta: bool = False
 
     def sample_direction(self, si, sample2, active):
         return mi.warp.square_to_cosine_hemisphere(sample2)
@@ -192,3 +198,34 @@ class LambertianLobe:
         wo = mi.warp.square_to_cosine_hemisphere(sample2)
         pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
         return LobeSample(wo, pdf, pdf, mi.Vector3f(0.0, 0.0, 1.0), active)   # value = cos_o / pi = pdf
+
+
+@dataclass(frozen=True)
+class DeltaLobe:
+    """The smooth specular lobe: ``weight`` (texture), ``flags``
+    (``DeltaReflection``), ``index``, ``textures`` (its weight: a delta has no
+    width to expose), ``polarizing`` (the Fresnel Mueller matrix at the
+    surface normal). The BSDF leaves it out of ``eval`` and ``pdf``."""
+
+    name: str
+    weight: object
+    flags: object
+    index: int
+    textures: Dict[str, object]
+    polarizing: bool = True
+    anisotropic: bool = False
+    delta: bool = True
+
+    def sample_direction(self, si, sample2, active):
+        return mirror(si.wi)
+
+    def sample_alone(self, si, sample2, active) -> LobeSample:
+        """The mirror direction, pdf 1 and unweighted value 1 (the weight and
+        Fresnel factor at the normal are the BSDF's), as Mitsuba's conductor."""
+        one = dr.full(mi.Float, 1.0, dr.width(si.wi))
+        return LobeSample(mirror(si.wi), one, one, mi.Vector3f(0.0, 0.0, 1.0), active)
+
+
+def mirror(wi):
+    """The mirror direction of ``wi`` about the shading normal (local frame)."""
+    return mi.Vector3f(-wi.x, -wi.y, wi.z)

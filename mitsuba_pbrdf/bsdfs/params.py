@@ -40,7 +40,7 @@ def declared(props, parameter, default=None):
     declared bounds; *default* replaces the declared default."""
     return texture(props, parameter.name, parameter.default if default is None else default,
                    spectral=parameter.kind == "spectrum", positive=parameter.positive,
-                   minimum=parameter.floor)
+                   minimum=parameter.floor, smooth_at_zero=parameter.smooth_at_zero)
 
 
 class Width(NamedTuple):
@@ -104,6 +104,22 @@ def read_refinement(props, name, refined):
     return Width(refined.texture, exposed, refined.to_alpha)
 
 
+def is_smooth(width_u, width_v):
+    """Whether a lobe of widths ``width_u``, ``width_v`` (None: isotropic) is
+    the smooth limit, a delta lobe: every width exactly 0. A lobe smooth
+    along one axis only is refused (a delta in one direction, a microfacet
+    spread in the other, is no lobe Mitsuba can sample)."""
+    widths = [w for w in (width_u, width_v) if w is not None]
+    zero = [is_constant_zero(w.texture) for w in widths]
+    if any(zero) and not all(zero):
+        flat = widths[zero.index(True)].name
+        rough = widths[zero.index(False)].name
+        raise ValueError(f"pbrdf: '{flat}' is 0 (smooth) but '{rough}' is not: a lobe is "
+                         f"smooth only where both widths are 0; give '{flat}' >= "
+                         f"{schema.parameter(flat).floor:.3g} for a nearly smooth axis")
+    return all(zero)
+
+
 def projected(width_u, width_v):
     """Whether a lobe of widths ``width_u``, ``width_v`` (None: isotropic)
     needs Smith's G1 projected on the azimuth: anisotropic, unless both are
@@ -115,9 +131,11 @@ def projected(width_u, width_v):
     return u is None or v is None or u * width_u.to_alpha != v * width_v.to_alpha
 
 
-def texture(props, name, default, *, spectral, positive=False, minimum=None):
+def texture(props, name, default, *, spectral, positive=False, minimum=None,
+            smooth_at_zero=False):
     """A float/spectrum/texture parameter, checked to be finite and >= 0
-    (> 0 when ``positive``, >= ``minimum`` when given) everywhere.
+    (> 0 when ``positive``, >= ``minimum`` when given) everywhere; where
+    ``smooth_at_zero``, a texture that is 0 everywhere passes too.
 
     ``spectral`` parameters may exceed 1 (unbounded textures); float parameters
     are evaluated with ``eval_1``.
@@ -130,7 +148,8 @@ def texture(props, name, default, *, spectral, positive=False, minimum=None):
         if kind == mi.Properties.Type.Object and not isinstance(props[name], mi.Texture):
             raise TypeError(f"pbrdf: parameter '{name}' must be a texture, "
                             f"got {type(props[name]).__name__}")
-        if kind in (mi.Properties.Type.Float, mi.Properties.Type.Integer):
+        if kind in (mi.Properties.Type.Float, mi.Properties.Type.Integer) \
+                and not (smooth_at_zero and props[name] == 0):
             _check_number(name, props[name], positive, minimum)
         elif kind == mi.Properties.Type.Color:  # <rgb>: check the colour as written
             colour = [float(c) for c in props[name]]
@@ -145,6 +164,8 @@ def texture(props, name, default, *, spectral, positive=False, minimum=None):
     except RuntimeError as error:  # e.g. an inline spectrum Mitsuba refuses
         reason = str(error).strip().splitlines()[-1]
         raise ValueError(f"pbrdf: parameter '{name}' is invalid: {reason}") from None
+    if smooth_at_zero and is_constant_zero(tex):
+        return tex
     check_texture_values(name, tex, positive, minimum, spectral=spectral)
     return tex
 

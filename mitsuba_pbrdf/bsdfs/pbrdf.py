@@ -30,32 +30,32 @@ two agree):
      - exposed, differentiable, discontinuous
    * - ``sigma``
      - float or texture
-     - RMS microfacet slope per axis of the specular lobe (paper Eq. 3); Beckmann width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor). Valid: >= 7.07e-05.
+     - RMS microfacet slope per axis of the specular lobe (paper Eq. 3); Beckmann width alpha = sqrt(2) sigma (Mitsuba clamps alpha >= 1e-4, hence the floor). 0 is the smooth limit: a delta lobe, Mitsuba's conductor. Valid: 0 (smooth: a mirror) or >= 7.07e-05.
      - 0.1
      - exposed where the lobe is isotropic, differentiable, discontinuous
    * - ``alpha``
      - float or texture
-     - Mitsuba's roughness (roughconductor's alpha, Beckmann or GGX as distribution says): the specular lobe's width alpha = sqrt(2) sigma, given instead of sigma. Valid: >= 0.0001.
+     - Mitsuba's roughness (roughconductor's alpha, Beckmann or GGX as distribution says): the specular lobe's width alpha = sqrt(2) sigma, given instead of sigma. Valid: 0 (smooth: a mirror) or >= 0.0001.
      - --
      - exposed where the lobe is isotropic, differentiable, discontinuous
    * - ``sigma_u``
      - float or texture
-     - RMS slope of the specular lobe along the shading frame's s axis (dp_du); alpha_u = sqrt(2) sigma_u. Giving sigma_u or sigma_v makes the lobe anisotropic. Valid: >= 7.07e-05.
+     - RMS slope of the specular lobe along the shading frame's s axis (dp_du); alpha_u = sqrt(2) sigma_u. Giving sigma_u or sigma_v makes the lobe anisotropic. Valid: 0 (smooth: a mirror) or >= 7.07e-05.
      - ``sigma``
      - exposed where the lobe is anisotropic, differentiable, discontinuous
    * - ``alpha_u``
      - float or texture
-     - Mitsuba's alpha_u: the specular lobe's width along s, alpha_u = sqrt(2) sigma_u, given instead of sigma_u. Valid: >= 0.0001.
+     - Mitsuba's alpha_u: the specular lobe's width along s, alpha_u = sqrt(2) sigma_u, given instead of sigma_u. Valid: 0 (smooth: a mirror) or >= 0.0001.
      - --
      - exposed where the lobe is anisotropic, differentiable, discontinuous
    * - ``sigma_v``
      - float or texture
-     - RMS slope of the specular lobe along the shading frame's t axis (n x dp_du); alpha_v = sqrt(2) sigma_v. Valid: >= 7.07e-05.
+     - RMS slope of the specular lobe along the shading frame's t axis (n x dp_du); alpha_v = sqrt(2) sigma_v. 0 only with sigma_u = 0 (smooth). Valid: 0 (smooth: a mirror) or >= 7.07e-05.
      - ``sigma``
      - exposed where the lobe is anisotropic, differentiable, discontinuous
    * - ``alpha_v``
      - float or texture
-     - Mitsuba's alpha_v: the specular lobe's width along t, alpha_v = sqrt(2) sigma_v, given instead of sigma_v. Valid: >= 0.0001.
+     - Mitsuba's alpha_v: the specular lobe's width along t, alpha_v = sqrt(2) sigma_v, given instead of sigma_v. Valid: 0 (smooth: a mirror) or >= 0.0001.
      - --
      - exposed where the lobe is anisotropic, differentiable, discontinuous
    * - ``distribution``
@@ -139,15 +139,27 @@ The surface is one-sided: directions below the horizon give zero. A lobe whose
 weight is exactly zero at load time is dropped entirely (not evaluated, not
 sampled, not in the flags, not traversed); give it a small non-zero weight to
 optimize it. Components, in order of the lobes present: specular
-(GlossyReflection), directional diffuse (GlossyReflection), ideal diffuse
-(DiffuseReflection).
+(GlossyReflection; DeltaReflection where smooth), directional diffuse
+(GlossyReflection), ideal diffuse (DiffuseReflection).
+
+Smooth limit: ``sigma = 0`` (``alpha = 0``, or ``sigma_u = sigma_v = 0``), a
+constant 0 when loaded, makes the specular lobe a delta, Mitsuba's
+``conductor``: ``eval`` and ``pdf`` leave it out, ``sample`` picks it with
+its selection probability P (pdf 1 alone) and returns the mirror direction
+with weight ks F / P, F the Fresnel Mueller matrix at the normal. Zero along
+one axis only, a texture that is 0 somewhere only, and ``sampling="cosine"``
+(which cannot find a delta) are refused. Its width is not traversed: there is
+no derivative by sigma at 0 (a render's is 0 there to first order where the
+light seen in the mirror is smooth, the facet slopes having zero mean);
+derivatives by eta, k and ks are as for a rough lobe.
 
 Sampling picks a lobe with probabilities proportional to an estimate of each
 lobe's albedo for the current direction (ks times the unpolarized Fresnel
 reflectance at the incidence angle, kdd, kid; averaged over wavelengths),
 then samples the specular and directional diffuse lobes by Beckmann/GGX
 visible-normal sampling and the ideal diffuse lobe by cosine-weighted
-hemisphere sampling. The returned pdf is the mixture pdf (one-sample MIS).
+hemisphere sampling (the smooth lobe: its mirror direction). The returned pdf is
+the mixture pdf (one-sample MIS).
 
 XML::
 
@@ -172,7 +184,7 @@ from ..variant import require_variant
 from . import params
 from .fresnel import fresnel_unpolarized, specular_mueller
 from .ior import complex_ior_textures
-from .lobes import Evaluation, LambertianLobe, MicrofacetLobe
+from .lobes import DeltaLobe, Evaluation, LambertianLobe, MicrofacetLobe
 from .microfacet import SHADOWING
 
 #: The Mitsuba variant whose ``mi.BSDF`` this module's class derives from;
@@ -264,13 +276,21 @@ class PolarizedBRDF(mi.BSDF):
         """One record per lobe whose weight is not exactly zero, in component
         order: specular, directional diffuse, ideal diffuse. A microfacet lobe
         with refined widths is anisotropic (its component flags then carry
-        ``BSDFFlags.Anisotropic``)."""
+        ``BSDFFlags.Anisotropic``). A specular lobe of widths exactly 0 is
+        the smooth limit, a :class:`DeltaLobe` (``DeltaReflection``)."""
         glossy, diffuse = mi.BSDFFlags.GlossyReflection, mi.BSDFFlags.DiffuseReflection
         types = {"beckmann": mi.MicrofacetType.Beckmann, "ggx": mi.MicrofacetType.GGX}
         shadowing = SHADOWING[self.shadowing]
         lobes = []
-        if not params.is_constant_zero(self.ks):
-            widths = (self.sigma, None) if self.sigma_u is None else (self.sigma_u, self.sigma_v)
+        widths = (self.sigma, None) if self.sigma_u is None else (self.sigma_u, self.sigma_v)
+        smooth = params.is_smooth(*widths)
+        if smooth and self.sampling == "cosine" and not params.is_constant_zero(self.ks):
+            raise ValueError("pbrdf: parameter 'sampling' is 'cosine', which cannot sample the "
+                             "smooth specular lobe (sigma = 0); use 'mixture'")
+        if smooth and not params.is_constant_zero(self.ks):
+            lobes.append(DeltaLobe("specular", self.ks, mi.BSDFFlags.DeltaReflection, len(lobes),
+                                   textures={"ks": self.ks}))
+        elif not params.is_constant_zero(self.ks):
             textures = {"ks": self.ks, **_exposed_widths(widths)}
             lobes.append(MicrofacetLobe("specular", self.ks, widths[0], types[self.distribution],
                                         shadowing, glossy, len(lobes), polarizing=True,
@@ -379,8 +399,16 @@ class PolarizedBRDF(mi.BSDF):
 
         # One-sample MIS: the weight is the full value over the mixture pdf.
         ev = Evaluation.of(si, wo, active)
-        return _sample_record(wo, self._pdf(ctx, ev, probs), component, sampled_type, ev.active,
-                              self._value(ctx, ev))
+        pdf, value = self._pdf(ctx, ev, probs), self._value(ctx, ev)
+        delta = next((lobe for lobe in enabled if lobe.delta), None)
+        if delta is not None:
+            # A delta's sample is weighed alone (the other lobes have no mass
+            # on its direction): its selection probability, its value there.
+            on_delta = sampled_type == self._component_flags(delta)
+            pdf = dr.select(on_delta, probs[delta.index], pdf)
+            value = dr.select(on_delta, self._weighted(delta, ctx, si, wo, mi.Vector3f(0, 0, 1),
+                                                       1.0, ev.active), value)
+        return _sample_record(wo, pdf, component, sampled_type, ev.active, value)
 
     # -------------------------------------------------------------- internals
 
@@ -433,6 +461,8 @@ class PolarizedBRDF(mi.BSDF):
         zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
         value = zero
         for lobe in self._enabled_lobes(ctx):
+            if lobe.delta:  # no value off its direction, none measurable on it
+                continue
             value = value + self._weighted(lobe, ctx, ev.si, ev.wo, ev.half.h, lobe.value(ev),
                                            ev.active)
         return dr.select(ev.active, value, zero)
@@ -450,7 +480,8 @@ class PolarizedBRDF(mi.BSDF):
             if probs is None:
                 probs = self._lobe_probabilities(ctx, ev.si, ev.active)
             for lobe in enabled:
-                pdf = pdf + lobe.pdf(ev, probs[lobe.index])
+                if not lobe.delta:   # a delta has no density
+                    pdf = pdf + lobe.pdf(ev, probs[lobe.index])
         return dr.select(ev.active & dr.isfinite(pdf), pdf, 0.0)
 
 
