@@ -13,10 +13,10 @@ twice that factor of its own S0 (``G1_FACTOR``). The scenes here light the
 metals by a constant sky and a spherical lamp (``include/matpreview.xml`` is a
 stand-in without meshes: README.md).
 
-Fast tier: the copper scene and a scene of wrappers (twosided, blendbsdf, mask,
+Fast tier: the copper and gold scenes and a scene of wrappers (twosided, blendbsdf, mask,
 <ref>s to a BSDF and to a texture kept as alpha_u, specular_reflectance,
 Mitsuba's default mirror) at 48x36 and 32x24
-pixels, 8 spp; every published scene is in the slow tier, and at full size in
+pixels, 8 spp; the other published scenes in the slow tier; all at full size in
 validation/published_scenes.py.
 """
 
@@ -47,11 +47,6 @@ def check(match, bound=2 * G1_FACTOR):
     assert match.worst_tile <= bound, match
     assert abs(match.mean_s0_ratio - 1) <= bound, match
     assert match.tile_difference <= match.seed_to_seed / 20, match
-
-
-def test_published_copper_converted_renders_as_the_original(tmp_path):
-    original, converted = converted_copy(tmp_path, "docs/scenes/bsdf_roughconductor_copper.xml")
-    check(compare_scenes(original, converted, spp=8, size=SMALL))
 
 
 WRAPPERS = """<scene version="3.0.0">
@@ -104,16 +99,21 @@ def test_wrapped_metals_and_specular_reflectance_converted_render_as_the_origina
     check(compare_scenes(str(original), converted, spp=8), bound=2 * G1_FACTOR + MIRROR_ETA)
 
 
-#: Every published scene: (file, the size of a tiny render; None: its own 32 x 32).
+#: Every published scene: (file, the size of a tiny render; None: its own 32 x 32); a
+#: roughconductor and a conductor in the fast tier, the others in the slow one.
 PUBLISHED = [
-    ("docs/scenes/bsdf_roughconductor_copper.xml", SMALL),
-    ("docs/scenes/bsdf_roughconductor_anisotropic_aluminium.xml", SMALL),
-    ("docs/scenes/bsdf_roughconductor_textured_carbon.xml", SMALL),
+    pytest.param("docs/scenes/bsdf_roughconductor_copper.xml", SMALL, id="copper"),
+    pytest.param("docs/scenes/bsdf_conductor_gold.xml", SMALL, id="gold"),
+    pytest.param("docs/scenes/bsdf_roughconductor_anisotropic_aluminium.xml", SMALL,
+                 id="anisotropic_aluminium", marks=pytest.mark.slow),
+    pytest.param("docs/scenes/bsdf_roughconductor_textured_carbon.xml", SMALL,
+                 id="textured_carbon", marks=pytest.mark.slow),
+    pytest.param("tests/scenes/infinite_mirrors/scene_path.xml", None, id="infinite_mirrors",
+                 marks=pytest.mark.slow),
 ]
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("relative, size", PUBLISHED, ids=[p[0].split("/")[-1] for p in PUBLISHED])
-def test_every_published_scene_converted_renders_as_the_original(tmp_path, relative, size):
+@pytest.mark.parametrize("relative, size", PUBLISHED)
+def test_published_scene_converted_renders_as_the_original(tmp_path, relative, size):
     original, converted = converted_copy(tmp_path, relative)
     check(compare_scenes(original, converted, spp=8, size=size))
