@@ -157,8 +157,9 @@ def convert_scene(scene, out=None) -> Conversion:
     it must name an ``.xml`` file that is none of the files read.
 
     Raises ``FileNotFoundError``, ``ValueError`` naming the file and element
-    (no metal at all, a parameter or material Mitsuba would refuse too), :class:`~mitsuba_pbrdf.errors.ParameterError` for *out*,
-    or :class:`~mitsuba_pbrdf.outputs.OutputError`; nothing is written then."""
+    (no metal at all, a parameter or material Mitsuba would refuse too),
+    :class:`~mitsuba_pbrdf.errors.ParameterError` for *out*, or
+    :class:`~mitsuba_pbrdf.outputs.OutputError`; nothing is written then."""
     scene = os.fspath(scene)
     if not os.path.isfile(scene):
         raise FileNotFoundError(f"scene file not found: {scene}")
