@@ -28,7 +28,8 @@ import pytest
 from mitsuba_pbrdf.diagnostics.scene_match import compare_scenes
 from mitsuba_pbrdf.rendering.scene_convert import convert_scene
 
-DATA = os.path.join(os.path.dirname(__file__), "data", "mitsuba_scenes")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DATA = os.path.join(ROOT, "tests", "data", "mitsuba_scenes")
 G1_FACTOR = 0.0035       # roughconductor's Beckmann G1 approximation, at most
 #: pbrdf needs eta > 0: Mitsuba's default mirror (eta = 0, k = 1) becomes eta = 1e-4,
 #: whose Fresnel reflectance is lower by at most 2e-4.
@@ -36,9 +37,11 @@ MIRROR_ETA = 2e-4
 SMALL = (48, 36)
 
 
-def converted_copy(tmp_path, relative):
+def converted_copy(tmp_path, path):
+    """A copy of the data folder in *tmp_path*; *path* (from the repository
+    root) in it, and its conversion."""
     shutil.copytree(DATA, tmp_path / "data")
-    original = str(tmp_path / "data" / relative)
+    original = str(tmp_path / "data" / os.path.relpath(os.path.join(ROOT, path), DATA))
     return original, convert_scene(original).scene
 
 
@@ -102,18 +105,21 @@ def test_wrapped_metals_and_specular_reflectance_converted_render_as_the_origina
 #: Every published scene: (file, the size of a tiny render; None: its own 32 x 32); a
 #: roughconductor and a conductor in the fast tier, the others in the slow one.
 PUBLISHED = [
-    pytest.param("docs/scenes/bsdf_roughconductor_copper.xml", SMALL, id="copper"),
-    pytest.param("docs/scenes/bsdf_conductor_gold.xml", SMALL, id="gold"),
-    pytest.param("docs/scenes/bsdf_roughconductor_anisotropic_aluminium.xml", SMALL,
-                 id="anisotropic_aluminium", marks=pytest.mark.slow),
-    pytest.param("docs/scenes/bsdf_roughconductor_textured_carbon.xml", SMALL,
-                 id="textured_carbon", marks=pytest.mark.slow),
-    pytest.param("tests/scenes/infinite_mirrors/scene_path.xml", None, id="infinite_mirrors",
-                 marks=pytest.mark.slow),
+    pytest.param("tests/data/mitsuba_scenes/docs/scenes/bsdf_roughconductor_copper.xml",
+                 SMALL, id="copper"),
+    pytest.param("tests/data/mitsuba_scenes/docs/scenes/bsdf_conductor_gold.xml",
+                 SMALL, id="gold"),
+    pytest.param(
+        "tests/data/mitsuba_scenes/docs/scenes/bsdf_roughconductor_anisotropic_aluminium.xml",
+        SMALL, id="anisotropic_aluminium", marks=pytest.mark.slow),
+    pytest.param("tests/data/mitsuba_scenes/docs/scenes/bsdf_roughconductor_textured_carbon.xml",
+                 SMALL, id="textured_carbon", marks=pytest.mark.slow),
+    pytest.param("tests/data/mitsuba_scenes/tests/scenes/infinite_mirrors/scene_path.xml",
+                 None, id="infinite_mirrors", marks=pytest.mark.slow),
 ]
 
 
-@pytest.mark.parametrize("relative, size", PUBLISHED)
-def test_published_scene_converted_renders_as_the_original(tmp_path, relative, size):
-    original, converted = converted_copy(tmp_path, relative)
+@pytest.mark.parametrize("path, size", PUBLISHED)
+def test_published_scene_converted_renders_as_the_original(tmp_path, path, size):
+    original, converted = converted_copy(tmp_path, path)
     check(compare_scenes(original, converted, spp=8, size=size))
