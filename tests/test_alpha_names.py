@@ -7,7 +7,6 @@ names are in proof/bad_input.py's table (tests/test_bad_input.py)."""
 
 import math
 
-import drjit as dr
 import mitsuba as mi
 import numpy as np
 import pytest

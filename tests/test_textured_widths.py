@@ -23,10 +23,11 @@ Oracles, at matched seed and spp (both BSDFs consume the same random numbers):
 
 import math
 
-import drjit as dr
 import mitsuba as mi
 import numpy as np
 import pytest
+
+from bsdf_harness import tile_means
 
 SQRT2 = math.sqrt(2.0)
 MATCHED = 1e-4          # per 4x4 tile, of the mean S0: eval-only renders
@@ -55,12 +56,9 @@ def scene(bsdf, environment=False):
     return s
 
 
-def tiles(bsdf, seed=1, environment=False, tile=4):
+def tiles(bsdf, seed=1, environment=False):
     """The render's 4x4-tile means, (rows, columns, channels)."""
-    image = np.array(mi.render(mi.load_dict(scene(bsdf, environment)), seed=seed),
-                     dtype=np.float64)
-    h, w = image.shape[0] // tile * tile, image.shape[1] // tile * tile
-    return image[:h, :w].reshape(h // tile, tile, w // tile, tile, -1).mean(axis=(1, 3))
+    return tile_means(mi.render(mi.load_dict(scene(bsdf, environment)), seed=seed))
 
 
 def s0(t):
