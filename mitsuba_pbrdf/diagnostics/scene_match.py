@@ -63,12 +63,13 @@ def render_stokes(scene_path, seed: int, spp: int, params: Optional[Mapping] = N
                         passes=1, size=size)
 
 
-def tile_means(s0: np.ndarray, tile: int = 4) -> np.ndarray:
-    """Means of *s0* (H, W, bands) over tile x tile pixel blocks (the last
-    partial row and column of tiles dropped)."""
-    h, w = s0.shape[0] // tile * tile, s0.shape[1] // tile * tile
-    blocks = s0[:h, :w].reshape(h // tile, tile, w // tile, tile, -1)
-    return blocks.mean(axis=(1, 3), dtype=np.float64)
+def tile_means(image, tile: int = 4) -> np.ndarray:
+    """A render, (H, W, channels), as the means of its tile x tile pixel blocks,
+    float64 (rows, columns, channels); the last partial row and column of
+    tiles are dropped. The unit in which matched-seed renders are compared."""
+    image = np.asarray(image, dtype=np.float64)
+    h, w = image.shape[0] // tile * tile, image.shape[1] // tile * tile
+    return image[:h, :w].reshape(h // tile, tile, w // tile, tile, -1).mean(axis=(1, 3))
 
 
 def _tile_p95(a: np.ndarray, b: np.ndarray, scale: float) -> float:
