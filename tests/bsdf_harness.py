@@ -8,6 +8,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from mitsuba_pbrdf.diagnostics.scene_match import tile_means  # noqa: F401 (the tests' unit)
 from proof import polarized_chi2
 
 #: Wavelengths (nm) used for spectral evaluations in tests.
@@ -85,12 +86,3 @@ def as_numpy(value):
     if a.ndim == (3 if scalar else 4):  # Mueller matrix: (4, 4, n_wavelengths[, n])
         return a.transpose((2, 0, 1) if scalar else (3, 2, 0, 1))
     return a if scalar or a.ndim == 0 else np.moveaxis(a, -1, 0)
-
-
-def tile_means(image, tile=4):
-    """A render (numpy (H, W, channels)) as the means of its ``tile`` x ``tile``
-    tiles, float64 (rows, columns, channels): the unit matched-seed renders
-    are compared in."""
-    image = np.asarray(image, dtype=np.float64)
-    h, w = image.shape[0] // tile * tile, image.shape[1] // tile * tile
-    return image[:h, :w].reshape(h // tile, tile, w // tile, tile, -1).mean(axis=(1, 3))

@@ -162,6 +162,24 @@ ROWS = [
     Hostile("fit: a file with NUL bytes",
             ["fit", "{nul_csv}"],
             status=2, text="nul.csv: not a text CSV file (it holds NUL bytes)"),
+    # convert: never over an input, nothing half-done
+    Hostile("convert: --out is the scene",
+            ["convert", "{metal}", "--out", "{metal}"],
+            status=2, text="--out: ", absent="{tmp}/metal_pbrdf.xml"),
+    Hostile("convert: --out is an included file",
+            ["convert", "{metal}", "--out", "{tmp}/part.xml"],
+            status=2, text="is an input of the conversion (", absent="{tmp}/metal_pbrdf.xml"),
+    Hostile("convert: --out not .xml",
+            ["convert", "{metal}", "--out", "{tmp}/new.exr"],
+            status=2, text="--out: must name an .xml file", absent="{tmp}/new.exr"),
+    Hostile("convert: a scene without metals",
+            ["convert", "{scene}", "--out", "{tmp}/none.xml"],
+            status=2, text="no conductor or roughconductor in the scene or its includes",
+            absent="{tmp}/none.xml"),
+    Hostile("convert: alpha beside alpha_u",
+            ["convert", "{metal_both}", "--out", "{tmp}/b.xml"],
+            status=2, text="roughconductor needs both alpha_u and alpha_v, without alpha",
+            absent="{tmp}/b.xml"),
 ]
 
 
@@ -205,6 +223,13 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
     many = "".join(f"p{i} = {list(range(10))}\n" for i in range(7))
     (tmp_path / "binary.csv").write_bytes(bytes(range(256)) * 8)
     (tmp_path / "nul.csv").write_text("theta_i,phi_i\n\0\0\n")
+    (tmp_path / "part.xml").write_text('<scene version="3.0.0"><bsdf type="conductor" id="m"/>'
+                                       '</scene>')
+    (tmp_path / "metal.xml").write_text('<scene version="3.0.0"><include filename="part.xml"/>'
+                                        '</scene>')
+    (tmp_path / "metal_both.xml").write_text(
+        '<scene version="3.0.0"><bsdf type="roughconductor"><float name="alpha" value="0.1"/>'
+        '<float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.2"/></bsdf></scene>')
     (tmp_path / "prb.xml").write_text(re.sub(  # the scene's stokes(path) made prb
         r'<integrator type="stokes">.*?</integrator>\s*</integrator>', '<integrator type="prb"/>',
         open(scene).read(), count=1, flags=re.S))
@@ -218,6 +243,7 @@ def hostile_files(tmp_path, scene, stokes_exr) -> dict:
         cube_pixel_nan=_cube(tmp_path / "cube_pixel_nan.exr", set_((1, 1), np.nan)),
         negative_exr=stokes_exr(tmp_path / "negative.exr", set_((Ellipsis, 0, slice(None)), -1.0)),
         binary=str(tmp_path / "binary.csv"), nul_csv=str(tmp_path / "nul.csv"),
+        metal=str(tmp_path / "metal.xml"), metal_both=str(tmp_path / "metal_both.xml"),
         prb_scene=str(tmp_path / "prb.xml"),
         polcam_bands=polarizer_images("bands", {"Y": zeros + 1}),
         polcam_size=polarizer_images("size", {c: np.ones((4, 6), np.float32) for c in "RGB"}),

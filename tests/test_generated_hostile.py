@@ -60,6 +60,7 @@ BASE = {
     "batch": ["{sweep}"],
     "recover-normals": ["{plate}", "--targets", "{target}", "--out", "{tmp}/rn"],
     "params": ["{scene}"],
+    "convert": ["{metal}", "--out", "{tmp}/c.xml"],
 }
 
 #: Where each command's long work starts: (module, function) replaced by the stub.
@@ -73,7 +74,8 @@ WORK = [("mitsuba_pbrdf.rendering.render", "render_request"),
         ("mitsuba_pbrdf.measured.export", "export_pbsdf"),
         ("mitsuba_pbrdf.batch.runner", "run_sweep"),
         ("mitsuba_pbrdf.inverse.normals", "recover_normals"),
-        ("mitsuba_pbrdf.rendering.scene_params", "scene_parameters")]
+        ("mitsuba_pbrdf.rendering.scene_params", "scene_parameters"),
+        ("mitsuba_pbrdf.rendering.scene_convert", "write_text")]
 
 
 class Reached(BaseException):
@@ -164,7 +166,10 @@ def files(tmp_path_factory):
     plate = write_plate_files(tmp, flat, size=8, spp=1)
     sweep = tmp / "sweep.toml"
     sweep.write_text(f'scene = "{scene}"\nout = "out"\nspp = 1\n')
+    metal = tmp / "metal.xml"
+    metal.write_text('<scene version="3.0.0"><bsdf type="conductor"/></scene>')
     return dict(tmp=str(tmp), scene=str(scene), exr=stokes_exr(tmp / "good.exr"),
+                metal=str(metal),
                 target=stokes_exr(tmp / "target.exr", h=8, w=8), plate=plate,
                 sweep=str(sweep))
 

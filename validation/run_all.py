@@ -54,6 +54,7 @@ ARGUMENTS = {
     "shape_from_polarization": (["--long", "200"], ["--quick"]),
     "sky_normals": ([], ["--quick"]),
     "polarized_sky_bias": ([], ["--quick"]),
+    "published_scenes": ([], ["--quick"]),
     "stress": (["--samples", "1000000"], ["--samples", "100000"]),
     "svbrdf_recovery": ([], ["--quick"]),
 }

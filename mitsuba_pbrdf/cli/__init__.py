@@ -5,6 +5,7 @@
     pbrdf render SCENE.xml [--spp N] [--variant V] [--seed S] [--passes N] [--out DIR_OR_STEM]
                            [-D key=value ...] [--panels P,...] [--no-progress]
     pbrdf params SCENE.xml
+    pbrdf convert SCENE.xml [--out NEW.xml]
     pbrdf view STOKES.exr [--out PNG] [--panels all|P,...] [--band B] [--dolp-cmap gray]
                           [--dolp-max X] [--min-dolp X] [--exposure EV]
     pbrdf polcam STOKES.exr --out DIR [--sensor mono|colour] [--band B] [--exposure X]
@@ -26,7 +27,9 @@ side by side); ``<out>`` defaults to ``out/<scene stem>``. ``-D key=value``
 overrides the scene's ``<default name="key" value="..."/>``. The variant
 defaults to ``cuda_ad_spectral_polarized`` where a CUDA GPU is usable, else
 ``llvm_ad_spectral_polarized``. Long renders run in sample passes with a
-progress bar. ``view`` draws the Stokes sheet of an EXR; ``polcam`` computes a
+progress bar. ``convert`` writes a copy of a scene whose ``conductor`` and
+``roughconductor`` are ``pbrdf`` (:mod:`mitsuba_pbrdf.rendering.scene_convert`).
+``view`` draws the Stokes sheet of an EXR; ``polcam`` computes a
 polarization camera's four polarizer images and raw mosaic of one; ``plot`` draws the
 model's pBRDF with the NumPy reference evaluator (no variant needed);
 ``gallery`` renders ``scenes/gallery`` and draws README's pictures; ``fit``
@@ -51,12 +54,14 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import batch, export, fit, gallery, params, plot, polcam, recover_normals, render, view
+from . import (batch, convert, export, fit, gallery, params, plot, polcam, recover_normals, render,
+               view)
 from ..numbers import check_int_option
 from .errors import PROG, CliError, run_command
 
 #: The subcommands, in the order ``pbrdf --help`` lists them.
-COMMANDS = (render, params, view, polcam, plot, gallery, fit, export, batch, recover_normals)
+COMMANDS = (render, params, convert, view, polcam, plot, gallery, fit, export, batch,
+            recover_normals)
 
 
 def version_text() -> str:
