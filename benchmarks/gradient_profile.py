@@ -169,19 +169,29 @@ def setup(args):
         params.update()
         return scene, params, keys, inverse.stokes_loss(scene, target, (0, 1, 2))
 
+    baseline = load_baseline(args.baseline) if getattr(args, "baseline", None) else None
+    which = {"code": "this checkout"}
+
     class Phased:
-        """The replay integrator, marking the phase edges."""
+        """The replay integrator, marking the phase edges; with ``--baseline``,
+        runs the baseline's ``render``/``render_backward`` on it instead when
+        ``which["code"]`` says so."""
 
         def __init__(self, inner):
             self.inner = inner
 
+        def _method(self, name):
+            if which["code"] == "baseline":
+                return getattr(baseline.StokesPRBIntegrator, name).__get__(self.inner)
+            return getattr(self.inner, name)
+
         def render(self, *a, **k):
             phases.mark("primal pass")
-            return self.inner.render(*a, **k)
+            return self._method("render")(*a, **k)
 
         def render_backward(self, *a, **k):
             phases.mark("adjoint pass")
-            return self.inner.render_backward(*a, **k)
+            return self._method("render_backward")(*a, **k)
 
     replay_integrator = gradients._replay_integrator
     gradients._replay_integrator = lambda scene: Phased(replay_integrator(scene))
@@ -192,7 +202,8 @@ def setup(args):
         phases.mark("between")
         return phases.done[-1][1:3]
 
-    def gradient(scene, params, keys, loss, seed):
+    def gradient(scene, params, keys, loss, seed, code="this checkout"):
+        which["code"] = code
         phases.mark("between")
         cpu = time.process_time()
         _, grads, stats = inverse.loss_and_gradient(scene, params, keys, loss, spp=args.spp,
@@ -204,40 +215,70 @@ def setup(args):
     return dr, make, primal, gradient, phases
 
 
+def load_baseline(root):
+    """The ``stokes_prb`` module of another checkout ``root`` (e.g. ``git worktree
+    add /tmp/base HEAD~1``), with its own ``replay`` module, under new names in
+    this package (so that its relative imports of the rest resolve here)."""
+    import importlib.util
+
+    loaded = None
+    for name in ("replay", "stokes_prb"):
+        path = os.path.join(root, "mitsuba_pbrdf", "integrators", name + ".py")
+        with open(path, encoding="utf-8") as f:
+            source = f.read().replace("from .replay import", "from .baseline_replay import")
+        module_name = "mitsuba_pbrdf.integrators.baseline_" + name
+        spec = importlib.util.spec_from_loader(module_name, loader=None, origin=path)
+        loaded = importlib.util.module_from_spec(spec)
+        loaded.__file__ = path
+        sys.modules[module_name] = loaded
+        exec(compile(source, path, "exec"), loaded.__dict__)
+    return loaded
+
+
 def profile(args):
     dr, make, primal, gradient, phases = setup(args)
     backend = args.variant.split("_")[0]
+    codes = ["this checkout"] + (["baseline"] if args.baseline else [])
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     scene, params, keys, loss = make(args.size)
     primal(scene, 1)
-    gradient(scene, params, keys, loss, 4)  # compiles
+    for code in codes:
+        gradient(scene, params, keys, loss, 4, code)  # compiles
     phases.take()
-    per_phase, ratios, cpu_ratios, primals, grads_s = {}, [], [], [], []
+    per_phase, ratios, cpu_ratios, primals, grads_s = {}, {}, {}, [], {}
     for rep in range(args.reps):
         p, p_cpu = primal(scene, 10 + rep)
-        g, g_cpu, _ = gradient(scene, params, keys, loss, 5 + rep)
         primals.append(p)
-        grads_s.append(g)
-        ratios.append(g / p)
-        cpu_ratios.append(g_cpu / p_cpu)
-        for name, wall, cpu, history in phases.take():
-            if name != "between":
+        # the order of the codes alternates, A B, B A, ...
+        for code in (codes if rep % 2 == 0 else codes[::-1]):
+            g, g_cpu, _ = gradient(scene, params, keys, loss, 5 + rep, code)
+            grads_s.setdefault(code, []).append(g)
+            ratios.setdefault(code, []).append(g / p)
+            cpu_ratios.setdefault(code, []).append(g_cpu / p_cpu)
+            for name, wall, cpu, history in phases.take():
+                if name == "between":
+                    continue
+                if name != "primal render" and len(codes) > 1:
+                    name = f"{name} ({code})"
                 figures = summarize(history, backend)
                 figures["wall"], figures["cpu"] = wall, cpu
                 per_phase.setdefault(name, []).append(figures)
                 if args.kernels and rep == 0:
                     print("\n".join(kernel_lines(name, history)))
     rows = [(name, {key: statistics.median(f[key] for f in runs) for key in runs[0]})
-            for name, runs in per_phase.items()]
+            for name, runs in sorted(per_phase.items(), key=lambda item: item[0] != "primal render")]
     print(f"\n`{command_line()}` ({args.variant}, {args.size}x{args.size}, {args.spp} spp, "
           f"depth 4, {'normal map, ' if args.normalmap else ''}medians of {args.reps} "
           f"interleaved repetitions in one process)\n")
     print("\n".join(table(rows)))
-    print(f"\ngradient (loss_and_gradient) / primal render, wall time: median "
-          f"{statistics.median(ratios):.2f} (min {min(ratios):.2f}, max {max(ratios):.2f}); "
-          f"CPU time: median {statistics.median(cpu_ratios):.2f} (min {min(cpu_ratios):.2f}, "
-          f"max {max(cpu_ratios):.2f}); gradient {statistics.median(grads_s):.3f} s, primal "
-          f"render {statistics.median(primals):.3f} s (wall)")
+    print()
+    for code in codes:
+        r, c = ratios[code], cpu_ratios[code]
+        print(f"* gradient ({code}) / primal render: wall time, median {statistics.median(r):.2f} "
+              f"(min {min(r):.2f}, max {max(r):.2f}); CPU time, median {statistics.median(c):.2f} "
+              f"(min {min(c):.2f}, max {max(c):.2f}); gradient "
+              f"{statistics.median(grads_s[code]):.3f} s, primal render "
+              f"{statistics.median(primals):.3f} s (wall)")
 
 
 def cold(args):
@@ -280,6 +321,9 @@ def main(argv=None):
                         help="variant prefix (default llvm: llvm_ad_spectral_polarized)")
     parser.add_argument("--variant", help="the Mitsuba variant (overrides --backend)")
     parser.add_argument("--kernels", action="store_true", help="also print every launch")
+    parser.add_argument("--baseline", metavar="DIR",
+                        help="another checkout (e.g. git worktree add DIR HEAD~1): its stokes_prb "
+                        "and replay code interleaved with this checkout's, A B B A ...")
     parser.add_argument("--cold", action="store_true",
                         help="compile time: empty kernel cache, first and next gradient per size")
     parser.add_argument("--sizes", default="256,128",
