@@ -76,7 +76,10 @@ class VertexStore:
 
     ``adjoint`` is ``"reverse"`` (store the row adjoint ``delta_k``, a Stokes
     vector) or ``"forward"`` (store the prefix throughput ``beta_k``, a
-    Mueller matrix). Floats per vertex: 28 + 64 (W) + 16 or 64 (~0.4 or 0.6 kB)."""
+    Mueller matrix). Floats per vertex: 28 + 16 or 64 (~0.2 or 0.4 kB). The
+    sampled weight ``W_k`` is not stored: the replay evaluates it anyway (with
+    derivatives) and reads its value there (local memory costs more than that
+    evaluation: benchmarks/gradient_profile.md)."""
 
     @staticmethod
     def fields(adjoint):
@@ -93,8 +96,6 @@ class VertexStore:
             # BSDF sample: random numbers, direction, pdf, type, Russian roulette
             "bsdf_s1": mi.Float, "bsdf_s2": mi.Point2f, "wo": mi.Vector3f, "pdf": mi.Float,
             "smooth": mi.UInt32, "next": mi.UInt32, "rr": mi.Float,
-            # sampled weight (world Mueller matrix, roulette included)
-            "W": mi.Spectrum,
             # delta_k (reverse mode) or beta_k (forward mode)
             "adj": mi.SpectrumEntry if adjoint == "reverse" else mi.Spectrum,
         }
@@ -240,7 +241,6 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
                 wo=bs.wo, pdf=bs.pdf,
                 smooth=dr.select(mi.has_flag(bs.sampled_type, mi.BSDFFlags.Smooth), 1, 0),
                 next=dr.select(active_cont, 1, 0), rr=rr,
-                W=dr.select(active_cont, weight * rr, dr.zeros(mi.Spectrum)),
                 adj=adj_k if reverse else beta_k)
         count += 1
         active = active_cont
@@ -324,7 +324,8 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
             else:
                 tangent += dr.forward_to(mueller_times(rec["adj"], contribution))
 
-        L = dr.select(here, dr.detach(E) + mueller_times(rec["W"], L), L)
+        # W_k = T_k's value: the BSDF's sampled weight f / pdf (roulette included)
+        L = dr.select(here, dr.detach(E) + mueller_times(dr.detach(T), L), L)
 
     if dr.hint(reverse, mode="scalar"):
         return None
