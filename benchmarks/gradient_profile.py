@@ -30,12 +30,17 @@ accesses (PTX). ``gradient / primal`` is the
 ratio of ``loss_and_gradient``'s own timing to the primal render that
 precedes it, pair by pair (the figure of validation/inverse_memory.py).
 
-``--cold`` points ``DRJIT_CACHE_DIR`` (where Dr.Jit keeps compiled kernels,
-``~/.drjit`` by default) at an empty temporary folder and reports the first
-gradient at each of ``--sizes`` in one process: the kernels it compiled
-(those neither in memory nor on disk), their code-generation and compile
-seconds, and the next gradient. A size that compiles nothing reuses the
-kernels of the size before.
+``--cold`` runs each of ``--sizes`` in a fresh process, all with
+``DRJIT_CACHE_DIR`` (where Dr.Jit keeps compiled kernels, ``~/.drjit`` by
+default) pointing at one temporary folder that starts empty, and reports
+the first and the next gradient of each: the kernels compiled (found neither
+in memory nor on disk), their operation counts, code-generation and compile
+seconds, and the kernels loaded from disk. The default ``256,256,128``:
+cold, then warm from the disk cache, then another size.
+
+``--mitsuba-prb BSDF`` times Mitsuba's own ``prb`` instead (unpolarized,
+``{backend}_ad_rgb``, the same scene with ``roughconductor`` or ``pbrdf``
+on the sphere) against a ``path`` render: the reference ratio.
 """
 
 import argparse
@@ -281,30 +286,113 @@ def profile(args):
               f"{statistics.median(primals):.3f} s (wall)")
 
 
+COLD_HEADER = ["| process | size | gradient | seconds | kernels compiled | their operations "
+               "| code generation s | compile s | kernels from disk |",
+               "|---|---|---|---|---|---|---|---|---|"]
+
+
 def cold(args):
+    """Each of ``args.sizes`` in a fresh process, in order, all sharing one
+    kernel cache folder that starts empty."""
+    import subprocess
+
+    print(f"\n`{command_line()}` ({args.variant}, {args.spp} spp, depth 4"
+          f"{', normal map' if args.normalmap else ''}; a fresh process per row pair, "
+          f"DRJIT_CACHE_DIR an empty temporary folder at the start)\n")
+    print("\n".join(COLD_HEADER))
+    with tempfile.TemporaryDirectory(prefix="drjit-cache-") as cache:
+        for n, size in enumerate(args.sizes, 1):
+            command = [sys.executable, os.path.abspath(__file__), "--cold-child", str(n),
+                       "--size", str(size), "--spp", str(args.spp), "--variant", args.variant]
+            command += ["--normalmap"] if args.normalmap else []
+            command += ["--kernels"] if args.kernels else []
+            proc = subprocess.run(command, env=dict(os.environ, DRJIT_CACHE_DIR=cache),
+                                  capture_output=True, text=True)
+            if proc.returncode:
+                sys.exit(f"gradient_profile.py --cold: the process for size {size} failed:\n"
+                         f"{proc.stderr[-3000:]}")
+            print(proc.stdout.rstrip())
+
+
+def cold_child(args):
+    """One row pair of :func:`cold`: the first and the next gradient."""
     dr, make, primal, gradient, phases = setup(args)
     dr.set_flag(dr.JitFlag.KernelHistory, True)
-    print(f"\n`{command_line()}` ({args.variant}, {args.spp} spp, depth 4"
-          f"{', normal map' if args.normalmap else ''}; DRJIT_CACHE_DIR="
-          f"{os.environ.get('DRJIT_CACHE_DIR')})\n")
-    print("| size | gradient | seconds | kernels compiled | their operations | code generation s "
-          "| compile s | from disk |")
-    print("|---|---|---|---|---|---|---|---|")
-    for size in args.sizes:
-        scene, params, keys, loss = make(size)
-        primal(scene, 1)
-        phases.take()
-        for which, seed in (("first", 4), ("next", 5)):
-            seconds, _, _ = gradient(scene, params, keys, loss, seed)
-            history = [h for *_, hist in phases.take() for h in hist if "hash" in h]
-            new = [h for h in history if not h.get("cache_hit") and not h.get("cache_disk")]
-            if args.kernels:
-                print("\n".join(kernel_lines(f"{size} {which}", new)))
-            print(f"| {size}x{size} | {which} | {seconds:.2f} | {len(new)} | "
-                  f"{'+'.join(str(h.get('operation_count', 0)) for h in new) or '0'} | "
-                  f"{sum(h.get('codegen_time', 0) for h in new) / 1e3:.2f} | "
-                  f"{sum(h.get('backend_time', 0) for h in new) / 1e3:.2f} | "
-                  f"{sum(1 for h in history if h.get('cache_disk'))} |")
+    size = args.size
+    scene, params, keys, loss = make(size)
+    primal(scene, 1)
+    phases.take()
+    for which, seed in (("first", 4), ("next", 5)):
+        seconds, _, _ = gradient(scene, params, keys, loss, seed)
+        history = [h for *_, hist in phases.take() for h in hist if "hash" in h]
+        new = [h for h in history if not h.get("cache_hit") and not h.get("cache_disk")]
+        if args.kernels:
+            print("\n".join(kernel_lines(f"{size} {which}", new)))
+        print(f"| {args.cold_child} | {size}x{size} | {which} | {seconds:.2f} | {len(new)} | "
+              f"{'+'.join(str(h.get('operation_count', 0)) for h in new) or '0'} | "
+              f"{sum(h.get('codegen_time', 0) for h in new) / 1e3:.2f} | "
+              f"{sum(h.get('backend_time', 0) for h in new) / 1e3:.2f} | "
+              f"{sum(1 for h in history if h.get('cache_disk'))} |")
+
+
+def mitsuba_prb(args):
+    """Mitsuba's own ``prb`` (unpolarized, ``{backend}_ad_rgb``) on the same
+    scene, the reference of the issue: gradient of a squared error with
+    respect to the sphere BSDF's float parameters, against a ``path`` render
+    of the same scene; ``args.mitsuba_prb`` names the sphere's BSDF."""
+    import drjit as dr
+    import mitsuba as mi
+
+    import mitsuba_pbrdf
+    mitsuba_pbrdf.use_variant(f"{args.backend}_ad_rgb")
+    from inverse_memory import DEPTH
+    from mitsuba_pbrdf import inverse
+
+    bsdf = ({"type": "roughconductor", "material": "Cu", "alpha": 0.17}
+            if args.mitsuba_prb == "roughconductor" else None)
+    scenes = {}
+    for name in ("path", "prb"):
+        d = inverse.sphere_scene(args.size, args.size, args.spp, DEPTH, bsdf=bsdf)
+        d["integrator"] = {"type": name, "max_depth": DEPTH}
+        scenes[name] = mi.load_dict(d)
+    params = mi.traverse(scenes["prb"])
+    keys = [k for k in params.keys() if k.startswith("object.bsdf.")
+            and isinstance(params[k], mi.Float)]
+    target = mi.render(scenes["path"], spp=args.spp, seed=1000)
+    dr.eval(target)
+
+    def primal(seed):
+        dr.sync_thread()
+        t0 = time.perf_counter()
+        dr.eval(mi.render(scenes["path"], spp=args.spp, seed=seed))
+        dr.sync_thread()
+        return time.perf_counter() - t0
+
+    def gradient(seed):
+        dr.sync_thread()
+        t0 = time.perf_counter()
+        for k in keys:
+            dr.enable_grad(params[k])
+        params.update()
+        image = mi.render(scenes["prb"], params, spp=args.spp, seed=seed, seed_grad=seed + 1)
+        dr.backward(dr.mean(dr.square(image - target), axis=None))
+        dr.eval([dr.grad(params[k]) for k in keys])
+        dr.sync_thread()
+        seconds = time.perf_counter() - t0
+        for k in keys:
+            dr.disable_grad(params[k])
+        params.update()
+        return seconds
+
+    primal(1)
+    gradient(2)
+    ratios = []
+    for rep in range(args.reps):
+        ratios.append(gradient(20 + rep) / primal(10 + rep))
+    print(f"Mitsuba's prb ({args.backend}_ad_rgb, sphere BSDF {args.mitsuba_prb}, {len(keys)} "
+          f"parameters, {args.size}x{args.size}, {args.spp} spp, depth {DEPTH}) / path render: "
+          f"median {statistics.median(ratios):.2f} (min {min(ratios):.2f}, max {max(ratios):.2f}) "
+          f"over {args.reps} interleaved pairs")
 
 
 def command_line():
@@ -326,18 +414,24 @@ def main(argv=None):
                         "and replay code interleaved with this checkout's, A B B A ...")
     parser.add_argument("--cold", action="store_true",
                         help="compile time: empty kernel cache, first and next gradient per size")
-    parser.add_argument("--sizes", default="256,128",
-                        help="--cold: image sizes, in this order (comma-separated)")
+    parser.add_argument("--mitsuba-prb", choices=("roughconductor", "pbrdf"),
+                        help="instead: Mitsuba's own prb, unpolarized, with this sphere BSDF")
+    parser.add_argument("--sizes", default="256,256,128",
+                        help="--cold: image sizes, one fresh process each, in this order "
+                        "(comma-separated; default: cold, then warm from the disk cache, then "
+                        "another size)")
+    parser.add_argument("--cold-child", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     args.variant = args.variant or f"{args.backend}_ad_spectral_polarized"
     try:
         args.sizes = [int(s) for s in args.sizes.split(",")]
     except ValueError:
         parser.error(f"--sizes: comma-separated integers expected, got {args.sizes!r}")
-    if args.cold:
-        # before Dr.Jit is imported: it reads the cache folder once
-        args.tmp = tempfile.TemporaryDirectory(prefix="drjit-cache-")
-        os.environ["DRJIT_CACHE_DIR"] = args.tmp.name
+    if args.mitsuba_prb:
+        mitsuba_prb(args)
+    elif args.cold_child:
+        cold_child(args)
+    elif args.cold:
         cold(args)
     else:
         profile(args)
