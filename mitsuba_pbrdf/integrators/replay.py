@@ -6,14 +6,14 @@ roulette, Mueller matrices in the implicit Stokes bases of world directions)
 and returns each sample's Stokes vector. Given a :class:`VertexStore`, it also
 writes into Dr.Jit local memory, per sample and per vertex, what the replay
 needs: how to rebuild the surface interaction, the random numbers of the
-emitter and BSDF samples, the sampled BSDF weight ``W_k`` (Mueller) and the
-adjoint ``delta_k`` (reverse mode) or prefix throughput ``beta_k`` (forward
-mode).
+emitter and BSDF samples and the adjoint ``delta_k`` (reverse mode) or prefix
+throughput ``beta_k`` (forward mode).
 
-:func:`replay` walks the stored vertices backwards, forms the radiance
-arriving from the rest of the path ``L_{k+1}`` by ``L_k = E_k + W_k L_{k+1}``
-and differentiates each vertex alone: ``delta_k . (E_k(theta) + T_k(theta)
-L_{k+1})``. Local memory lives per lane inside the kernel: nothing grows with
+:func:`replay` walks the stored vertices backwards, differentiates each
+vertex alone: ``delta_k . (E_k(theta) + T_k(theta) L_{k+1})``, and forms the
+radiance arriving from the rest of the path ``L_{k+1}`` by ``L_k = E_k + W_k
+L_{k+1}``, the sampled BSDF weight ``W_k`` (Mueller) being ``T_k``'s value.
+Local memory lives per lane inside the kernel: nothing grows with
 the number of samples.
 
 Stokes vectors are ``mi.SpectrumEntry`` (4 components, each an
