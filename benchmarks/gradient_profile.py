@@ -72,7 +72,8 @@ def ir_counts(entry, backend):
     """Counts of :data:`IR_PATTERNS` in a kernel-history entry's IR text."""
     ir = entry.get("ir")
     text = ir.getvalue() if hasattr(ir, "getvalue") else (ir or "")
-    counts = {name: len(re.findall(pattern, text, re.MULTILINE)) for name, pattern in IR_PATTERNS[backend].items()}
+    counts = {name: len(re.findall(pattern, text, re.MULTILINE))
+              for name, pattern in IR_PATTERNS[backend].items()}
     counts["lines"] = text.count("\n")
     return counts
 
@@ -107,9 +108,7 @@ def summarize(history, backend):
     largest = max(jit, key=lambda h: h.get("operation_count", 0), default=None)
     out = {"kernels": len({h["hash"] for h in kernels}), "launches": len(jit),
            "exec_s": sum(h["execution_time"] for h in jit) / 1e3,
-           "compiled": sum(1 for h in kernels if not h.get("cache_hit") and not h.get("cache_disk")),
-           "ops": largest.get("operation_count", 0) if largest else 0,
-           "largest_exec_s": largest["execution_time"] / 1e3 if largest else 0.0}
+           "ops": largest.get("operation_count", 0) if largest else 0}
     out.update(ir_counts(largest, backend) if largest else {})
     return out
 
@@ -118,7 +117,8 @@ def kernel_lines(phase, history):
     """One line per launch: phase, hash, size, operations, times."""
     for h in history:
         if "execution_time" in h:
-            yield (f"  {phase:<14} {h.get('hash', str(h.get('type')).split('.')[-1])[:10]:<10} size {h.get('size', 0):>9} "
+            name = h.get("hash", str(h.get("type")).split(".")[-1])[:10]
+            yield (f"  {phase:<14} {name:<10} size {h.get('size', 0):>9} "
                    f"ops {h.get('operation_count', 0):>6} in {h.get('input_count', 0):>3} "
                    f"out {h.get('output_count', 0):>3} exec {h['execution_time']:9.2f} ms "
                    f"codegen {h.get('codegen_time', 0):7.1f} ms compile "
@@ -127,7 +127,8 @@ def kernel_lines(phase, history):
                    f"{' (disk)' if h.get('cache_disk') else ''}")
 
 
-COLUMNS = [("wall s", "wall", "{:.3f}"), ("CPU s", "cpu", "{:.3f}"), ("kernels", "kernels", "{:.0f}"),
+COLUMNS = [("wall s", "wall", "{:.3f}"), ("CPU s", "cpu", "{:.3f}"),
+           ("kernels", "kernels", "{:.0f}"),
            ("launches", "launches", "{:.0f}"), ("kernel exec s", "exec_s", "{:.3f}"),
            ("largest: ops", "ops", "{:.0f}"), ("IR lines", "lines", "{:.0f}"),
            ("gathers", "gathers", "{:.0f}"), ("scatters", "scatters", "{:.0f}"),
@@ -143,7 +144,8 @@ def table(rows):
              "|---|" + "---|" * (len(COLUMNS) + 2)]
     for name, figures in rows:
         cells = [fmt.format(figures.get(key, 0)) for _, key, fmt in COLUMNS]
-        lines.append(f"| {name} | " + " | ".join(cells) + f" | {figures['wall'] / primal['wall']:.2f} "
+        lines.append(f"| {name} | " + " | ".join(cells)
+                     + f" | {figures['wall'] / primal['wall']:.2f} "
                      f"| {figures['cpu'] / primal['cpu']:.2f} |")
     return lines
 
@@ -271,7 +273,8 @@ def profile(args):
                 if args.kernels and rep == 0:
                     print("\n".join(kernel_lines(name, history)))
     rows = [(name, {key: statistics.median(f[key] for f in runs) for key in runs[0]})
-            for name, runs in sorted(per_phase.items(), key=lambda item: item[0] != "primal render")]
+            for name, runs in sorted(per_phase.items(),
+                                     key=lambda item: item[0] != "primal render")]
     print(f"\n`{command_line()}` ({args.variant}, {args.size}x{args.size}, {args.spp} spp, "
           f"depth 4, {'normal map, ' if args.normalmap else ''}medians of {args.reps} "
           f"interleaved repetitions in one process)\n")
