@@ -6,14 +6,14 @@ roulette, Mueller matrices in the implicit Stokes bases of world directions)
 and returns each sample's Stokes vector. Given a :class:`VertexStore`, it also
 writes into Dr.Jit local memory, per sample and per vertex, what the replay
 needs: how to rebuild the surface interaction, the random numbers of the
-emitter and BSDF samples, the sampled BSDF weight ``W_k`` (Mueller) and the
-adjoint ``delta_k`` (reverse mode) or prefix throughput ``beta_k`` (forward
-mode).
+emitter and BSDF samples and the adjoint ``delta_k`` (reverse mode) or prefix
+throughput ``beta_k`` (forward mode).
 
-:func:`replay` walks the stored vertices backwards, forms the radiance
-arriving from the rest of the path ``L_{k+1}`` by ``L_k = E_k + W_k L_{k+1}``
-and differentiates each vertex alone: ``delta_k . (E_k(theta) + T_k(theta)
-L_{k+1})``. Local memory lives per lane inside the kernel: nothing grows with
+:func:`replay` walks the stored vertices backwards, differentiates each
+vertex alone: ``delta_k . (E_k(theta) + T_k(theta) L_{k+1})``, and forms the
+radiance arriving from the rest of the path ``L_{k+1}`` by ``L_k = E_k + W_k
+L_{k+1}``, the sampled BSDF weight ``W_k`` (Mueller) being ``T_k``'s value.
+Local memory lives per lane inside the kernel: nothing grows with
 the number of samples.
 
 Stokes vectors are ``mi.SpectrumEntry`` (4 components, each an
@@ -76,7 +76,10 @@ class VertexStore:
 
     ``adjoint`` is ``"reverse"`` (store the row adjoint ``delta_k``, a Stokes
     vector) or ``"forward"`` (store the prefix throughput ``beta_k``, a
-    Mueller matrix). Floats per vertex: 28 + 64 (W) + 16 or 64 (~0.4 or 0.6 kB)."""
+    Mueller matrix). Floats per vertex: 28 + 16 or 64 (~0.2 or 0.4 kB). The
+    sampled weight ``W_k`` is not stored: the replay evaluates it anyway (with
+    derivatives) and reads its value there (local memory costs more than that
+    evaluation: benchmarks/gradient_profile.md)."""
 
     @staticmethod
     def fields(adjoint):
@@ -93,8 +96,6 @@ class VertexStore:
             # BSDF sample: random numbers, direction, pdf, type, Russian roulette
             "bsdf_s1": mi.Float, "bsdf_s2": mi.Point2f, "wo": mi.Vector3f, "pdf": mi.Float,
             "smooth": mi.UInt32, "next": mi.UInt32, "rr": mi.Float,
-            # sampled weight (world Mueller matrix, roulette included)
-            "W": mi.Spectrum,
             # delta_k (reverse mode) or beta_k (forward mode)
             "adj": mi.SpectrumEntry if adjoint == "reverse" else mi.Spectrum,
         }
@@ -136,7 +137,14 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
     the implicit basis of ``-ray.d``, whether the ray counts (``path``'s
     ``valid_ray``) and the number of loop iterations (vertices stored). With
     a ``store``, writes each vertex record; ``delta0`` (reverse mode) is the
-    camera adjoint, multiplied by the throughput to give ``delta_k``."""
+    camera adjoint, multiplied by the throughput to give ``delta_k``.
+
+    In reverse mode the replay needs no Stokes vector: ``stokes`` is then
+    zero, and the loop carries two rows of the throughput instead of the
+    4 x 4 Mueller matrix (per wavelength), ``delta_k`` and the first row
+    (whose first entry, the unpolarized throughput, drives Russian
+    roulette): two vector-matrix products per vertex instead of a
+    matrix-matrix product, and no emitted light evaluated."""
     ctx = mi.BSDFContext()
     max_depth, rr_depth = integrator.max_depth, integrator.rr_depth
     reverse = store is not None and store.adjoint == "reverse"
@@ -145,7 +153,9 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
     width = dr.width(ray)
     depth = mi.UInt32(0)
     count = mi.UInt32(0)
-    beta = mi.Spectrum(1.0)
+    beta = None if reverse else mi.Spectrum(1.0)
+    rows = (mi.SpectrumEntry(mi.UnpolarizedSpectrum(1.0), 0.0, 0.0, 0.0),
+            mi.SpectrumEntry(delta0)) if reverse else None
     stokes = dr.zeros(mi.SpectrumEntry, width)
     eta = mi.Float(1.0)
     valid_ray = mi.Bool((not integrator.hide_emitters) and scene.environment() is not None)
@@ -169,7 +179,8 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
         ds = mi.DirectionSample3f(scene, si=si, ref=prev_si)
         em_pdf = scene.pdf_emitter_direction(prev_si, ds, ~prev_delta)
         mis_bsdf = dr.select(prev_pdf > 0, mis_weight(prev_pdf, em_pdf), 0.0)
-        E = column0(ds.emitter.eval(si, prev_pdf > 0)) * mis_bsdf
+        if dr.hint(not reverse, mode="scalar"):
+            E = column0(ds.emitter.eval(si, prev_pdf > 0)) * mis_bsdf
 
         active_next = (depth + 1 < max_depth) & si.is_valid()
         bsdf = si.bsdf(ray)
@@ -186,15 +197,22 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
         s1 = sampler.next_1d()
         s2 = sampler.next_2d()
         f_em, pdf_em, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, s1, s2)
-        f_em = to_world_mueller(si, f_em, -wo_em, si.wi)
         mis_em = dr.select(ds.delta, 1.0, mis_weight(ds.pdf, pdf_em))
-        E[active_em] = E + mueller_times(f_em, column0(em_weight)) * mis_em
-        stokes += mueller_times(beta, E)
+        if dr.hint(not reverse, mode="scalar"):
+            f_em = to_world_mueller(si, f_em, -wo_em, si.wi)
+            E[active_em] = E + mueller_times(f_em, column0(em_weight)) * mis_em
+            stokes += mueller_times(beta, E)
 
         weight = to_world_mueller(si, weight, -bs.wo, si.wi)
         ray_next = si.spawn_ray(si.to_world(bs.wo))
-        beta_k = mi.Spectrum(beta)
-        beta *= weight
+        if dr.hint(reverse, mode="scalar"):
+            adj_k = mi.SpectrumEntry(rows[1])
+            rows = (times_mueller(rows[0], weight), times_mueller(rows[1], weight))
+            beta_max = dr.max(rows[0][0])
+        else:
+            beta_k = mi.Spectrum(beta)
+            beta *= weight
+            beta_max = dr.max(mi.unpolarized_spectrum(beta))
         eta *= bs.eta
         valid_ray |= active & si.is_valid() & ~mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null)
         prev_si = mi.Interaction3f(si)
@@ -203,12 +221,14 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
 
         # ---- Russian roulette (as `path`: after the depth increment)
         depth[si.is_valid()] += 1
-        beta_max = dr.max(mi.unpolarized_spectrum(beta))
         rr_prob = dr.minimum(beta_max * dr.square(eta), 0.95)
         rr_active = depth >= rr_depth
         rr_continue = sampler.next_1d() < rr_prob
         rr = dr.select(rr_active, dr.rcp(rr_prob), 1.0)
-        beta *= rr
+        if dr.hint(reverse, mode="scalar"):
+            rows = (rows[0] * rr, rows[1] * rr)
+        else:
+            beta *= rr
         active_cont = active_next & (~rr_active | rr_continue) & (beta_max != 0.0)
 
         if dr.hint(store is not None, mode="scalar"):
@@ -221,8 +241,7 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
                 wo=bs.wo, pdf=bs.pdf,
                 smooth=dr.select(mi.has_flag(bs.sampled_type, mi.BSDFFlags.Smooth), 1, 0),
                 next=dr.select(active_cont, 1, 0), rr=rr,
-                W=dr.select(active_cont, weight * rr, dr.zeros(mi.Spectrum)),
-                adj=times_mueller(delta0, beta_k) if reverse else beta_k)
+                adj=adj_k if reverse else beta_k)
         count += 1
         active = active_cont
         ray = ray_next
@@ -305,7 +324,8 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
             else:
                 tangent += dr.forward_to(mueller_times(rec["adj"], contribution))
 
-        L = dr.select(here, dr.detach(E) + mueller_times(rec["W"], L), L)
+        # W_k = T_k's value: the BSDF's sampled weight f / pdf (roulette included)
+        L = dr.select(here, dr.detach(E) + mueller_times(dr.detach(T), L), L)
 
     if dr.hint(reverse, mode="scalar"):
         return None

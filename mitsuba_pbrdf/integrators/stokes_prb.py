@@ -34,13 +34,14 @@ of a primal render whatever the number of samples, the depth or the number of
 parameters (textures included).
 
 How (docs/path-replay.md): a first loop traces each path as ``path`` does and
-keeps, per sample and per vertex, in Dr.Jit local memory, the sampled Mueller
-weight ``W_k``, the random numbers and the adjoint ``delta_k`` (the loss
-gradient carried from the camera as a row Stokes vector); a second loop walks
-the vertices backwards, rebuilds the radiance ``L_{k+1}`` arriving from the
-rest of the path by ``L_k = E_k + W_k L_{k+1}`` (no inverse of a Mueller
-matrix: depolarizing lobes make those singular) and differentiates
-``delta_k . (E_k + T_k L_{k+1})`` one vertex at a time.
+keeps, per sample and per vertex, in Dr.Jit local memory, the intersection,
+the random numbers and the adjoint ``delta_k`` (the loss gradient carried
+from the camera as a row Stokes vector); a second loop walks the vertices
+backwards, differentiates ``delta_k . (E_k + T_k L_{k+1})`` one vertex at a
+time and rebuilds the radiance ``L_{k+1}`` arriving from the rest of the path
+by ``L_k = E_k + W_k L_{k+1}``, the sampled weight ``W_k`` being ``T_k``'s
+value (no inverse of a Mueller matrix: depolarizing lobes make those
+singular).
 
 Not handled (as Mitsuba's ``prb``): derivatives from visibility
 discontinuities (moving geometry, silhouettes: use a projective integrator
