@@ -248,6 +248,12 @@ def test_the_log_floor_rises_to_where_the_stated_noise_stops_being_relative():
     assert noise_crossover(y, 0.02 * y) < 1e-12          # round-off
     assert log_floor(y, None, 0.02 * y) == pytest.approx(0.01 * np.median(y))
     assert log_floor(y, 1e-3, 0.005 * y + 1.7e-3) == 1e-3
+    data = small(("m00",))                 # u = 0.01 |y| + 1e-4 max: crossover 0.01 max
+    crossover = noise_crossover(data.observed["m00"], data.uncertainty["m00"])
+    r = fitting.fit_model(data, "two", objective="log", starts=1)
+    assert r.log_floor == pytest.approx(crossover) and not any("log floor" in w for w in r.warnings)
+    low = fitting.fit_model(data, "two", objective="log", starts=1, log_floor=crossover / 100)
+    assert any("log floor" in w and "is biased" in w for w in low.warnings), low.warnings
 
 
 # ---------------------------------------------------------------- synthetic data's noise floor
