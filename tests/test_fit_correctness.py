@@ -234,6 +234,28 @@ def test_the_log_floor_follows_a_robust_level_of_the_data():
     assert "floor f = 0.001 1/sr" in fitting.report(data, {"two": given})
 
 
+def test_the_log_floor_rises_to_where_the_stated_noise_stops_being_relative():
+    """Stated uncertainties u = a |y| + b: the default floor is b / a, where
+    ln(y + f) / a has the same spread at every level (the log objective is the
+    likelihood of that noise). Below it the values' noise is absolute; under
+    the 1 % median floor the pairwise row log-m00-two-k-reference-beckmann-4-spike
+    found kid 0.0136 +/- 0.0005 against a truth of 0.01. Purely relative
+    uncertainties leave the floor where it was; a given floor is kept."""
+    from mitsuba_pbrdf.fitting.objectives import log_floor, noise_crossover
+
+    y = np.geomspace(1e-4, 100.0, 200) * np.random.default_rng(0).uniform(0.5, 2.0, 200)
+    assert noise_crossover(y, 0.005 * y + 1.7e-3) == pytest.approx(1.7e-3 / 0.005, rel=1e-9)
+    assert noise_crossover(y, 0.02 * y) < 1e-12          # round-off
+    assert log_floor(y, None, 0.02 * y) == pytest.approx(0.01 * np.median(y))
+    assert log_floor(y, 1e-3, 0.005 * y + 1.7e-3) == 1e-3
+    data = small(("m00",))                 # u = 0.01 |y| + 1e-4 max: crossover 0.01 max
+    crossover = noise_crossover(data.observed["m00"], data.uncertainty["m00"])
+    r = fitting.fit_model(data, "two", objective="log", starts=1)
+    assert r.log_floor == pytest.approx(crossover) and not any("log floor" in w for w in r.warnings)
+    low = fitting.fit_model(data, "two", objective="log", starts=1, log_floor=crossover / 100)
+    assert any("log floor" in w and "is biased" in w for w in low.warnings), low.warnings
+
+
 # ---------------------------------------------------------------- synthetic data's noise floor
 
 def test_synthetic_noise_floor_follows_the_intensity():

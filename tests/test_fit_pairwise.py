@@ -176,13 +176,10 @@ def check_finite(r):
 def check_recovery(r, truth, data, row):
     """Every parameter the data determine (free, not undetermined, not at a
     bound) within 5 standard uncertainties + 2 % of the truth (the data have
-    0.5 % noise and the start is 15 % off). Where the fit leaves some
-    parameters undetermined, the others' uncertainties leave out the flat
-    directions, in which each moves by up to GROUP_SHARE (10 %) of its scale
-    (:mod:`mitsuba_pbrdf.fitting.identifiability`): then 10 % instead of 2 %."""
-    from mitsuba_pbrdf.fitting.identifiability import GROUP_SHARE
-
-    share = GROUP_SHARE if r.undetermined else 0.02
+    0.5 % noise and the start is 15 % off), also where the fit leaves others
+    undetermined: the uncertainties are marginal, with the weak directions
+    shared with those (:mod:`mitsuba_pbrdf.fitting.identifiability`)."""
+    share = 0.02
     determined = [f for f in r.free if f not in r.undetermined and f not in r.at_bound]
     for label in determined:
         p, _, w = label.partition("(")

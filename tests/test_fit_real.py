@@ -274,7 +274,8 @@ def test_effective_index_warnings():
     def result(n, k):
         return SimpleNamespace(model="three", wavelengths=np.array([532.0]),
                                values={"n": np.array([n]), "k": np.array([k])},
-                               free=["n(532 nm)", "k(532 nm)"], reduced_chi2=1.0, formal=True)
+                               free=["n(532 nm)", "k(532 nm)"], reduced_chi2=1.0, formal=True,
+                               objectives={"m00": "linear", "m11": "linear"})
     data = SimpleNamespace(observed={"m00": None, "m11": None})
     ptfe = diagnosis.diagnose(result(0.711, 0.083), data)
     assert len(ptfe) == 1 and "no real material's index" in ptfe[0] and "--init n=1.35" in ptfe[0]

@@ -19,7 +19,10 @@ model too high), and the objective's chi-square per value there.
 * a fitted index that no real material has (n < 1 with k < 1: a dielectric has
   n > 1, a metal k > 1 in the visible) or far from the named material's
   tabulated one (more than a factor 2 off): effective values, with the remedies;
-* unpolarized data with n, k left free: no material named to take them from.
+* unpolarized data with n, k left free: no material named to take them from;
+* a log objective's floor set below where the file's m00 uncertainties stop
+  being relative (:func:`.objectives.noise_crossover`): the values below it
+  are mostly noise, whose log is biased, and the fit's values with them.
 """
 
 from __future__ import annotations
@@ -150,4 +153,13 @@ def diagnose(result, data, material=None):
     if not polarized and any(f.startswith(("n(", "k(")) for f in result.free):
         lines.append(f"warning: {label}: unpolarized data (m00 alone) cannot determine n and k; "
                      f"name the material (--material) or give its index (--nk FILE) to fix them")
+    if result.objectives.get("m00") == "log" and "m00" in data.uncertainty:
+        from .objectives import noise_crossover
+
+        crossover = noise_crossover(data.observed["m00"], data.uncertainty["m00"])
+        if result.log_floor is not None and result.log_floor < crossover:
+            lines.append(f"warning: {label}: the log floor {result.log_floor:.3g} 1/sr is below "
+                         f"{crossover:.3g} 1/sr, where the file's m00 uncertainties stop being "
+                         f"relative: the log of the noisier values below it is biased, and so "
+                         f"are the fitted values; the default floor is at least {crossover:.3g}")
     return lines

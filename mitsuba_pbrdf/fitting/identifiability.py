@@ -17,9 +17,15 @@ direction) and the groups of parameters that move together are listed as
 ks, kdd and kid free (an exact null direction); an M00-only fit can trade n
 against k and ks.
 
-The other parameters' standard uncertainties are the square roots of the
-diagonal of ``(Jn^T Jn)^-1`` restricted to the determined directions, scaled
-back to the parameters' units.
+A parameter with a smaller share is undetermined too where that direction
+alone moves it by 100 % of its scale or more (``|v_j| / s >= 1``). The other
+parameters' standard uncertainties are the square roots of the diagonal of
+``(Jn^T Jn)^-1`` over every direction that is not numerically null (weak
+ones included: the marginal uncertainty, not the one conditional on the
+undetermined parameters' fitted values), scaled back to the parameters'
+units. A parameter of an M00-only fit that shares a weak direction with the
+undetermined indices (ks, n at another wavelength) gets the wider +/- that
+this trade allows.
 """
 
 from __future__ import annotations
@@ -57,7 +63,7 @@ def analyze(J, names, x, chi2_scale=1.0, with_covariance=False):
     names) of parameters that move together in undetermined directions.
     ``chi2_scale``: the reduced chi-square when the uncertainties are assumed
     (then scaled to the fit), else 1. ``with_covariance``: also return the
-    covariance matrix of the determined directions (parameters' units)."""
+    marginal covariance matrix (parameters' units; see the module)."""
     names = list(names)
     J = np.asarray(J, dtype=np.float64)
     scales = parameter_scales(names, x)
@@ -73,18 +79,28 @@ def analyze(J, names, x, chi2_scale=1.0, with_covariance=False):
         Vt = np.linalg.svd(np.vstack([Jn, np.zeros((len(names) - Jn.shape[0], len(names)))]))[2]
     # below 1 (in units of the fit's noise) or numerically zero (finite-
     # difference Jacobians carry relative errors of ~1e-8)
-    weak = (s < np.sqrt(chi2_scale)) | (s <= 1e-6 * s.max())
+    null = s <= 1e-6 * s.max()
+    weak = (s < np.sqrt(chi2_scale)) | null
+    # a weak direction moves a parameter by |v_j| sqrt(chi2_scale) / s of its
+    # scale per unit of chi-square: by 100 % or more, it is undetermined even
+    # below GROUP_SHARE (a small share of a nearly flat direction)
+    reach = np.abs(Vt) * np.sqrt(chi2_scale) / np.where(null, 1.0, s)[:, None]
     groups = []
-    for v in Vt[weak]:
-        members = {names[j] for j in np.flatnonzero(np.abs(v) > GROUP_SHARE)}
+    for v, r, n0 in zip(Vt[weak], reach[weak], null[weak]):
+        members = {names[j] for j in np.flatnonzero((np.abs(v) > GROUP_SHARE)
+                                                     | (~n0 & (r >= 1.0)))}
         merged = [g for g in groups if g & members]
         for g in merged:
             groups.remove(g)
             members |= g
         groups.append(members)
     undetermined = sorted(set().union(*groups), key=names.index) if groups else []
-    strong = ~weak
-    cov = (Vt[strong].T / s[strong] ** 2) @ Vt[strong] * chi2_scale
+    # the marginal covariance: every direction but the numerically null ones.
+    # Leaving out the weak ones too would give the uncertainty of each
+    # parameter with the undetermined ones held at their fitted values, a +/-
+    # far smaller than the data support wherever it shares a weak direction
+    live = ~null
+    cov = (Vt[live].T / s[live] ** 2) @ Vt[live] * chi2_scale
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * scales
     sd[[names.index(n) for n in undetermined]] = np.inf
     groups = [sorted(g, key=names.index) for g in groups]

@@ -13,7 +13,9 @@ the relative uncertainty (``u / y`` where given, else ``rel``):
   measurement's own uncertainties; with assumed ones (a few per cent of the
   largest value) everything far below the peak counts for nothing.
 * ``log``: ``ln((m + f) / (y + f)) / s``, with a stated floor ``f`` (default
-  1 % of the median positive ``y``, :func:`log_floor`; ``y < 0`` counts as 0). The likelihood
+  1 % of the median positive ``y``, or where the file's uncertainties stop
+  being relative if higher, :func:`log_floor`; ``y < 0`` counts as 0; with
+  given ones ``s = u / (|y| + f)``, the spread of ``ln(y + f)``). The likelihood
   of multiplicative (log-normal) noise: every decade weighs the same, so the
   spike and the tail are both fitted. BRDF fitting poses it this way when data
   span decades (e.g. Ngan, Durand and Matusik 2005, who found linear errors
@@ -47,7 +49,7 @@ import numpy as np
 from ..errors import ParameterError
 
 __all__ = ["OBJECTIVES", "APPLIES_TO", "LIKELIHOODS", "Term", "make_terms", "choose_objective",
-           "objective_of", "log_floor", "decades"]
+           "objective_of", "log_floor", "noise_crossover", "decades"]
 
 #: Objective -> one line of what it is, for reports and ``--help``.
 OBJECTIVES = {
@@ -77,16 +79,40 @@ AUTO_DECADES = 2.0
 FLOOR_FRACTION = 0.01
 
 
-def log_floor(y, floor: Optional[float] = None) -> float:
+def log_floor(y, floor: Optional[float] = None, u=None) -> float:
     """The ``log`` objective's floor f (1/sr): *floor* when given, else
-    :data:`FLOOR_FRACTION` of the median positive value (1e-12 where none is).
-    A robust level, not the minimum: the smallest values of a campaign are its
-    detector's noise, and a floor under them gave them the weight of the
-    reflection itself (the fit then bends the model toward the noise)."""
+    :data:`FLOOR_FRACTION` of the median positive value (1e-12 where none is),
+    raised to :func:`noise_crossover` of the stated uncertainties *u* where
+    the file gives them. A robust level, not the minimum: the smallest values
+    of a campaign are its detector's noise, and a floor under them gave them
+    the weight of the reflection itself (the fit then bends the model toward
+    the noise)."""
     if floor is not None:
         return float(floor)
     positive = y[np.isfinite(y) & (y > 0)]
-    return FLOOR_FRACTION * float(np.median(positive)) if positive.size else 1e-12
+    f = FLOOR_FRACTION * float(np.median(positive)) if positive.size else 1e-12
+    return max(f, noise_crossover(y, u)) if u is not None else f
+
+
+def noise_crossover(y, u) -> float:
+    """Where stated uncertainties *u* of values *y* stop being relative: b / a
+    of the fit ``u ~ a |y| + b`` (a, b >= 0, least squares in u's relative
+    error), 0 where either part is absent. ``ln(y + b/a) / a`` is the
+    transform that gives such noise the same spread at every level, so with
+    that floor the log objective is the likelihood of the stated noise at all
+    values. A lower floor takes values whose noise is absolute (u a sizeable
+    fraction of y) as log-normal: the log of a noisy value is biased low and
+    u / y weighs the values that noise raised most, and a fit through data
+    whose tail is mostly noise recovered the ideal diffuse weight 8 standard
+    uncertainties off."""
+    from scipy.optimize import nnls
+
+    ok = np.isfinite(y) & np.isfinite(u) & (u > 0)
+    if ok.sum() < 2:
+        return 0.0
+    A = np.column_stack([np.abs(y[ok]) / u[ok], 1.0 / u[ok]])
+    (a, b), _ = nnls(A, np.ones(ok.sum()))
+    return float(b / a) if a > 0 and b > 0 else 0.0
 
 
 def decades(y) -> float:
@@ -175,9 +201,12 @@ def make_terms(data, objective, rel, abs_, floor=None):
     terms = []
     for q, y, u, rows in zip(*weights(data, rel, abs_)):
         kind = objective_of(objective, q)
-        f = log_floor(y, floor) if q == "m00" else 0.0
-        if q in data.uncertainty:
-            s = u / np.maximum(np.abs(y), max(f, 1e-300))
+        stated = q in data.uncertainty
+        f = log_floor(y, floor, u if stated and kind == "log" else None) if q == "m00" else 0.0
+        if stated:
+            # the spread of ln(y + f) is u / (|y| + f); relative: u / max(|y|, f)
+            s = (u / (np.abs(y) + f) if kind == "log"
+                 else u / np.maximum(np.abs(y), max(f, 1e-300)))
         else:
             if kind in ("log", "relative", "log-cosine") and not rel > 0:
                 raise ValueError(f"the {kind} objective needs a relative uncertainty > 0 "
