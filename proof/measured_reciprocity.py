@@ -28,6 +28,8 @@ pairs (:func:`pair_counts_by_tolerance` shows it).
 
 import numpy as np
 
+from mitsuba_pbrdf.measured.pairs import matching_pairs, wrap  # noqa: F401 (wrap: this module's API)
+
 #: Reciprocity's sign matrix in the global s/p frames (docs/conventions.md).
 Q = np.diag([1.0, 1.0, -1.0, 1.0])
 #: Mirror image through the plane of incidence: s -> -s on both rays.
@@ -36,11 +38,6 @@ E = np.diag([1.0, 1.0, -1.0, -1.0])
 OFF_BLOCK = ((0, 2), (0, 3), (1, 2), (1, 3), (2, 0), (2, 1), (3, 0), (3, 1))
 #: Matching tolerance of the angles (deg); see the module docstring.
 TOL = 0.01
-
-
-def wrap(angle):
-    """Degrees wrapped to [-180, 180)."""
-    return (np.asarray(angle, dtype=np.float64) + 180.0) % 360.0 - 180.0
 
 
 def mueller(data):
@@ -57,20 +54,10 @@ def dphi(data):
 def _pairs(data, swap, tol, keep):
     """Index pairs (a, b) of rows of one wavelength where row b has
     dphi = -dphi[a] and (theta_i, theta_r) those of row a, swapped if ``swap``
-    (each within tol), filtered by ``keep(a, b)``."""
-    d = dphi(data)
-    found = []
-    for w in np.unique(data.wavelength):
-        rows = np.flatnonzero(data.wavelength == w)
-        ti, tr, dp = data.theta_i[rows], data.theta_r[rows], d[rows]
-        ti_b, tr_b = (tr, ti) if swap else (ti, tr)
-        match = ((np.abs(ti[None, :] - ti_b[:, None]) < tol)
-                 & (np.abs(tr[None, :] - tr_b[:, None]) < tol)
-                 & (np.abs(wrap(dp[None, :] + dp[:, None])) < tol))
-        a, b = np.nonzero(match)
-        sel = keep(a, b)
-        found.append(np.stack([rows[a[sel]], rows[b[sel]]], 1))
-    return np.concatenate(found).reshape(-1, 2)
+    (each within tol), filtered by ``keep(a, b)`` (the package's search:
+    :func:`mitsuba_pbrdf.measured.pairs.matching_pairs`)."""
+    pairs = matching_pairs(data, swap, tol)
+    return pairs[keep(pairs[:, 0], pairs[:, 1])].reshape(-1, 2)
 
 
 def reciprocal_pairs(data, tol=TOL):

@@ -337,7 +337,7 @@ def test_command_line_fits_real_aluminium(tmp_path):
                "--scene-out", out["xml"])
     assert p.returncode == 0, p.stderr
     assert "objective: log" in p.stdout and "m00 spans 6.3 decades" in p.stdout
-    assert "n, k fixed from material Al" in p.stdout and "| specular peak" in p.stdout
+    assert "n, k fixed from material Al" in p.stdout and "| 2. specular peak (not grazing" in p.stdout
     assert "pbrdf fit: fit 1/4: three-component, beckmann: start 1 of 7" in p.stderr
     assert "Traceback" not in p.stderr
     saved = json.load(open(out["json"]))

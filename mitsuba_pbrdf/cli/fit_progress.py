@@ -36,8 +36,9 @@ class FitProgressDisplay:
         if key != self.current:
             self.current = key
             self.fit += 1
-        label = (f"fit {self.fit}/{self.fits}: {p.model}-component, {p.distribution}: "
-                 f"start {p.start} of {p.starts}")
+        step = ("the best start's polish on all rows" if p.polish
+                else f"start {p.start} of {p.starts}")
+        label = f"fit {self.fit}/{self.fits}: {p.model}-component, {p.distribution}: {step}"
         if self.bar is not None:
             self.bar.set_description(label, refresh=False)
             self.bar.set_postfix_str(f"{p.evaluations} evaluations, cost {p.cost:.4g}")

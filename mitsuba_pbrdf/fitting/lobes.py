@@ -69,6 +69,8 @@ class LobeModel:
     def __init__(self, data, names: Sequence[str], shadowing="vgroove",
                  dd_distribution="beckmann", distribution="beckmann"):
         self.angles = data.radians()
+        # the geometry is the same at every parameter vector: computed once
+        self.geometry = ref.bistatic_geometry(*self.angles)
         self.row_wavelength = np.searchsorted(data.wavelengths, data.wavelength)
         self.names = list(names)
         self.polarized = any(q != "m00" for q in self.names)
@@ -77,12 +79,12 @@ class LobeModel:
         self.evaluations = 0             # lobe evaluations, the fit's unit of work
 
     # -- lobes, each kept until its parameters change --------------------------------
-    def _lobe(self, name, key, compute):
+    def _lobe(self, name, key, compute, counted=True):
         kept = self._kept.setdefault(name, {})
         if key in kept:
             kept[key] = kept.pop(key)                      # the most recently used last
         else:
-            self.evaluations += 1
+            self.evaluations += counted
             if len(kept) >= KEPT:
                 del kept[next(iter(kept))]                 # the least recently used
             kept[key] = compute()
@@ -92,31 +94,42 @@ class LobeModel:
         n = np.asarray(values["n"], dtype=np.float64)[self.row_wavelength]
         k = np.asarray(values["k"], dtype=np.float64)[self.row_wavelength]
         widths = {w: float(values[w]) for w in ("sigma", "sigma_u", "sigma_v") if w in values}
-        key = (tuple(np.asarray(values["n"], float)), tuple(np.asarray(values["k"], float)),
-               tuple(sorted(widths.items())))
-        function = ref.specular if self.polarized else ref.specular_unpolarized
-        return self._lobe("specular", key, lambda: function(
-            *self.angles, n, k, widths.get("sigma"), self.shadowing, self.distribution,
-            widths.get("sigma_u"), widths.get("sigma_v")))
+        nk = (tuple(np.asarray(values["n"], float)), tuple(np.asarray(values["k"], float)))
+        shape = tuple(sorted(widths.items()))
+        lobe = (widths.get("sigma"), self.shadowing, self.distribution, widths.get("sigma_u"),
+                widths.get("sigma_v"))
+        if self.polarized:
+            return self._lobe("specular", nk + shape, lambda: ref.specular(
+                *self.angles, n, k, *lobe, geometry=self.geometry))
+        # the scalar form's factors apart: a width's step keeps the Fresnel
+        # factor, an index's step the microfacet one
+        return self._lobe("specular", nk + shape, lambda: (
+            self._lobe("microfacet", shape, lambda: ref.microfacet_lobe(
+                *self.angles, *lobe, geometry=self.geometry), counted=False)
+            * self._lobe("fresnel", nk, lambda: ref.fresnel_unpolarized(
+                self.geometry["cos_b"], n, k), counted=False)))
 
     def _directional(self, values):
         sigma_dd = float(values["sigma_dd"])
         return self._lobe("directional", (sigma_dd,), lambda: ref.directional_diffuse(
-            *self.angles, sigma_dd, self.shadowing, self.dd))
+            *self.angles, sigma_dd, self.shadowing, self.dd, geometry=self.geometry))
 
     def _ideal(self):
         return self._lobe("ideal", (), lambda: ref.ideal_diffuse(self.angles[0], self.angles[2]))
 
     def _as_mueller(self, lobe, depolarized):
-        """A lobe (scalar or Mueller) as Mueller matrices (N, 4, 4)."""
-        if depolarized or not self.polarized:
+        """A lobe (scalar or Mueller) as Mueller matrices: (N, 4, 4), or for
+        unpolarized fits (N, 1, 1), element 00 alone (a view, no copy)."""
+        if not self.polarized:
+            return (lobe if lobe.ndim == 1 else lobe[:, 0, 0])[:, None, None]
+        if depolarized:
             M = np.zeros(lobe.shape[:1] + (4, 4))
-            M[:, 0, 0] = lobe if lobe.ndim == 1 else lobe[:, 0, 0]
+            M[:, 0, 0] = lobe
             return M
         return lobe
 
     def mueller(self, values):
-        """The model's Mueller matrices (N, 4, 4) (only element 00 for unpolarized fits)."""
+        """The model's Mueller matrices (N, 4, 4); for unpolarized fits (N, 1, 1), element 00."""
         spec = self._as_mueller(self._specular(values), False)
         M = float(values["ks"]) * spec
         M[:, 0, 0] += (float(values["kdd"]) * self._directional(values)

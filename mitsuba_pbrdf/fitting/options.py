@@ -34,15 +34,17 @@ def check_data(data):
                              f"reflectance to fit")
 
 
-def check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty):
+def check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty,
+                    start_rows=None):
     """The options of one fit, and the data (:func:`check_data`)."""
     if model not in MODELS:
         raise ParameterError("model", f"must be one of {', '.join(MODELS)}, not {model!r}")
     if backend not in BACKENDS:
         raise ParameterError("backend", f"must be one of {', '.join(BACKENDS)}, not {backend!r}")
-    if starts is not None and (isinstance(starts, bool) or not isinstance(starts, (int, np.integer))
-                               or starts < 1):
-        raise ParameterError("starts", f"must be a whole number >= 1, got {starts!r}")
+    for name, v in (("starts", starts), ("start_rows", start_rows)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))
+                              or v < 1):
+            raise ParameterError(name, f"must be a whole number >= 1, got {v!r}")
     for name, v in (("rel_uncertainty", rel_uncertainty), ("abs_uncertainty", abs_uncertainty)):
         if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
             raise ParameterError(name, f"must be a finite number >= 0, got {v!r}")

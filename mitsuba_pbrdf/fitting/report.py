@@ -15,11 +15,11 @@ from .solver import FitResult
 __all__ = ["report", "undetermined_warning", "anisotropy_line"]
 
 
-def _fmt(v, e):
-    if np.isinf(e):
-        return f"{v:.5g} (undetermined)"
-    if not np.isfinite(e):
-        return f"{v:.5g} (fixed)"
+def _fmt(r, label, v, e):
+    """The value of parameter *label* of fit *r*, with its +/- where it has one."""
+    reason = r.error_reason(label, e)
+    if reason:
+        return f"{v:.5g} ({reason}{': no uncertainty' if reason == 'at a bound' else ''})"
     return f"{v:.5g} +/- {e:.2g}"
 
 
@@ -47,12 +47,15 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
              f"uncertainties {'given' if data.uncertainty else 'assumed'}"]
     if data.ignored_columns:
         lines.append(f"ignored columns: {', '.join(data.ignored_columns)}")
+    swapped = next((r.reciprocity for r in results.values() if r.reciprocity), None)
+    if swapped is not None:
+        lines.append(swapped.line())
     for name, r in results.items():
         floor = f" (floor f = {r.log_floor:.3g} 1/sr)" if r.log_floor is not None else ""
         lines += ["", f"## {MODELS[r.model]}",
                   f"backend {r.backend}, shadowing {r.shadowing}, specular {r.distribution}"
                   f"{' (anisotropic)' if r.anisotropic else ''}, directional diffuse "
-                  f"{r.dd_distribution}; {r.starts} starts, {r.evaluations} model evaluations, "
+                  f"{r.dd_distribution}; {r.start_note}; {r.evaluations} model evaluations, "
                   f"{r.seconds:.2f} s; {'converged' if r.success else 'NOT converged'} "
                   f"({r.message})",
                   f"objective: {r.objective}{floor}, {OBJECTIVES[r.objective]}: "
@@ -76,12 +79,13 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
                 if truth:
                     tv = np.broadcast_to(truth[p], r.wavelengths.shape)[j]
                     t = f" {tv:.5g} |"
-                lines.append(f"| {p} ({w:g} nm) | {_fmt(r.values[p][j], r.errors[p][j])} |{t}")
+                lines.append(f"| {p} ({w:g} nm) | "
+                             f"{_fmt(r, f'{p}({w:g} nm)', r.values[p][j], r.errors[p][j])} |{t}")
         for p in SHARED:
             if p not in r.values or p in r.absent:
                 continue
             t = f" {truth[p]:.5g} |" if truth else ""
-            lines.append(f"| {p} | {_fmt(r.values[p], r.errors[p])} |{t}")
+            lines.append(f"| {p} | {_fmt(r, p, r.values[p], r.errors[p])} |{t}")
         for base, (difference, sd) in r.anisotropy.items():
             lines.append("\n" + anisotropy_line(base, difference, sd))
         if r.undetermined:
@@ -97,10 +101,11 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
                   if q == "m00" and np.isfinite(r.rms_ln) else "")
             lines.append(f"* {q}: RMS residual {r.rms[q]:.4g}{rel}{ln}")
         if r.regions:
-            lines += ["", "| region | values | RMS ln(model/data) m00 | mean ln(model/data) m00 "
+            lines += ["", "| region (exclusive: each value in the first that applies, in this "
+                          "order) | values | RMS ln(model/data) m00 | mean ln(model/data) m00 "
                           "| chi2 per value |", "|---|---|---|---|---|"]
             for g in r.regions:
-                lines.append(f"| {g.name} ({g.rule}) | {g.values} | {_num(g.rms_ln)} | "
+                lines.append(f"| {g.label} | {g.values} | {_num(g.rms_ln)} | "
                              f"{_num(g.mean_ln, '+.3g')} | {_num(g.chi2_per_value)} |")
         for w in r.warnings:
             lines.append("\n" + w)

@@ -43,13 +43,14 @@ from ..errors import ParameterError
 from ..measured.measurements import Measurements
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from .backends import BACKENDS
-from .diagnosis import diagnose, regional_fit
+from .diagnosis import diagnose, reciprocity as reciprocity_of, regional_fit
 from .identifiability import analyze
 from .layout import ANISOTROPIC, PER_WAVELENGTH, ParameterLayout, absent_parameters
 from .options import assignments_by_model, check_arguments, with_index
 from .objectives import LIKELIHOODS, choose_objective, make_terms
-from .observables import model_observables
+from .lobes import LobeModel
 from .starts import WidthOrder, default_starts, start_points
+from .subsample import START_ROWS, sample
 
 __all__ = ["FitResult", "FitProgress", "fit_model", "fit_models"]
 
@@ -104,22 +105,63 @@ class FitResult:
     #: parameters the model lacks -> why (:func:`.layout.absent_parameters`): not reported
     absent: Dict[str, str] = field(default_factory=dict)
     notes: List[str] = field(default_factory=list)      # init/fix values not used, and why
+    rows: int = 0                         # rows of the data
+    start_rows: Optional[int] = None      # rows the starts ran on (:mod:`.subsample`); None: all
+    reciprocity: Optional[object] = None  # the data's :class:`.diagnosis.Reciprocity`, if pairs
+
+    @property
+    def start_note(self) -> str:
+        """Where the starts ran, e.g. "7 starts on 20,000 of 200,000 rows, the best polished on all"."""
+        if self.start_rows is None:
+            return f"{self.starts} starts on all {self.rows:,} rows"
+        return (f"{self.starts} starts on {self.start_rows:,} of {self.rows:,} rows, "
+                f"the best polished on all")
 
     @property
     def reduced_chi2(self):
         return self.chi2 / max(self.dof, 1)
 
+    def error_reason(self, label, error) -> str:
+        """Why the parameter *label* (``kid``, ``n(633 nm)``) has no uncertainty
+        to state ("fixed", "undetermined", "at a bound"), or "" where it has one.
+        At a bound the curvature's +/- is not meaningful: the optimum is a
+        corner, not a minimum (the lobes' order at its bound, sigma_dd = sigma,
+        puts sigma_dd there)."""
+        if not np.isfinite(error):
+            return "undetermined" if np.isinf(error) else "fixed"
+        order = label == "sigma_dd" and any(b.startswith("sigma_dd = sigma") for b in self.at_bound)
+        return "at a bound" if label in self.at_bound or order else ""
+
+    def _labelled_errors(self):
+        """(label, key, index or None, error) of every parameter."""
+        for p, e in self.errors.items():
+            if isinstance(e, np.ndarray):
+                for j, w in enumerate(self.wavelengths):
+                    yield f"{p}({w:g} nm)", p, j, float(e[j])
+            else:
+                yield p, p, None, float(e)
+
     def as_dict(self):
-        """JSON-ready: an undetermined parameter's error is ``None`` (null), a
-        fixed one's NaN becomes ``None`` too (listed apart in ``fixed``)."""
+        """JSON-ready: an error that is not stated (undetermined, fixed, at a
+        bound) is ``None`` (null), its reason in ``error_reasons`` by label."""
         def conv(v):
             if isinstance(v, np.ndarray):
                 return [conv(float(a)) for a in v]
             return None if isinstance(v, float) and not math.isfinite(v) else v
+        errors = {k: conv(v) for k, v in self.errors.items()}
+        reasons = {}
+        for label, key, j, e in self._labelled_errors():
+            reasons[label] = self.error_reason(label, e)
+            if reasons[label] == "at a bound":
+                if j is None:
+                    errors[key] = None
+                else:
+                    errors[key][j] = None
         return {"model": self.model, "backend": self.backend,
                 "wavelengths": self.wavelengths.tolist(),
                 "values": {k: conv(v) for k, v in self.values.items()},
-                "errors": {k: conv(v) for k, v in self.errors.items()},
+                "errors": errors,
+                "error_reasons": {k: v for k, v in reasons.items() if v},
                 "chi2": self.chi2, "dof": self.dof, "reduced_chi2": self.reduced_chi2,
                 "rms": {k: conv(v) for k, v in self.rms.items()},
                 "relative_rms": {k: conv(v) for k, v in self.relative_rms.items()},
@@ -135,7 +177,9 @@ class FitResult:
                 "objective": self.objective, "objective_reason": self.objective_reason,
                 "objectives": self.objectives,
                 "log_floor": self.log_floor, "index_note": self.index_note,
-                "starts": self.starts, "formal_uncertainties": self.formal,
+                "starts": self.starts, "rows": self.rows, "start_rows": self.start_rows,
+                "start_note": self.start_note, "formal_uncertainties": self.formal,
+                "reciprocity": self.reciprocity.as_dict() if self.reciprocity else None,
                 "regions": [r.as_dict() for r in self.regions], "warnings": self.warnings,
                 "distribution_choice": self.distribution_choice,
                 "rms_ln_m00": conv(self.rms_ln), "absent": self.absent, "notes": self.notes}
@@ -154,6 +198,7 @@ class FitProgress:
     cost: float
     best: float           # lowest cost of the finished starts (inf before the first)
     finished: bool
+    polish: bool = False  # the best start's polish on all rows (:mod:`.subsample`)
 
 
 #: Residual evaluations between two progress reports within a start.
@@ -229,7 +274,8 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
               dd_distribution="beckmann", material=None, init=None, fix=None, starts=None,
               rel_uncertainty=0.05, abs_uncertainty=0.005, seed=0,
               anisotropic=False, distribution="beckmann", objective="auto", log_floor=None,
-              nk=None, progress: Optional[Callable[[FitProgress], None]] = None) -> FitResult:
+              nk=None, progress: Optional[Callable[[FitProgress], None]] = None,
+              start_rows: Optional[int] = START_ROWS, reciprocity=False) -> FitResult:
     """Least-squares fit of one model (``"three"`` or ``"two"``) to ``data``.
 
     ``init`` / ``fix``: {name: value} (``n``, ``k``, ``n@<nm>``, ``k@<nm>``,
@@ -245,8 +291,13 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     ``sigma_u`` and ``sigma_v`` instead of ``sigma`` (:mod:`.layout`); the
     result's ``anisotropy`` gives their difference and its uncertainty.
     ``progress``: called with a :class:`FitProgress` as the fit goes.
+    ``start_rows``: where the data hold more rows, the starts run on this many
+    of them and the best is polished on all (:mod:`.subsample`; None: all rows).
+    ``reciprocity``: the data's :func:`.diagnosis.reciprocity` where the caller
+    has it (:func:`fit_models` computes it once for all its fits).
     """
-    check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty)
+    check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty,
+                    start_rows)
     init, fix, notes = assignments_by_model((model,), init, fix)[model]
     objective, objective_reason = choose_objective(data, list(data.observed), objective)
     terms = make_terms(data, objective, rel_uncertainty, abs_uncertainty, log_floor)
@@ -267,14 +318,27 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     count = default_starts(layout, x0, lo, hi) if starts is None else int(starts)
     points = start_points(layout, x0, lo, hi, count, np.random.default_rng(seed))
 
-    def report(start, evaluations, cost, best, finished):
+    subsample = sample(data, terms, start_rows, seed)
+
+    def report(start, evaluations, cost, best, finished, polish=False):
         if progress is not None:
-            progress(FitProgress(model, distribution, start, len(points), evaluations, cost,
-                                 best, finished))
+            progress(FitProgress(model, distribution, start, len(points) + bool(subsample),
+                                 evaluations, cost, best, finished, polish))
 
     t0 = time.perf_counter()
     tol = 1e-10 if backend == "reference" else 1e-7   # float32 residuals: looser tolerances
-    best = _best_of_starts(residuals, order, points, tol, report)
+    evaluations = 0
+    if subsample is None:
+        best = _best_of_starts(residuals, order, points, tol, report)
+    else:
+        rows, sub_data, sub_terms = subsample
+        sub_evaluator = BACKENDS[backend](sub_data, layout, shadowing, dd_distribution,
+                                          distribution)
+        chosen = _best_of_starts(_Residuals(sub_evaluator, sub_terms, layout.free), order,
+                                 points, tol, report)
+        evaluations = sub_evaluator.count
+        best = _best_of_starts(residuals, order, [order.to_natural(chosen.x)], tol,
+                               lambda s, *a: report(len(points) + 1, *a, polish=True))
     seconds = time.perf_counter() - t0
 
     x_best = order.to_natural(best.x)
@@ -311,10 +375,14 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
                      else math.sqrt(max(float(var), 0.0)))
             anisotropy[base] = (values[u] - values[v], split)
 
-    final = model_observables(data, values, shadowing, dd_distribution, distribution=distribution)
+    # the float64 lobes whatever the backend; for unpolarized data element 00
+    # alone (the full Mueller form of 10^6 rows would take gigabytes)
+    final = LobeModel(data, list(data.observed), shadowing, dd_distribution,
+                      distribution).observables(values)
     resid, rms, rel, rms_ln = _residual_summary(data, final)
     result = FitResult(model, backend, wavelengths, values, errors, chi2, dof, resid, rms, rel,
-                       seconds, evaluator.count, bool(best.success), str(best.message),
+                       seconds, evaluations + evaluator.count, bool(best.success),
+                       str(best.message),
                        [layout.label(n) for n in layout.free], at_bound, shadowing,
                        dd_distribution, [layout.label(n) for n in undetermined],
                        [[layout.label(n) for n in g] for g in groups],
@@ -326,12 +394,14 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     result.log_floor = next((t.floor for t in terms if t.name == "m00"
                              and t.objective in ("log", "relative")), None)
     result.index_note, result.starts, result.formal = index_note, len(points), formal
+    result.rows, result.start_rows = len(data), None if subsample is None else len(subsample[0])
     result.rel_uncertainty, result.abs_uncertainty = rel_uncertainty, abs_uncertainty
     result.absent = {p: why for p, why in layout.absent.items()
                      if p in PER_WAVELENGTH or p in layout.shared}
     result.notes = notes
     result.regions = regional_fit(data, final, terms)
-    result.warnings = diagnose(result, data, material)
+    result.reciprocity = reciprocity_of(data) if reciprocity is False else reciprocity
+    result.warnings = diagnose(result, data, material, result.reciprocity)
     return result
 
 
@@ -356,6 +426,7 @@ def fit_models(data: Measurements, models=("three", "two"), distribution="beckma
     shares = assignments_by_model(tuple(models), options.pop("init", None),
                                   options.pop("fix", None))
     out = {}
+    options.setdefault("reciprocity", reciprocity_of(data))
     for m in models:
         init, fix, notes = shares[m]
         fits = [fit_model(data, model=m, distribution=d, init=init, fix=fix,

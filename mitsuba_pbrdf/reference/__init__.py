@@ -94,11 +94,13 @@ from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..schema import REFERENCE_SHADOWING as SHADOWING_KINDS
 from . import anisotropic, fresnel, geometry, materials, microfacet, model  # noqa: F401 (submodules)
 from .anisotropic import anisotropic_D, projected_alpha, slope_density, smith_G1_anisotropic
-from .fresnel import fresnel_amplitudes, fresnel_mueller, jones_to_mueller, rotator
-from .geometry import rotation_angles
+from .fresnel import (fresnel_amplitudes, fresnel_mueller, fresnel_unpolarized, jones_to_mueller,
+                      rotator)
+from .geometry import bistatic_geometry, rotation_angles
 from .materials import available_materials, conductor_ior
 from .microfacet import beckmann_D, gaussian_slope_pdf, ggx_D, shadowing_G, smith_G1
-from .model import directional_diffuse, ideal_diffuse, pbrdf, specular, specular_unpolarized
+from .model import (directional_diffuse, ideal_diffuse, microfacet_lobe, pbrdf, specular,
+                    specular_unpolarized)
 from .params import PBRDFParams, dop_unpolarized
 
 __all__ = [
@@ -108,6 +110,7 @@ __all__ = [
     "conductor_ior",
     "fresnel_amplitudes",
     "fresnel_mueller",
+    "fresnel_unpolarized",
     "jones_to_mueller",
     "rotator",
     "gaussian_slope_pdf",
@@ -116,9 +119,11 @@ __all__ = [
     "smith_G1",
     "shadowing_G",
     "rotation_angles",
+    "bistatic_geometry",
     "specular",
     "specular_unpolarized",
     "directional_diffuse",
+    "microfacet_lobe",
     "ideal_diffuse",
     "pbrdf",
     "PBRDFParams",

@@ -24,6 +24,13 @@ def fresnel_amplitudes(cos_beta, n, k):
     return r_s, r_p
 
 
+def fresnel_unpolarized(cos_beta, n, k):
+    """Reflectance of unpolarized light ``(|r_s|^2 + |r_p|^2) / 2`` (element 00
+    of :func:`fresnel_mueller`)."""
+    r_s, r_p = fresnel_amplitudes(cos_beta, n, k)
+    return 0.5 * (np.abs(r_s) ** 2 + np.abs(r_p) ** 2)
+
+
 # Stokes vector S = A . (E kron E*), with (E kron E*) = (ExEx*, ExEy*, EyEx*, EyEy*):
 #   S0 = |Ex|^2 + |Ey|^2, S1 = |Ex|^2 - |Ey|^2, S2 = 2 Re(Ex Ey*), S3 = 2 Im(Ex Ey*)
 _A = np.array([[1, 0, 0, 1],

@@ -47,6 +47,14 @@ def _geometry(theta_i, phi_i, theta_r, phi_r):
     return g
 
 
+def bistatic_geometry(theta_i, phi_i, theta_r, phi_r):
+    """The angles of the bistatic geometry (a dict of arrays: ``cos_i``,
+    ``cos_r``, ``cos_b``, ``cos_h``, ...), the part of every lobe that does not
+    depend on the model's parameters: computed once, it is the ``geometry``
+    argument of :func:`~.model.specular` and its neighbours."""
+    return _geometry(theta_i, phi_i, theta_r, phi_r)
+
+
 def rotation_angles(theta_i, phi_i, theta_r, phi_r):
     """Priest-Germer rotation angles ``(eta_i, eta_r)`` from the global s/p
     frames to the facet's s/p frame.

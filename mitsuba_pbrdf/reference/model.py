@@ -8,8 +8,8 @@ import numpy as np
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..schema import REFERENCE_SHADOWING as SHADOWING_KINDS
 from .anisotropic import anisotropic_D, half_vector_slopes, smith_G1_anisotropic
-from .fresnel import _jones_rotator, fresnel_amplitudes, jones_to_mueller
-from .geometry import _geometry, _rotation_angles
+from .fresnel import _jones_rotator, fresnel_amplitudes, fresnel_unpolarized, jones_to_mueller
+from .geometry import _geometry, _rotation_angles, bistatic_geometry
 from .microfacet import beckmann_D, ggx_D, shadowing_G
 
 
@@ -61,13 +61,22 @@ def _lobe_DG(angles, g, sigma, widths, shadowing, distribution):
     alpha = np.sqrt(2.0) * np.asarray(sigma, dtype=np.float64)
     # Paper Eq. 3-4: p(alpha)/cos(alpha) is the Beckmann D of the half vector
     D = (beckmann_D if distribution == "beckmann" else ggx_D)(g["cos_h"], alpha)
-    G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
-                    alpha, shadowing, distribution)
+    if shadowing == "smith":
+        G = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"], g["cos_b"],
+                        alpha, shadowing, distribution)
+    else:
+        # the V-groove G (and "none") is the geometry's alone: kept with it for
+        # the next width on the same geometry (a fit's)
+        key = f"G {shadowing}"
+        if key not in g:
+            g[key] = shadowing_G(np.arccos(g["cos_i"]), np.arccos(g["cos_r"]), g["cos_h"],
+                                 g["cos_b"], alpha, shadowing, distribution)
+        G = g[key]
     return D, G
 
 
 def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove",
-             distribution="beckmann", sigma_u=None, sigma_v=None):
+             distribution="beckmann", sigma_u=None, sigma_v=None, geometry=None):
     """Specular Mueller BRDF ``fs`` (..., 4, 4) in the global s/p frames (paper Eq. 4-5):
 
         f_jk = D(h) G M_jk / (4 cos ti cos tr),   D = Beckmann with alpha = sqrt(2) sigma
@@ -76,10 +85,12 @@ def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove",
     For ``shadowing="smith"`` G is the Smith G of the same distribution and
     alpha. ``distribution="ggx"``: GGX of the same alpha. ``sigma_u``/``sigma_v``
     (either; the other defaults to sigma): anisotropic slopes along the
-    surface's x and y axes (azimuth 0 and pi/2).
+    surface's x and y axes (azimuth 0 and pi/2). ``geometry``: the
+    :func:`~.geometry.bistatic_geometry` of these angles, computed once by a
+    caller that evaluates many parameters on the same measurements (a fit).
     """
     _check_kinds(shadowing, distribution)
-    g = _geometry(theta_i, phi_i, theta_r, phi_r)
+    g = _geometry(theta_i, phi_i, theta_r, phi_r) if geometry is None else geometry
     widths = _widths(sigma, sigma_u, sigma_v)
     shape = np.broadcast_shapes(g["cos_i"].shape, np.shape(n), np.shape(k), np.shape(sigma),
                                 *(np.shape(w) for w in widths or ()))
@@ -105,40 +116,47 @@ def specular(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove",
 
 
 def specular_unpolarized(theta_i, phi_i, theta_r, phi_r, n, k, sigma, shadowing="vgroove",
-                         distribution="beckmann", sigma_u=None, sigma_v=None):
+                         distribution="beckmann", sigma_u=None, sigma_v=None, geometry=None):
     """Element 00 of :func:`specular` (1/sr), in the scalar form of paper Eq. 4:
 
         fs = D(h) G F(beta) / (4 cos ti cos tr),   F = (|r_s|^2 + |r_p|^2) / 2
 
-    the reflectance of unpolarized light. The frame rotations of the Mueller
+    the reflectance of unpolarized light: :func:`microfacet_lobe` times
+    :func:`~.fresnel.fresnel_unpolarized`. The frame rotations of the Mueller
     form leave element 00 unchanged (a rotator's first row and column are
     (1, 0, 0, 0)), so this is the same number for a fraction of the work:
     what fits of unpolarized measurements evaluate. Arguments as :func:`specular`.
     """
+    g = _geometry(theta_i, phi_i, theta_r, phi_r) if geometry is None else geometry
+    return (microfacet_lobe(theta_i, phi_i, theta_r, phi_r, sigma, shadowing, distribution,
+                       sigma_u, sigma_v, g)
+            * fresnel_unpolarized(g["cos_b"], n, k))
+
+
+def microfacet_lobe(theta_i, phi_i, theta_r, phi_r, sigma, shadowing="vgroove",
+               distribution="beckmann", sigma_u=None, sigma_v=None, geometry=None):
+    """``D(h) G / (4 cos ti cos tr)`` (1/sr), 0 where either direction is below
+    the surface: the directional diffuse lobe, and the specular lobe's scalar
+    form without its Fresnel factor. Arguments as :func:`specular`."""
     _check_kinds(shadowing, distribution)
-    g = _geometry(theta_i, phi_i, theta_r, phi_r)
+    g = _geometry(theta_i, phi_i, theta_r, phi_r) if geometry is None else geometry
     D, G = _lobe_DG((theta_i, phi_i, theta_r, phi_r), g, sigma,
                     _widths(sigma, sigma_u, sigma_v), shadowing, distribution)
-    r_s, r_p = fresnel_amplitudes(g["cos_b"], n, k)
-    F = 0.5 * (np.abs(r_s) ** 2 + np.abs(r_p) ** 2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        fs = D * G * F / (4.0 * g["cos_i"] * g["cos_r"])
-    return np.where(_above(g), fs, 0.0)
-
-
-def directional_diffuse(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing="vgroove",
-                        distribution="beckmann", sigma_dd_u=None, sigma_dd_v=None):
-    """Directional diffuse BRDF ``fdd = Ddd(h) G / (4 cos ti cos tr)`` (1/sr, a
-    scalar: this lobe is depolarized). ``Ddd`` has width ``alpha_dd = sqrt(2) sigma_dd``
-    and is Beckmann or GGX; for ``shadowing="smith"`` G uses that distribution and width.
-    ``sigma_dd_u``/``sigma_dd_v``: anisotropic, as :func:`specular`."""
-    _check_kinds(shadowing, distribution)
-    g = _geometry(theta_i, phi_i, theta_r, phi_r)
-    D, G = _lobe_DG((theta_i, phi_i, theta_r, phi_r), g, sigma_dd,
-                    _widths(sigma_dd, sigma_dd_u, sigma_dd_v), shadowing, distribution)
     with np.errstate(divide="ignore", invalid="ignore"):
         f = D * G / (4.0 * g["cos_i"] * g["cos_r"])
     return np.where(_above(g), f, 0.0)
+
+
+def directional_diffuse(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing="vgroove",
+                        distribution="beckmann", sigma_dd_u=None, sigma_dd_v=None,
+                        geometry=None):
+    """Directional diffuse BRDF ``fdd = Ddd(h) G / (4 cos ti cos tr)`` (1/sr, a
+    scalar: this lobe is depolarized; :func:`microfacet_lobe`). ``Ddd`` has width
+    ``alpha_dd = sqrt(2) sigma_dd`` and is Beckmann or GGX; for
+    ``shadowing="smith"`` G uses that distribution and width.
+    ``sigma_dd_u``/``sigma_dd_v``: anisotropic, as :func:`specular`."""
+    return microfacet_lobe(theta_i, phi_i, theta_r, phi_r, sigma_dd, shadowing, distribution,
+                      sigma_dd_u, sigma_dd_v, geometry)
 
 
 def ideal_diffuse(theta_i, theta_r):
