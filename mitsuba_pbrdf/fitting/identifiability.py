@@ -26,6 +26,15 @@ undetermined parameters' fitted values), scaled back to the parameters'
 units. A parameter of an M00-only fit that shares a weak direction with the
 undetermined indices (ks, n at another wavelength) gets the wider +/- that
 this trade allows.
+
+The Jacobian must be that of residuals in units of the data's noise: for
+the weighting objectives (``cosine``, ``log-cosine``, whose chi-square is not
+one of noise) the fit passes that of the linear residuals ``(m - y) / u`` at
+its optimum. Where *chi2* (chi-square in those units at a parameter vector)
+is given, each direction is probed one standard uncertainty either way: if
+chi-square there departs from the quadratic model by more than a factor
+:data:`NONLINEAR` (a curved valley, as n against k of one incidence's M00),
+the linear +/- does not hold and the direction's parameters are undetermined.
 """
 
 from __future__ import annotations
@@ -43,6 +52,9 @@ __all__ = ["GROUP_SHARE", "parameter_scales", "analyze"]
 #: Share of an undetermined direction (component of the unit singular vector)
 #: above which a parameter belongs to its group.
 GROUP_SHARE = 0.1
+#: A direction whose chi-square one standard uncertainty away is off the
+#: quadratic model's by more than this factor is nonlinear (undetermined).
+NONLINEAR = 2.0
 
 
 def parameter_scales(names, x):
@@ -56,7 +68,7 @@ def parameter_scales(names, x):
     return np.array([max(v, SCALE_FLOORS.get(b, weight_floor)) for b, v in zip(base, x)])
 
 
-def analyze(J, names, x, chi2_scale=1.0, with_covariance=False):
+def analyze(J, names, x, chi2_scale=1.0, with_covariance=False, chi2=None):
     """``(sd, undetermined, groups)`` for a weighted Jacobian ``J`` (residuals x
     parameters) at ``x``: standard uncertainties (``inf`` for undetermined
     parameters), the undetermined parameters' names, and the groups (lists of
@@ -81,6 +93,13 @@ def analyze(J, names, x, chi2_scale=1.0, with_covariance=False):
     # difference Jacobians carry relative errors of ~1e-8)
     null = s <= 1e-6 * s.max()
     weak = (s < np.sqrt(chi2_scale)) | null
+    if chi2 is not None:
+        x = np.asarray(x, dtype=np.float64)
+        c0 = chi2(x)
+        for i in np.flatnonzero(~weak):
+            d = Vt[i] * scales * np.sqrt(chi2_scale) / s[i]
+            rise = (chi2(x + d) + chi2(x - d)) / 2 - c0     # quadratic model: chi2_scale
+            weak[i] = not (chi2_scale / NONLINEAR <= rise <= chi2_scale * NONLINEAR)
     # a weak direction moves a parameter by |v_j| sqrt(chi2_scale) / s of its
     # scale per unit of chi-square: by 100 % or more, it is undetermined even
     # below GROUP_SHARE (a small share of a nearly flat direction)

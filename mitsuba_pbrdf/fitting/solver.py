@@ -351,8 +351,24 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     formal = (objective not in LIKELIHOODS
               or any(t.name not in data.uncertainty for t in terms))
     chi2_scale = max(chi2 / max(dof, 1), 1.0) if formal else 1.0
-    sd, undetermined, groups, cov = analyze(residuals.jacobian(x_best), layout.free, x_best,
-                                            chi2_scale, with_covariance=True)
+    # a weighting objective's residuals are not in units of the noise: judge
+    # the data with the linear ones (identifiability module)
+    noise = residuals if objective in LIKELIHOODS else _Residuals(
+        evaluator, make_terms(data, "linear", rel_uncertainty, abs_uncertainty), layout.free)
+    r_noise = noise(x_best)
+    if objective not in LIKELIHOODS:
+        chi2_scale = max(float(r_noise @ r_noise) / max(dof, 1), 1.0)
+    sd, undetermined, groups, cov = analyze(
+        noise.jacobian(x_best), layout.free, x_best, chi2_scale, with_covariance=True,
+        chi2=lambda z: float(np.sum(noise(np.clip(z, lo, hi)) ** 2)))
+    if objective not in LIKELIHOODS:
+        # the weighting's own scatter (sandwich): never below the data's bound
+        G = residuals.jacobian(x_best)
+        m = evaluator.observables(x_best)
+        w = np.concatenate([np.abs(t.derivative(m[t.name][t.rows])) * t.u for t in terms])
+        A = np.linalg.pinv(G.T @ G, rcond=1e-12)
+        sand = A @ (G.T * w ** 2) @ G @ A * chi2_scale
+        sd = np.maximum(sd, np.sqrt(np.clip(np.diag(sand), 0.0, None)))
     errors = {"n": np.full(len(wavelengths), np.nan), "k": np.full(len(wavelengths), np.nan)}
     errors.update({p: math.nan for p in layout.shared})
     for name, s in zip(layout.free, sd):
