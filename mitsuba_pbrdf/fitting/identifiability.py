@@ -30,11 +30,13 @@ this trade allows.
 The Jacobian must be that of residuals in units of the data's noise: for
 the weighting objectives (``cosine``, ``log-cosine``, whose chi-square is not
 one of noise) the fit passes that of the linear residuals ``(m - y) / u`` at
-its optimum. Where *chi2* (chi-square in those units at a parameter vector)
-is given, each direction is probed one standard uncertainty either way: if
+its optimum, and *chi2* (chi-square in those units at a parameter vector):
+each direction is probed one standard uncertainty either way: if
 chi-square there departs from the quadratic model by more than a factor
 :data:`NONLINEAR` (a curved valley, as n against k of one incidence's M00),
 the linear +/- does not hold and the direction's parameters are undetermined.
+(The likelihood objectives are not probed yet: a linear fit of the same data
+can still report a straight-line +/- along such a valley.)
 """
 
 from __future__ import annotations

@@ -360,7 +360,8 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
         chi2_scale = max(float(r_noise @ r_noise) / max(dof, 1), 1.0)
     sd, undetermined, groups, cov = analyze(
         noise.jacobian(x_best), layout.free, x_best, chi2_scale, with_covariance=True,
-        chi2=lambda z: float(np.sum(noise(np.clip(z, lo, hi)) ** 2)))
+        chi2=None if objective in LIKELIHOODS
+        else lambda z: float(np.sum(noise(np.clip(z, lo, hi)) ** 2)))
     if objective not in LIKELIHOODS:
         # the weighting's own scatter (sandwich): never below the data's bound
         G = residuals.jacobian(x_best)
