@@ -117,10 +117,9 @@ def parse_scene(scene_path, variant: str, params=None):
 
     path = require_scene_file(scene_path)
     config = mi.parser.ParserConfig(variant)
-    # one loader thread: with Mitsuba's parallel instantiation the scene's
-    # Python plugins (pbrdf, the wrappers) are built on several threads at
-    # once, which has crashed whole runs of the test suite (segmentation
-    # faults in a later mi.render, 3 runs of 5); built on one thread, none
+    # one loader thread: Mitsuba's parallel instantiation builds the scene's
+    # Python plugins (pbrdf, the wrappers) on several threads at once, and
+    # they share per-variant modules and the process-wide file resolver
     config.parallel = False
     with _resolver(path), scene_load_errors():
         state = mi.parser.parse_file(config, path,
