@@ -149,7 +149,7 @@ def texel_coverage(texels=16, size=48, supersample=8):
     must be set."""
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
 
     scene = mi.load_dict(ns.plate_scene(ns.true_normals(texels), size=size))
     n = size * supersample
@@ -169,7 +169,7 @@ def texel_coverage(texels=16, size=48, supersample=8):
 def coverage_lines(store, names, coverage):
     """Table rows: where the errors of the runs *names* sit (few or many
     pixels per texel, border or interior, steep or gentle true normals)."""
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
 
     tilt = np.degrees(np.arccos(ns.true_normals(coverage.shape[0])[..., 2]))
     border = np.zeros(coverage.shape, bool)

@@ -1,5 +1,5 @@
 """One case of the shape-from-polarization study: render targets of the bumpy
-metal plate (mitsuba_pbrdf.inverse.normal_scenes) at high spp, turn them into
+metal plate (mitsuba_pbrdf.inverse.normals.scenes) at high spp, turn them into
 the chosen observables (polcam: the mono IMX250MZR frame through the sensor
 model, 16 bits, shot and read noise), and recover the normals from a flat
 start (mitsuba_pbrdf.inverse.normals.recover_normals). Used by
@@ -109,7 +109,7 @@ def run_case(case: Case, callback=None) -> dict:
     (``result``), the truth, the error statistics, seconds and peak memory."""
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
     from mitsuba_pbrdf.inverse.normals import recover_normals
 
     truth = ns.true_normals(case.texels)

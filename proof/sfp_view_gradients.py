@@ -17,8 +17,8 @@ def _flat_plate(metal, texels, size, target_spp):
     of depth 3 and the flat map's texels (a tensor in colour encoding)."""
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
-    from mitsuba_pbrdf.inverse.normal_inputs import find_normalmap
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
+    from mitsuba_pbrdf.inverse.normals.inputs import find_normalmap
 
     truth = ns.true_normals(texels)
     targets = ns.render_targets(mi.load_dict(ns.plate_scene(truth, metal=metal, views=3,
@@ -39,7 +39,7 @@ def view_gradients(metal="Al", spp=256, eps=2e-3, texels=16, size=48, target_spp
     import drjit as dr
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse.normal_targets import observable_loss
+    from mitsuba_pbrdf.inverse.normals.targets import observable_loss
 
     targets, scene, key, params, integrator, base = _flat_plate(metal, texels, size, target_spp)
     losses = [observable_loss(scene, t, "stokes", sensor=i) for i, t in enumerate(targets)]
@@ -76,7 +76,7 @@ def gradient_noise(metal="Al", spp=16, seeds=8, reference_spp=1024, texels=16, s
     import drjit as dr
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse.normal_targets import observable_loss
+    from mitsuba_pbrdf.inverse.normals.targets import observable_loss
 
     targets, scene, key, params, integrator, base = _flat_plate(metal, texels, size, target_spp)
 

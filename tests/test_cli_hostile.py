@@ -442,7 +442,7 @@ def files(tmp_path):
 
     plain = write_exr(tmp_path / "plain.exr", {"Y": np.ones((4, 4), np.float32)})
     y_exr = write_stokes_exr(tmp_path / "y.exr", np.ones((4, 4, 4), np.float32) * [1, 0, 0, 0])
-    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+    from mitsuba_pbrdf.inverse.normals.scenes import write_plate_files
 
     flat = np.zeros((4, 4, 3), np.float32)
     flat[..., 2] = 1.0
@@ -764,7 +764,7 @@ def test_ctrl_c_during_recover_normals_leaves_no_output(files, capfd, monkeypatc
     130, and none of its three outputs (they are written after the fit)."""
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+    from mitsuba_pbrdf.inverse.normals.scenes import write_plate_files
     from mitsuba_pbrdf.stokes.image import from_mitsuba
 
     folder = tmp_path / "plate"

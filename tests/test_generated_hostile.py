@@ -73,7 +73,7 @@ WORK = [("mitsuba_pbrdf.rendering.render", "render_request"),
         ("mitsuba_pbrdf.fitting", "fit_models"),
         ("mitsuba_pbrdf.measured.export", "export_pbsdf"),
         ("mitsuba_pbrdf.batch.runner", "run_sweep"),
-        ("mitsuba_pbrdf.inverse.normals", "recover_normals"),
+        ("mitsuba_pbrdf.inverse.normals.recover", "recover_normals"),
         ("mitsuba_pbrdf.rendering.scene_params", "scene_parameters"),
         ("mitsuba_pbrdf.rendering.scene_convert", "write_text")]
 
@@ -156,7 +156,7 @@ def files(tmp_path_factory):
     from test_cli import TINY_SCENE
     from test_cli_hostile import stokes_exr
 
-    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+    from mitsuba_pbrdf.inverse.normals.scenes import write_plate_files
 
     tmp = tmp_path_factory.mktemp("generated")
     scene = tmp / "tiny.xml"

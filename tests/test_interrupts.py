@@ -234,7 +234,7 @@ def _batch(out):
 
 
 def _recover(out):
-    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+    from mitsuba_pbrdf.inverse.normals.scenes import write_plate_files
     from mitsuba_pbrdf.stokes.exr import write_stokes_exr
     from mitsuba_pbrdf.stokes.image import StokesImage
 

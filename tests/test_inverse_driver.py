@@ -124,7 +124,7 @@ def test_fit_parameters_seeds_each_iterations_passes_from_the_policy(monkeypatch
 
 
 def test_recover_normals_renders_each_view_with_its_seed_from_the_policy(monkeypatch):
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
     from mitsuba_pbrdf.inverse import recover_normals
 
     truth = ns.true_normals(4)

@@ -53,7 +53,7 @@ def test_stokes_prb_texel_gradients_equal_path_ad_per_sample():
 
 def test_polcam_weights_reproduce_mono_mosaic():
     from mitsuba_pbrdf.camera.polcam import mono_mosaic
-    from mitsuba_pbrdf.inverse.normal_targets import polcam_weights
+    from mitsuba_pbrdf.inverse.normals.targets import polcam_weights
     from mitsuba_pbrdf.stokes.image import from_mitsuba
 
     names = ["R", "G", "B"] + [f"S{k}.{b}" for k in range(4) for b in "RGB"]
@@ -68,8 +68,8 @@ def test_polcam_weights_reproduce_mono_mosaic():
 def test_height_normals_match_numpy_twin():
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse.normal_scenes import bumpy_heights
-    from mitsuba_pbrdf.inverse.normal_texels import NormalTexels, normals_from_heights
+    from mitsuba_pbrdf.inverse.normals.scenes import bumpy_heights
+    from mitsuba_pbrdf.inverse.normals.texels import NormalTexels, normals_from_heights
 
     heights = bumpy_heights(7)
     texels = NormalTexels("height", np.zeros((7, 7, 3)), heights)
@@ -96,7 +96,7 @@ def test_learning_rates_decay_to_lr_end_at_the_last_iteration():
 def small_problem():
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
 
     truth = ns.true_normals(8)
     scene = mi.load_dict(ns.plate_scene(truth, size=32))
@@ -109,10 +109,10 @@ def small_problem():
 def _view_gradient_setup(views=2):
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
-    from mitsuba_pbrdf.inverse.normal_inputs import find_normalmap
-    from mitsuba_pbrdf.inverse.normal_targets import observable_loss
-    from mitsuba_pbrdf.inverse.normal_texels import NormalTexels
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
+    from mitsuba_pbrdf.inverse.normals.inputs import find_normalmap
+    from mitsuba_pbrdf.inverse.normals.targets import observable_loss
+    from mitsuba_pbrdf.inverse.normals.texels import NormalTexels
 
     truth = ns.true_normals(6)
     scene = mi.load_dict(ns.plate_scene(truth, metal="Al", views=views, size=12))
@@ -148,7 +148,7 @@ def test_multi_view_gradient_is_the_sum_of_the_views_gradients():
     import drjit as dr
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse.view_gradients import summed_gradients
+    from mitsuba_pbrdf.inverse.gradients import summed_gradients
 
     texels, view_loss = _view_gradient_setup()
     separate = []
@@ -219,7 +219,7 @@ def test_height_field_with_roughness_map_runs_and_stays_in_bounds(small_problem)
     recovery itself is tested above)."""
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
     from mitsuba_pbrdf.inverse.normals import SIGMA_BOUNDS, recover_normals
 
     truth, _, targets = small_problem
@@ -298,7 +298,7 @@ def recipe_lines():
 def test_plate_files_have_defaults_and_truth_takes_their_normal_map(tmp_path):
     """write_plate_files' scene takes -D (its <default>s) and its normal map
     is what --truth takes: read back, it is the map written (float32)."""
-    from mitsuba_pbrdf.inverse.normal_scenes import read_normal_map, true_normals, write_plate_files
+    from mitsuba_pbrdf.inverse.normals.scenes import read_normal_map, true_normals, write_plate_files
     from mitsuba_pbrdf.rendering.scene_params import scene_parameters
 
     truth = true_normals(8)
@@ -309,6 +309,35 @@ def test_plate_files_have_defaults_and_truth_takes_their_normal_map(tmp_path):
     np.testing.assert_allclose(read_normal_map(tmp_path / "plate_normals.exr"), truth, atol=1e-6)
 
 
+def test_recover_from_files_names_the_bad_parameter_before_fitting(tmp_path):
+    """recover_from_files, the command's one library call, refuses a bad
+    option, target count, target file or truth file by its parameter before
+    the first iteration."""
+    import mitsuba as mi
+
+    from mitsuba_pbrdf.errors import ParameterError
+    from mitsuba_pbrdf.inverse.normals import recover_from_files
+    from mitsuba_pbrdf.inverse.normals.scenes import true_normals, write_plate_files
+    from mitsuba_pbrdf.stokes.exr import write_stokes_exr
+    from mitsuba_pbrdf.stokes.image import from_mitsuba
+
+    plate = write_plate_files(tmp_path, true_normals(4), size=8, spp=1)
+    scene = mi.load_file(plate)
+    target = write_stokes_exr(tmp_path / "t.exr", from_mitsuba(mi.render(scene, spp=1),
+                                                               scene.sensors()[0].film()))
+    cases = [(dict(targets=[target], iterations=0), "iterations"),
+             (dict(targets=[target, target]), "targets"),
+             (dict(targets=[target], observables="polcam"), "targets"),
+             (dict(targets=[target], truth=target), "truth")]
+    calls = []
+    for kwargs, name in cases:
+        with pytest.raises(ParameterError) as info:
+            recover_from_files(plate, callback=lambda *a: calls.append(a), **kwargs)
+        assert info.value.parameter == name, (name, str(info.value))
+    assert not calls
+    with pytest.raises(TypeError, match="recover_from_files: .*colour"):
+        recover_from_files(plate, [target], colour=1)
+
 @pytest.mark.slow
 @pytest.mark.usefixtures("restore_variant")
 def test_recover_normals_takes_the_plates_normal_map_as_truth(tmp_path, capsys):
@@ -316,7 +345,7 @@ def test_recover_normals_takes_the_plates_normal_map_as_truth(tmp_path, capsys):
     -D values, two iterations against plate_normals.exr as --truth; the
     texture at one pixel per texel and the readable recovery.png."""
     from mitsuba_pbrdf.cli import main
-    from mitsuba_pbrdf.inverse.normal_scenes import true_normals, write_plate_files
+    from mitsuba_pbrdf.inverse.normals.scenes import true_normals, write_plate_files
 
     plate = write_plate_files(tmp_path, true_normals(8), size=8, spp=2)
     assert main(["render", plate, "-D", "spp=4", "-D", "material=Al", "--out",
@@ -350,23 +379,23 @@ def test_save_writes_what_the_command_writes(tmp_path, monkeypatch):
     import OpenEXR
 
     from mitsuba_pbrdf.cli import main
-    from mitsuba_pbrdf.inverse import normals
-    from mitsuba_pbrdf.inverse.normal_result import RECOVERY_FILES
-    from mitsuba_pbrdf.inverse.normal_scenes import true_normals, write_plate_files
+    from mitsuba_pbrdf.inverse.normals import recover
+    from mitsuba_pbrdf.inverse.normals.result import RECOVERY_FILES
+    from mitsuba_pbrdf.inverse.normals.scenes import true_normals, write_plate_files
     from mitsuba_pbrdf.stokes.exr import read_exr_channels
 
     plate = write_plate_files(tmp_path, true_normals(8), size=8, spp=2)
     variant = ["--variant", "llvm_ad_spectral_polarized"]
     assert main(["render", plate, "-D", "spp=4", "--out", str(tmp_path / "target"), *variant]) == 0
-    made, fit = [], normals.recover_normals
-    monkeypatch.setattr(normals, "recover_normals", lambda *a, **k: made.append(fit(*a, **k))
+    made, fit = [], recover.recover_normals
+    monkeypatch.setattr(recover, "recover_normals", lambda *a, **k: made.append(fit(*a, **k))
                         or made[-1])
     assert main(["recover-normals", plate, "--targets", str(tmp_path / "target.exr"), "--out",
                  str(tmp_path / "cli"), "--truth", str(tmp_path / "plate_normals.exr"),
                  "--iterations", "2", "--spp", "1", "--no-progress", *variant]) == 0
     (result,) = made
-    assert result.source is None  # the command passed its loaded scene, and names the file
-    result.save(tmp_path / "py", source=os.path.basename(plate))
+    assert result.source == "plate.xml"  # recover_from_files names the scene file it read
+    result.save(tmp_path / "py")
     cli, py = tmp_path / "cli", tmp_path / "py"
     assert sorted(os.listdir(cli)) == sorted(os.listdir(py)) == sorted(RECOVERY_FILES)
     assert json.loads((cli / "recovery.json").read_text()) == \
@@ -382,7 +411,7 @@ def test_save_writes_what_the_command_writes(tmp_path, monkeypatch):
     assert headers[0] == headers[1] and headers[0]["pbrdf:source"] == b"plate.xml"
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse.normal_targets import film_channels, film_target
+    from mitsuba_pbrdf.inverse.normals.targets import film_channels, film_target
     from mitsuba_pbrdf.stokes.exr import read_stokes_exr
 
     target = film_target(read_stokes_exr(str(tmp_path / "target.exr")),
@@ -394,7 +423,7 @@ def test_save_writes_all_four_files_or_none(tmp_path):
     """save() replaces the four files together (mitsuba_pbrdf.outputs.together):
     when one cannot be written (its path is a folder) none is, and an earlier
     file stays as it was."""
-    from mitsuba_pbrdf.inverse.normal_result import (RECOVERY_FILES, NormalRecovery,
+    from mitsuba_pbrdf.inverse.normals.result import (RECOVERY_FILES, NormalRecovery,
                                                      recovery_paths)
 
     flat = np.zeros((4, 4, 3))
@@ -427,7 +456,7 @@ def test_recovery_picture_shows_truth_fit_error_and_loss(tmp_path):
     from PIL import Image
 
     from mitsuba_pbrdf.visualization.normal_recovery import recovery_figure, save_recovery_png
-    from mitsuba_pbrdf.inverse.normal_scenes import true_normals
+    from mitsuba_pbrdf.inverse.normals.scenes import true_normals
 
     truth = true_normals(8)
     flat = np.zeros_like(truth)
@@ -446,7 +475,7 @@ def test_recovery_picture_shows_truth_fit_error_and_loss(tmp_path):
 
 
 def test_truth_refuses_what_is_not_a_normal_map(tmp_path):
-    from mitsuba_pbrdf.inverse.normal_scenes import read_normal_map
+    from mitsuba_pbrdf.inverse.normals.scenes import read_normal_map
     from mitsuba_pbrdf.stokes.exr import write_exr
 
     write_exr(tmp_path / "y.exr", {"Y": np.ones((4, 4), np.float32)})

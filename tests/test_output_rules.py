@@ -118,7 +118,7 @@ def snapshot(folder):
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
-    from mitsuba_pbrdf.inverse.normal_scenes import write_plate_files
+    from mitsuba_pbrdf.inverse.normals.scenes import write_plate_files
     from mitsuba_pbrdf.stokes.exr import write_exr, write_stokes_exr
     from mitsuba_pbrdf.stokes.image import StokesImage
     from test_cli import TINY_SCENE

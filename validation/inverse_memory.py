@@ -135,10 +135,10 @@ def child(config):
 def normalmap_sphere(size, spp):
     """The study's sphere scene dict with its pbrdf wrapped in a
     ``polarized_normalmap`` of :data:`TEXELS` x :data:`TEXELS` texels (the
-    bumps of ``inverse.normal_scenes.true_normals``)."""
+    bumps of ``inverse.normals.scenes.true_normals``)."""
     from mitsuba_pbrdf import inverse
-    from mitsuba_pbrdf.inverse.normal_scenes import true_normals
-    from mitsuba_pbrdf.inverse.normal_texels import normalmap_texture
+    from mitsuba_pbrdf.inverse.normals.scenes import true_normals
+    from mitsuba_pbrdf.inverse.normals.texels import normalmap_texture
 
     pbrdf = {"type": "pbrdf", "eta": 2.0, "k": 4.0, "sigma": 0.12, "ks": 1.0,
              "kdd": 0.1, "sigma_dd": 0.5, "kid": 0.03}

@@ -191,8 +191,8 @@ READING = [
 def run(name):
     import mitsuba as mi
 
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
-    from mitsuba_pbrdf.inverse.normal_targets import observable_loss
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
+    from mitsuba_pbrdf.inverse.normals.targets import observable_loss
     from mitsuba_pbrdf.inverse.normals import recover_normals
 
     what, overrides = EXPERIMENTS[name]

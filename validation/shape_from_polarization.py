@@ -12,7 +12,7 @@ Writes ``validation/shape_from_polarization.md`` and
 texel gradients (proof/normal_map_gradients.py): ``stokes_prb`` against
 ``path`` AD with cosine sampling, per sample, and against central finite
 differences, for ``polarized_normalmap`` and ``polarized_bumpmap``. Section 2
-runs proof/sfp_study.py's cases: the plate (mitsuba_pbrdf.inverse.normal_scenes)
+runs proof/sfp_study.py's cases: the plate (mitsuba_pbrdf.inverse.normals.scenes)
 under an environment map and an area light, targets at high spp, a flat
 start, Adam on the unit normals with ``stokes_prb``, the learning rate
 decaying geometrically to a tenth; error = angle between recovered and true

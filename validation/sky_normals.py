@@ -7,7 +7,7 @@ unpolarized (Mitsuba's ``sunsky`` of the same intensity, the same sun).
 
 Writes ``validation/sky_normals.md`` and ``validation/figures/sky_normals.png``.
 The plate, its normal map and its cameras are those of
-validation/shape_from_polarization.py (``mitsuba_pbrdf.inverse.normal_scenes``:
+validation/shape_from_polarization.py (``mitsuba_pbrdf.inverse.normals.scenes``:
 copper ``pbrdf`` sigma 0.15 under a ``polarized_normalmap``, three cameras 55°
 from the normal), but outdoors: the environment map and the area light are
 replaced by the sky alone. Targets: ``polarized_sky`` (``rayleigh``,
@@ -58,7 +58,7 @@ def sky(model):
 
 def outdoor_plate(normals, model, args):
     """plate_scene's plate and cameras, lit by the sky of *model* only."""
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
 
     d = ns.plate_scene(normals, metal=METAL, views=args.views, size=args.size)
     d.pop("key")
@@ -107,7 +107,7 @@ def main(argv=None):
         args.spp, args.target_spp, args.seeds = 8, 64, 1
     observables = ("stokes",) if args.quick else ("stokes", "intensity")
     mi = use_variant()
-    from mitsuba_pbrdf.inverse import normal_scenes as ns
+    from mitsuba_pbrdf.inverse.normals import scenes as ns
     from mitsuba_pbrdf.inverse.normals import recover_normals
 
     t_start = time.perf_counter()
@@ -167,7 +167,7 @@ def main(argv=None):
 ## Setup
 
 The plate of [validation/shape_from_polarization.md](shape_from_polarization.md)
-(`mitsuba_pbrdf.inverse.normal_scenes`): [-1, 1]^2, a {args.texels} x {args.texels} normal
+(`mitsuba_pbrdf.inverse.normals.scenes`): [-1, 1]^2, a {args.texels} x {args.texels} normal
 map of a height field (bumps, dents and a ripple), {METAL} `pbrdf` sigma 0.15 (known),
 {args.views} camera{'s' * (args.views > 1)} 55° from the normal ({args.size} x {args.size}
 pixels, azimuths -90°{', 30°, 150°' if args.views == 3 else ''}), but outdoors: the sky is the

@@ -1,8 +1,6 @@
 """``pbrdf recover-normals``: shape from polarization, a thin layer over
-:func:`mitsuba_pbrdf.inverse.normals.recover_normals`.
-
-Reads the scene (one shape's BSDF a ``polarized_normalmap``) and one target
-per sensor: Stokes EXRs (``pbrdf render``) for ``--observables intensity`` or
+:func:`mitsuba_pbrdf.inverse.normals.recover_from_files`, which reads the
+scene (one shape's BSDF a ``polarized_normalmap``) and one target per sensor: Stokes EXRs (``pbrdf render``) for ``--observables intensity`` or
 ``stokes``, raw mono mosaic EXRs (``pbrdf polcam``'s ``_mosaic.exr``, channel
 ``Y``) for ``polcam``. Writes ``DIR/normals.exr`` (channels X, Y, Z: unit
 normals in the shape's tangent frame), ``DIR/normals.png`` (the usual
@@ -12,54 +10,28 @@ angular error map, the loss curve; :mod:`mitsuba_pbrdf.visualization.normal_reco
 and ``DIR/recovery.json`` (loss per iteration, options, angular errors with
 ``--truth``, which takes ``normals.exr`` or a normal-map texture such as
 ``write_plate_files``' ``plate_normals.exr``), all four or none
-(:meth:`~mitsuba_pbrdf.inverse.normal_result.NormalRecovery.save`), after
+(:meth:`~mitsuba_pbrdf.inverse.normals.NormalRecovery.save`), after
 checking every input and that the folder can take them."""
 
 from __future__ import annotations
 
 import os
 
-from ..interrupts import release
 from .arguments import (check_outputs, chosen_variant, progress_options, require_file,
                         show_progress, variant_help)
 from .errors import CliError
 
 
-def _targets(paths, scene, observables):
-    from ..inverse.normal_targets import film_channels, film_target
-    from ..stokes.exr import read_exr_channels, read_stokes_exr
-
-    out = []
-    for i, path in enumerate(paths):
-        if observables == "polcam":
-            channels = read_exr_channels(path)
-            if "Y" not in channels:
-                raise CliError(f"{path}: no channel Y (a raw mosaic written by pbrdf polcam)")
-            out.append(channels["Y"])
-        else:
-            out.append(film_target(read_stokes_exr(path), film_channels(scene, i)))
-    return out
-
-
-def _truth(path):
-    """The true normals: channels X, Y, Z (as normals.exr has) or a normal-map
-    texture's R, G, B = (n + 1) / 2 (as write_plate_files' plate_normals.exr)."""
-    from ..inverse.normal_scenes import read_normal_map
-
-    try:
-        return read_normal_map(path)
-    except ValueError as e:
-        raise CliError(f"--truth: {e}") from None
-
-
 def run(args) -> int:
     """``pbrdf recover-normals``."""
     from ..inverse.driver import LR_END
-    from ..inverse.normal_inputs import check_options, find_normalmap
-    from ..inverse.normal_result import recovery_paths
+    from ..inverse.normals import recover
+    from ..inverse.normals.inputs import check_options
+    from ..inverse.normals.result import recovery_paths
     from ..registry import use_variant
     from ..rendering.progress import progress_reporter
-    from ..rendering.render import load_scene, require_polarized
+    from ..rendering.render import require_polarized
+    from ..rendering.scene_params import scene_inputs
 
     require_file(args.scene, "scene")
     for path in args.targets:
@@ -73,8 +45,6 @@ def run(args) -> int:
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"--out: {args.out} is not a folder")
     paths = recovery_paths(args.out)
-    from ..rendering.scene_params import scene_inputs
-
     check_outputs(*[("--out", p) for p in paths.values()],
                   inputs=[("SCENE.xml", args.scene), *[("--targets", t) for t in args.targets],
                           ("--truth", args.truth)]
@@ -83,29 +53,16 @@ def run(args) -> int:
     require_polarized(variant)
     use_variant(variant)
 
-    scene = load_scene(args.scene)
-    find_normalmap(scene)  # before reading the targets: the scene's own error first
-    if len(args.targets) != len(scene.sensors()):
-        raise CliError(f"--targets: {len(args.targets)} given, the scene has "
-                       f"{len(scene.sensors())} sensors (one target per sensor)")
-    targets = _targets(args.targets, scene, args.observables)
-    truth = _truth(args.truth) if args.truth else None
-
-    from ..inverse.normals import recover_normals
-
-    release()  # loaded and checked: Ctrl-C from here on stops the fit (mitsuba_pbrdf.interrupts)
-
     with progress_reporter(args.iterations, "recover-normals", show_progress(args),
                            steps=args.iterations, unit="it") as bar:
-        result = recover_normals(scene, targets, observables=args.observables,
-                                 parametrization=args.parametrization,
-                                 smoothness=args.smoothness, iterations=args.iterations,
-                                 spp=args.spp, lr=args.lr, lr_end=args.lr_end,
-                                 fit_roughness=args.fit_roughness,
-                                 truth=truth, seed=args.seed,
-                                 callback=lambda it, loss: bar.update(1))
+        result = recover.recover_from_files(
+            args.scene, args.targets, truth=args.truth or None, observables=args.observables,
+            parametrization=args.parametrization, smoothness=args.smoothness,
+            iterations=args.iterations, spp=args.spp, lr=args.lr, lr_end=args.lr_end,
+            fit_roughness=args.fit_roughness, seed=args.seed,
+            callback=lambda it, loss: bar.update(1))
 
-    result.save(paths, source=os.path.basename(args.scene))  # the four outputs, or none
+    result.save(paths)  # the four outputs, or none
     print(f"wrote {', '.join(paths.values())}")
     errors = result.error_stats()
     print(f"loss {result.loss[0]:.4g} -> {result.loss[-1]:.4g} in {result.seconds:.1f} s"

@@ -23,11 +23,9 @@ or forward mode in passes; Jacobians, Fisher information; the methods and
 their memory and time are in its docstring), :mod:`.driver` (the one Adam
 loop: seeds, learning rates, clamping, progress), :mod:`.optimize` (scalar
 parameters), :mod:`.svbrdf` (texture maps recovered by polarized path
-replay), :mod:`.normals` (shape from polarization: a ``polarized_normalmap``'s
-normals; its texels :mod:`.normal_texels`, targets and losses
-:mod:`.normal_targets`, input checks :mod:`.normal_inputs`, gradient over views
-:mod:`.view_gradients`, result :mod:`.normal_result`; :mod:`.normal_scenes`, a
-plate to recover them from). The Mueller matrices of a BSDF with derivatives,
+replay), :mod:`.normals` (shape from polarization, a subpackage: a
+``polarized_normalmap``'s normals recovered from images or files). The
+Mueller matrices of a BSDF with derivatives,
 in the reference's frames, are :func:`mitsuba_pbrdf.frames.mueller_brdf`.
 """
 
@@ -35,8 +33,7 @@ from .gradients import (METHODS, REVERSE_BYTES_PER_SAMPLE_AND_DEPTH, GradientSta
                         fisher_information, gradient_method, jacobian, loss_and_gradient, render,
                         reverse_passes)
 from .losses import stokes_indices, stokes_loss
-from .normal_result import NormalRecovery
-from .normals import recover_normals
+from .normals import NormalRecovery, recover_from_files, recover_normals
 from .optimize import OptimizationResult, fit_parameters
 from .scenes import sphere_scene
 
@@ -57,4 +54,5 @@ __all__ = [
     "fit_parameters",
     "NormalRecovery",
     "recover_normals",
+    "recover_from_files",
 ]

@@ -5,7 +5,7 @@ validation/shape_from_polarization.py, the tests and examples.
 
 Units: the plate is the square [-1, 1]^2 at z = 0 (scene units), its
 tangent frame on the world axes (x = dp_du, z = normal); heights of
-:func:`bumpy_heights` are in texel widths (see :mod:`.normal_texels`).
+:func:`bumpy_heights` are in texel widths (see :mod:`.texels`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import os
 
 import numpy as np
 
-from .normal_texels import normalmap_texture, normals_from_heights
+from .texels import normalmap_texture, normals_from_heights
 
 #: Camera azimuths (degrees, around +z) of the views; view 0 first.
 VIEW_AZIMUTHS = (-90.0, 30.0, 150.0)
@@ -163,8 +163,8 @@ def write_plate_files(folder, normals, metal: str = "Cu", size: int = 32, spp: i
     and ``height``, ``spp``, ``sigma`` (and ``max_depth``, 3), so ``pbrdf
     render plate.xml -D spp=256`` renders a target. ``plate_normals.exr`` is
     what ``recover-normals --truth`` takes (:func:`read_normal_map`)."""
-    from ..outputs import escape_text, write_text
-    from ..stokes.exr import write_exr
+    from ...outputs import escape_text, write_text
+    from ...stokes.exr import write_exr
 
     folder = os.fspath(folder)
     colour = ((np.asarray(normals, np.float32) + 1.0) / 2.0).astype(np.float32)
@@ -184,7 +184,7 @@ def read_normal_map(path) -> np.ndarray:
     recover-normals``' ``normals.exr``) or R, G, B holding the colour encoding
     (n + 1) / 2 (a normal-map texture, such as :func:`write_plate_files`'
     ``plate_normals.exr``). ValueError naming the file otherwise."""
-    from ..stokes.exr import read_exr_channels
+    from ...stokes.exr import read_exr_channels
 
     channels = read_exr_channels(path)
     if all(c in channels for c in "XYZ"):

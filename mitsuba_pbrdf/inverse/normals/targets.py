@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ParameterError
+from ...errors import ParameterError
 
 __all__ = ["OBSERVABLES", "film_channels", "film_target", "polcam_weights", "observable_loss"]
 
@@ -26,7 +26,7 @@ OBSERVABLES = ("intensity", "stokes", "polcam")
 
 def film_channels(scene, sensor=0) -> list:
     """The channel names of the tensor ``mi.render`` returns for *sensor*."""
-    from ..stokes.image import channel_names
+    from ...stokes.image import channel_names
 
     film = scene.sensors()[sensor].film()
     try:
@@ -56,8 +56,8 @@ def polcam_weights(film_channels, height, width):
     the mono IMX250MZR frame of a rendered image (channels *film_channels*):
     :func:`~mitsuba_pbrdf.camera.polcam.mono_mosaic` applied to unit images
     (it is linear), so the fit sees exactly the project's camera model."""
-    from ..camera.polcam import mono_mosaic
-    from ..stokes.image import from_mitsuba
+    from ...camera.polcam import mono_mosaic
+    from ...stokes.image import from_mitsuba
 
     channels = list(film_channels)
     weights = np.zeros((height, width, len(channels)), np.float32)
@@ -76,7 +76,7 @@ def observable_loss(scene, target, observables, sensor=0):
     import drjit as dr
     import mitsuba as mi
 
-    from .losses import stokes_loss
+    from ..losses import stokes_loss
 
     if observables != "polcam":
         expected = tuple(np.array(scene.sensors()[sensor].film().crop_size())[::-1])

@@ -29,10 +29,10 @@ import os
 
 import numpy as np
 
-from ..errors import ParameterError
-from .driver import LR_END
-from .normal_targets import OBSERVABLES
-from .normal_texels import PARAMETRIZATIONS
+from ...errors import ParameterError
+from ..driver import LR_END
+from .targets import OBSERVABLES
+from .texels import PARAMETRIZATIONS
 
 __all__ = ["SEED_LIMIT", "check_options", "check_seed", "check_max_depth", "as_scene",
            "find_normalmap", "check_normal_map", "roughness_key", "check_targets",
@@ -159,8 +159,8 @@ def _array(value, name: str, what: str) -> np.ndarray:
 def check_targets(targets, sensors: int, observables: str, channels) -> list:
     """The targets as float64 arrays, checked (module docstring); *channels*:
     ``channels(i)``, the film channel names of sensor *i*."""
-    from ..stokes.image import from_mitsuba
-    from ..stokes.quality import UnusableImageError, require_usable
+    from ...stokes.image import from_mitsuba
+    from ...stokes.quality import UnusableImageError, require_usable
 
     if not isinstance(targets, (list, tuple)) or len(targets) != sensors:
         got = len(targets) if isinstance(targets, (list, tuple)) else type(targets).__name__

@@ -94,10 +94,10 @@ class NormalRecovery:
         (created if missing) or {file name: path} (:func:`recovery_paths`).
         source: the scene's name in the EXR's header and the picture's title
         (default: :attr:`source`). Returns {file name: path}."""
-        from ..outputs import together, write_json
-        from ..stokes.exr import write_exr
-        from ..visualization.normal_recovery import save_recovery_png
-        from ..visualization.png import write_pixels_png
+        from ...outputs import together, write_json
+        from ...stokes.exr import write_exr
+        from ...visualization.normal_recovery import save_recovery_png
+        from ...visualization.png import write_pixels_png
 
         paths = recovery_paths(folder_or_paths)
         source = self.source if source is None else source

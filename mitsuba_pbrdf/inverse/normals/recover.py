@@ -1,34 +1,30 @@
-"""Shape from polarization: the normal map of a ``polarized_normalmap`` (and
-optionally the roughness map of the ``pbrdf`` it wraps) fitted to target
-images with polarized path replay (``stokes_prb``), :func:`recover_normals`.
-
-This module is the fit: each iteration renders every view with the
-variables' normals, sums the views' gradients and lets the one Adam loop
-(:func:`~mitsuba_pbrdf.inverse.driver.run_adam`) step. The pieces are apart:
-the texels and their parametrization (:mod:`.normal_texels`), the targets
-and their losses (:mod:`.normal_targets`), the inputs' checks
-(:mod:`.normal_inputs`), the gradient summed over views
-(:mod:`.view_gradients`) and the result (:mod:`.normal_result`). A polarized
-variant with ``stokes_prb`` registered must be set; the scene's integrator is
-replaced by ``stokes_prb`` for the fit.
+"""The fit of :func:`recover_normals`: each iteration renders every view
+with the variables' normals, sums the views' gradients
+(:func:`~mitsuba_pbrdf.inverse.gradients.summed_gradients`) and lets the one
+Adam loop (:func:`~mitsuba_pbrdf.inverse.driver.run_adam`) step;
+:func:`recover_from_files` is the same fit from the files ``pbrdf
+recover-normals`` reads. A polarized variant with ``stokes_prb`` registered
+must be set; the scene's integrator is replaced by ``stokes_prb`` for the fit.
 """
 
 from __future__ import annotations
 
+import inspect
 import os
 from typing import Callable, Optional
 
 import numpy as np
 
-from .driver import LR_END, learning_rates, run_adam
-from .normal_inputs import (as_scene, check_normal_field, check_normal_map, check_options,
-                            check_targets, find_normalmap, roughness_key)
-from .normal_result import NormalRecovery, angular_error
-from .normal_targets import film_channels, observable_loss
-from .normal_texels import NormalTexels
-from .view_gradients import summed_gradients
+from ...errors import ParameterError
+from ..driver import LR_END, learning_rates, run_adam
+from ..gradients import summed_gradients
+from .inputs import (as_scene, check_normal_field, check_normal_map, check_options, check_targets,
+                     find_normalmap, roughness_key)
+from .result import NormalRecovery, angular_error
+from .targets import film_channels, observable_loss
+from .texels import NormalTexels
 
-__all__ = ["SIGMA_BOUNDS", "recover_normals"]
+__all__ = ["SIGMA_BOUNDS", "recover_normals", "recover_from_files"]
 
 #: Bounds of a fitted roughness map (pbrdf's sigma; as inverse.svbrdf).
 SIGMA_BOUNDS = (0.03, 0.6)
@@ -98,6 +94,87 @@ def recover_normals(scene, targets, *, observables: str = "stokes",
     if truth is not None:
         out.angular_error = angular_error(out.normals, truth)
         out.start_error = angular_error(start_normals, truth)
+    return out
+
+
+#: recover_normals' keyword options and defaults (what recover_from_files passes on).
+_OPTIONS = {name: p for name, p in inspect.signature(recover_normals).parameters.items()
+            if p.kind is p.KEYWORD_ONLY and name != "truth"}
+
+
+def recover_from_files(scene, targets, *, truth=None, **options) -> NormalRecovery:
+    """:func:`recover_normals` from files, read as ``pbrdf recover-normals``
+    reads them.
+
+    Parameters
+    ----------
+    scene : str or os.PathLike
+        Mitsuba scene XML; one shape's BSDF a ``polarized_normalmap`` over a raw bitmap.
+    targets : sequence of str or os.PathLike
+        One EXR per sensor, in sensor order: Stokes EXRs (``pbrdf render``) for
+        ``observables`` "intensity" or "stokes", raw mono mosaic EXRs
+        (``pbrdf polcam``'s ``_mosaic.exr``, channel ``Y``) for "polcam".
+    truth : str or os.PathLike, optional
+        True normals for the angular errors: channels X, Y, Z (as
+        ``normals.exr``) or a normal-map texture's R, G, B = (n + 1) / 2.
+    **options
+        :func:`recover_normals`' keywords (``observables``, ``iterations``,
+        ``spp``, ``callback``...).
+
+    Returns
+    -------
+    NormalRecovery
+        Its ``source`` is the scene file's name; ``result.save(folder)``
+        writes what the command writes.
+
+    Raises
+    ------
+    ParameterError
+        Naming ``targets``, ``truth`` or the option, before the fit.
+
+    Example
+    -------
+    >>> result = recover_from_files("out/plate/plate.xml", ["out/target.exr"],
+    ...                             truth="out/plate/plate_normals.exr", iterations=40)
+    >>> result.save("out/recovered")
+    """
+    from ...interrupts import release
+    from ...rendering.scene_loading import load_scene
+    from ...stokes.exr import read_exr_channels, read_stokes_exr
+    from .scenes import read_normal_map
+    from .targets import film_target
+
+    unknown = sorted(set(options) - set(_OPTIONS))
+    if unknown:
+        raise TypeError(f"recover_from_files: unknown keyword {unknown[0]!r}; "
+                        f"recover_normals takes {', '.join(_OPTIONS)}")
+    o = {name: p.default for name, p in _OPTIONS.items()} | options
+    check_options(o["observables"], o["parametrization"], o["iterations"], o["spp"],
+                  o["smoothness"], o["lr"], o["lr_end"], o["lr_decay"], o["seed"], o["max_depth"])
+    targets = [os.fspath(t) for t in targets]
+    loaded = load_scene(scene)
+    find_normalmap(loaded)  # the scene's own error before the targets'
+    if len(targets) != len(loaded.sensors()):
+        raise ParameterError("targets", f"{len(targets)} given, the scene has "
+                                        f"{len(loaded.sensors())} sensors (one target per sensor)")
+    images = []
+    for i, path in enumerate(targets):
+        if o["observables"] == "polcam":
+            channels = read_exr_channels(path)
+            if "Y" not in channels:
+                raise ParameterError("targets", f"{path}: no channel Y (a raw mosaic written by "
+                                                f"pbrdf polcam)")
+            images.append(channels["Y"])
+        else:
+            images.append(film_target(read_stokes_exr(path), film_channels(loaded, i)))
+    if truth is not None:
+        try:
+            truth = read_normal_map(truth)
+        except ValueError as e:
+            raise ParameterError("truth", str(e)) from None
+    release()  # loaded and checked: Ctrl-C from here on stops the fit (mitsuba_pbrdf.interrupts)
+    out = recover_normals(loaded, images, truth=truth, **options)
+    out.source = os.path.basename(os.fspath(scene))
     return out
 
 
