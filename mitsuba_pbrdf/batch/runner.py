@@ -39,18 +39,16 @@ job that has not started.
 
 Dask orders the tasks waiting for a worker by their priority tuple
 ``(-user priority, generation, graph order)``. Jobs submitted one by one
-with ``client.submit`` all had graph order 0, and the scheduler starts a new
-*generation* only when 100 ms (``fifo_timeout``) have passed since the last
-one, so the hundreds of jobs submitted within 100 ms shared one priority,
-among which Dask's queue keeps no particular order. A job whose worker was
-lost (killed, ``scancel``, Slurm walltime) went back among the waiting jobs
-of its generation, often behind all of them: on Slurm one waited more than
-60 renders after its worker's walltime (tests/test_batch_slurm.py), on a
-local cluster one ran last of 12 (tests/test_batch_priority.py). Submitted
-one by one, the first jobs also reached the scheduler as a task group too
-small to queue (Dask queues only groups larger than twice the cluster's
-threads), so they were handed to the first worker up front: a worker lost
-early took 3 jobs with it.
+with ``client.submit`` would all have graph order 0, and the scheduler starts
+a new *generation* only when 100 ms (``fifo_timeout``) have passed since the
+last one, so the hundreds of jobs submitted within 100 ms would share one
+priority, among which Dask's queue keeps no particular order: a job whose
+worker was lost (killed, ``scancel``, Slurm walltime) would go back among the
+waiting jobs of its generation, often behind all of them
+(tests/test_batch_slurm.py, tests/test_batch_priority.py). Submitted one by
+one, the first jobs would also reach the scheduler as a task group too small
+to queue (Dask queues only groups larger than twice the cluster's threads)
+and be handed to the first worker up front, to be lost with it.
 
 :func:`submit_in_order` submits all jobs as one graph (``client.map``): one
 generation, graph order = the sweep's order (all priorities distinct), and

@@ -69,9 +69,9 @@ class Keeper(threading.Thread):
 
     Losses come as events, not from looking at the cluster now and then: the
     scheduler calls :meth:`worker_left` (and :meth:`worker_joined`) for every
-    worker, however short its life. A worker job that joined and was
-    cancelled between two looks used to go uncounted and be replaced anyway
-    (CI: 4 replacements with a cap of 2). Every replacement needs Dask to
+    worker, however short its life: a worker job that joins and is cancelled
+    between two looks would otherwise go uncounted and be replaced beyond the
+    cap. Every replacement needs Dask to
     give up a lost job first (``distributed.deploy.lost-worker-timeout``
     after the worker left), and the keeper submits nothing while a loss it
     was told of is not yet counted, so each replacement is counted before it

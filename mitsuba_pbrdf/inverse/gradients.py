@@ -34,9 +34,8 @@ renders, and their derivatives, are wrong (validation/inverse_memory.md).
 where the sampled directions do not depend on the parameters (e.g.
 ``sampling="cosine"``, ``diffuse``), and with ``direct``.
 
-Measured (validation/inverse_memory.md; 512 x 512, 64 spp, depth 4, 7
-parameters, 2 cores): see the table there for ``prb`` against reverse mode
-in passes and forward mode.
+The memory and time of ``prb`` against reverse mode in passes and forward
+mode, with the command that measures them: validation/inverse_memory.md.
 
 With ``passes=1`` and the same seed, the reverse and forward methods give
 what ``mi.render`` and ``dr.backward`` give with the scene's integrator (the
@@ -95,7 +94,7 @@ def render(scene, spp=16, seed=0, passes=1, integrator=None):
 #: Dr.Jit memory of reverse-mode AD through ``path`` per sample and unit of
 #: ``max_depth`` (bytes), measured with validation/inverse_memory.py: 2.06 kB
 #: per sample at max_depth 4 on the pbrdf sphere scene, 1.9 kB at depth 3 with
-#: ``roughconductor`` (the issue's figure); rounded up.
+#: ``roughconductor``; rounded up.
 REVERSE_BYTES_PER_SAMPLE_AND_DEPTH = 560
 
 

@@ -30,8 +30,8 @@ sample's index within its pass. The automatic plan depends on the image size,
 the spp and the backend's budget, never on the machine's number of cores, so
 the same seed gives the same image on every machine of the same backend (and
 a given pass count, ``passes=N`` or ``--passes N``, everywhere). Splitting
-costs one trace of the integrator per pass, about 0.1 s of CPU time, about 2 %
-of a pass on 2 cores (measured in docs/cli.md); on machines with many cores a
+costs one trace of the integrator per pass, a few per cent of a pass on a
+small machine (docs/cli.md has the measurement); on machines with many cores a
 pass renders faster, so that share grows (``passes=1`` avoids it).
 Pure Python (no Mitsuba needed).
 """
@@ -40,20 +40,16 @@ from __future__ import annotations
 
 from typing import Optional
 
-__all__ = ["SAMPLES_PER_PASS", "SAMPLES_PER_GPU_PASS", "MAX_AUTO_PASSES", "samples_per_pass",
-           "plan_passes", "pass_seeds", "derivative_seed"]
+__all__ = ["SAMPLES_PER_PASS", "SAMPLES_PER_GPU_PASS", "samples_per_pass", "plan_passes",
+           "pass_seeds", "derivative_seed"]
 
-#: Budget of an automatic pass of Dr.Jit's LLVM backend: 2^21 samples, about
-#: 1.7 s of rendering of scenes/default.xml per pass on 2 cores (3.3 s of CPU
-#: time), so that the ~0.1 s of CPU time each pass costs stays near 3 %
+#: Budget of an automatic pass of Dr.Jit's LLVM backend: 2^21 samples, large
+#: enough that the fixed cost of a pass stays a few per cent of its render
 #: (docs/cli.md has the measurement). The same on every machine, so that a
 #: seed gives the same image whatever the number of cores.
 SAMPLES_PER_PASS = 1 << 21
 #: Budget of an automatic pass on a CUDA GPU (which also bounds its memory).
 SAMPLES_PER_GPU_PASS = 1 << 24
-#: Kept for compatibility: automatic passes are no longer capped in number
-#: (a render of more than this many passes is split all the same).
-MAX_AUTO_PASSES = 1 << 16
 
 
 def samples_per_pass(backend: str) -> int:
