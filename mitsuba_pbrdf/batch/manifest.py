@@ -24,10 +24,7 @@ from typing import Dict, Iterable, List, Optional
 
 from .sweep import Job, Sweep
 
-__all__ = ["STATUSES", "columns", "read_manifest", "write_manifest", "is_finished", "job_row"]
-
-STATUSES = ("done", "failed", "pending")
-
+__all__ = ["columns", "read_manifest", "write_manifest", "is_finished", "job_row"]
 
 def columns(sweep: Sweep) -> List[str]:
     """The manifest's header for *sweep*."""
