@@ -346,7 +346,7 @@ def test_view_sheet_band_and_greyscale(scene, tmp_path, capsys):
     check_png(tmp_path / "r.png")
     png = tmp_path / "g.png"
     assert main(["view", exr, "--out", str(png), "--panels", "dolp,aolp,hsv", "--band", "B",
-                 "--dolp-cmap", "gray", "--dolp-max", "0.5", "--min-dolp", "0.05",
+                 "--dolp-cmap", "gray", "--dolp-limit", "0.5", "--min-dolp", "0.05",
                  "--exposure", "1.5"]) == 0
     check_png(png)
     capsys.readouterr()
@@ -355,8 +355,13 @@ def test_view_sheet_band_and_greyscale(scene, tmp_path, capsys):
     assert main(["view", exr, "--panels", "dolp,nope"]) == 2
     err = error_of(capsys)
     assert "nope" in err and "choose from" in err
+    assert main(["view", exr, "--dolp-limit", "0"]) == 2
+    assert "--dolp-limit" in error_of(capsys)
+    # the former spelling still works, says so in one line, and errors name it as typed
     assert main(["view", exr, "--dolp-max", "0"]) == 2
-    assert "--dolp-max" in error_of(capsys)
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "pbrdf view: warning: --dolp-max is deprecated, use --dolp-limit"
+    assert err[1].startswith("pbrdf view: error: --dolp-max must be a finite number > 0")
 
 
 # ---------------------------------------------------------------- plot

@@ -150,20 +150,20 @@ def test_batch_job_renders_a_cube(tmp_path):
 def test_view_cube_warns_about_picture_options_the_contact_sheet_ignores(tmp_path, capfd):
     """``view --cube`` draws S0 (each band at its own exposure), DoLP and AoLP:
     --panels, --exposure and --stokes-scale are named in one warning line each,
-    the options the sheet uses (--dolp-max, --min-dolp, --dolp-cmap) in none,
+    the options the sheet uses (--dolp-limit, --min-dolp, --dolp-cmap) in none,
     and the sheet is still drawn."""
     exr = write_stokes_exr(tmp_path / "cube.exr", known_cube())
     out = tmp_path / "c.png"
     assert main(["view", exr, "--cube", "--panels", "intensity", "--exposure", "1",
-                 "--stokes-scale", "separate", "--dolp-max", "0.5", "--min-dolp", "0.1",
+                 "--stokes-scale", "separate", "--dolp-limit", "0.5", "--min-dolp", "0.1",
                  "--dolp-cmap", "gray", "--out", str(out)]) == 0
     err = [line for line in capfd.readouterr().err.splitlines() if "warning" in line]
     why = ("has no effect on the contact sheet of a cube (it draws S0, DoLP and AoLP of "
-           "every band; it uses --dolp-max, --min-dolp, --dolp-cmap)")
+           "every band; it uses --dolp-limit, --min-dolp, --dolp-cmap)")
     assert err == [f"pbrdf view: warning: {option} {why}"
                    for option in ("--panels", "--exposure", "--stokes-scale")]
     assert out.stat().st_size > 0
-    assert main(["view", exr, "--spectrum", "3,2", "--dolp-max", "0.5", "--out",
+    assert main(["view", exr, "--spectrum", "3,2", "--dolp-limit", "0.5", "--out",
                  str(out)]) == 0
     assert "warning" not in capfd.readouterr().err
 
@@ -199,7 +199,7 @@ def test_cube_sheet_shares_one_dolp_scale_and_its_titles_do_not_collide():
     # (the first band's 0.1 is 0.1000001 in float32: rounded up to the next nice step)
     assert per_band == ["DoLP (0–0.2, auto)", "DoLP (0–0.25, auto)", "DoLP (0–0.5, auto)",
                         "DoLP (0–0.5, auto)"]
-    fixed = dolp_bar_labels(cube_sheet_figure(image, dolp_max=0.3))
+    fixed = dolp_bar_labels(cube_sheet_figure(image, dolp_limit=0.3))
     assert fixed == ["DoLP (0–0.3)"] * 4
 
 

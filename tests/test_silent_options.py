@@ -45,15 +45,15 @@ def test_picture_options_the_panels_do_not_use_are_warned_about(tmp_path, capfd)
     panel uses prints none."""
     exr = ramp_exr(tmp_path / "ramp.exr")
     out = str(tmp_path / "v.png")
-    assert main(["view", exr, "--panels", "intensity", "--dolp-max", "0.5", "--min-dolp",
+    assert main(["view", exr, "--panels", "intensity", "--dolp-limit", "0.5", "--min-dolp",
                  "0.1", "--out", out]) == 0
     err = [line for line in capfd.readouterr().err.splitlines() if "warning" in line]
     assert err == [
-        "pbrdf view: warning: --dolp-max has no effect on the panels intensity "
+        "pbrdf view: warning: --dolp-limit has no effect on the panels intensity "
         "(it is used by dolp, hsv)",
         "pbrdf view: warning: --min-dolp has no effect on the panels intensity "
         "(it is used by aolp)"]
-    assert main(["view", exr, "--panels", "intensity,dolp", "--dolp-max", "0.5",
+    assert main(["view", exr, "--panels", "intensity,dolp", "--dolp-limit", "0.5",
                  "--stokes-scale", "separate", "--out", out]) == 0
     err = [line for line in capfd.readouterr().err.splitlines() if "warning" in line]
     assert err == ["pbrdf view: warning: --stokes-scale has no effect on the panels "

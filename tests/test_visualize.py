@@ -85,7 +85,7 @@ def test_python_pictures_take_the_command_lines_defaults(tmp_path):
     parser = build_parser()
     view = parser.parse_args(["view", "x.exr"])
     render = parser.parse_args(["render", "x.xml"])
-    for keyword in ("dolp_max", "dolp_cmap", "min_dolp", "stokes_scale", "exposure"):
+    for keyword in ("dolp_limit", "dolp_cmap", "min_dolp", "stokes_scale", "exposure"):
         assert getattr(view, keyword) == getattr(render, keyword) == PICTURE_DEFAULTS[keyword]
     image = synthetic_image()
     image.stokes[..., 1:3, :] *= 0.2  # DoLP at most 0.2: "auto" and 1.0 differ
@@ -93,7 +93,7 @@ def test_python_pictures_take_the_command_lines_defaults(tmp_path):
     labels = [ax.get_ylabel() for ax in fig.axes if ax.get_label() == "<colorbar>"]
     dolp_label = next(label for label in labels if label.startswith("DoLP"))
     assert dolp_label.endswith(", auto)") and "0–1)" not in dolp_label
-    assert PICTURE_DEFAULTS["dolp_max"] == "auto"
+    assert PICTURE_DEFAULTS["dolp_limit"] == "auto"
 
 
 def axes():
@@ -104,12 +104,12 @@ def axes():
 
 def test_dolp_greyscale_and_band_options(tmp_path):
     image = synthetic_image()
-    fig = overview_figure(image, ["dolp", "aolp"], dolp_cmap="gray", band="G", dolp_max=0.5)
+    fig = overview_figure(image, ["dolp", "aolp"], dolp_cmap="gray", band="G", dolp_limit=0.5)
     dolp_ax, aolp_ax = [ax for ax in fig.axes if ax.get_title()]
     assert "[G]" in dolp_ax.get_title()
     bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
     assert "DoLP (0–0.5)" in bars[0].get_ylabel()
-    drawing = draw_dolp(axes(), image, dolp_cmap="gray", dolp_max=0.5, band="G")
+    drawing = draw_dolp(axes(), image, dolp_cmap="gray", dolp_limit=0.5, band="G")
     assert drawing.mappable.get_cmap().name == "gray"
     assert drawing.mappable.get_clim() == (0.0, 0.5)
     assert drawing.extend == "max"  # DoLP reaches 1: the bar says values are clipped
@@ -126,7 +126,7 @@ def test_automatic_scales_follow_the_data():
     image = synthetic_image()
     image.stokes[..., 1:, :] *= 0.3          # DoLP up to 0.3, DoCP up to 0.03
     assert draw_dolp(axes(), image).mappable.get_clim() == (0.0, 1.0)  # Python's default
-    d = draw_dolp(axes(), image, dolp_max="auto")
+    d = draw_dolp(axes(), image, dolp_limit="auto")
     assert d.mappable.get_clim() == (0.0, 0.5) and "auto" in d.label
     c = draw_docp(axes(), image)
     assert c.mappable.get_clim() == (0.0, 0.05)

@@ -7,7 +7,7 @@
     pbrdf params SCENE.xml
     pbrdf convert SCENE.xml [--out NEW.xml]
     pbrdf view STOKES.exr [--out PNG] [--panels all|P,...] [--band B] [--dolp-cmap gray]
-                          [--dolp-max X] [--min-dolp X] [--exposure EV]
+                          [--dolp-limit X] [--min-dolp X] [--exposure EV]
     pbrdf polcam STOKES.exr --out DIR [--sensor mono|colour] [--band B] [--exposure X]
                  [--full-well E] [--read-noise E] [--bits N] [--seed S]
     pbrdf plot [--material M | --eta N --k K] [--sigma S] [--ks W] [--kdd W] [--sigma-dd S]

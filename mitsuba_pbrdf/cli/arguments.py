@@ -2,7 +2,8 @@
 files (:func:`require_file`), counts (:func:`positive_int`), numbers
 (:func:`finite_float`, :func:`float_list`), ``-D key=value``
 (:func:`parse_defines`), the outputs (:func:`check_outputs`), and the
-``--variant`` and ``--progress`` options. Each raises :class:`~.errors.CliError`
+``--variant`` and ``--progress`` options, and an option's former spelling
+kept working (:class:`RenamedOption`). Each raises :class:`~.errors.CliError`
 with a message that opens with the option (``--starts must be at least 1, got 0``).
 
 They are checks after parsing rather than argparse ``type=`` callables on
@@ -12,8 +13,10 @@ file first, the outputs last)."""
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
+import sys
 from typing import Optional
 
 from ..errors import describe_error
@@ -21,7 +24,7 @@ from .errors import CliError
 
 __all__ = ["parse_defines", "require_file", "positive_int", "float_list", "finite_float",
            "check_outputs", "show_progress", "progress_options", "chosen_variant",
-           "variant_help"]
+           "variant_help", "RenamedOption", "typed_option"]
 
 
 def parse_defines(items) -> dict:
@@ -144,3 +147,23 @@ def progress_options(parser):
                         "bar on a terminal, else a line every 10 s of long renders)")
     g.add_argument("--no-progress", dest="progress", action="store_false",
                    help="never show progress")
+
+
+class RenamedOption(argparse.Action):
+    """An option whose former spelling still works:
+    ``add_argument("--new", "--old", action=RenamedOption)``. The former
+    spelling (any after the first) prints one warning line naming the new
+    one; the spelling typed is kept (:func:`typed_option`), so that errors
+    and warnings name what the user typed."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        setattr(namespace, f"_{self.dest}_typed", option_string)
+        if option_string != self.option_strings[0]:
+            print(f"{parser.prog}: warning: {option_string} is deprecated, use "
+                  f"{self.option_strings[0]}", file=sys.stderr)
+
+
+def typed_option(args, dest: str, option: str) -> str:
+    """The spelling of option *dest* the user typed (:class:`RenamedOption`), else *option*."""
+    return getattr(args, f"_{dest}_typed", None) or option

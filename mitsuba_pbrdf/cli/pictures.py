@@ -1,12 +1,12 @@
 """The picture options of ``pbrdf render`` and ``view`` (``--panels``,
-``--band``, ``--dolp-max`` ...): the options with their defaults from the one
+``--band``, ``--dolp-limit`` ...): the options with their defaults from the one
 table, :data:`~mitsuba_pbrdf.visualization.defaults.PICTURE_DEFAULTS`
 (:func:`picture_options`), their checked values as keyword arguments of
 :func:`~mitsuba_pbrdf.visualization.panels.save_overview_png`
 (:func:`picture_kwargs`), the unusable-pixel report (:func:`report_quality`),
 and one-line warnings for options that the chosen ``--panels`` never use
 (:func:`warn_unused_picture_options`: ``pbrdf render --panels intensity
---dolp-max 1`` would otherwise ignore ``--dolp-max`` in silence; which panel
+--dolp-limit 1`` would otherwise ignore ``--dolp-limit`` in silence; which panel
 uses which option is read from the panel functions' own signatures, so the
 warning follows the code).
 
@@ -20,7 +20,7 @@ import sys
 from typing import List
 
 from ..visualization.defaults import PICTURE_DEFAULTS
-from .arguments import finite_float
+from .arguments import RenamedOption, finite_float, typed_option
 from .errors import PROG, CliError
 
 __all__ = ["picture_options", "picture_kwargs", "parse_panels", "scale_value", "report_quality",
@@ -36,10 +36,12 @@ def picture_options(parser, panels_default: str):
     parser.add_argument("--band", default=None,
                         help="draw one band (e.g. R, or a wavelength band's name) instead of the "
                              "luminance combination of the bands")
-    parser.add_argument("--dolp-max", default=D["dolp_max"], metavar="X|auto",
-                        help="top of the DoLP scale (and of the saturation of the hsv panel); "
-                             "auto: the image's 99.5th percentile rounded up "
-                             f"(default: {D['dolp_max']})")
+    # --dolp-max: the former spelling (dolp_max is polarized_sky's physical maximum)
+    parser.add_argument("--dolp-limit", "--dolp-max", default=D["dolp_limit"], metavar="X|auto",
+                        action=RenamedOption,
+                        help="top of the DoLP colour scale (and of the saturation of the hsv "
+                             "panel); auto: the image's 99.5th percentile rounded up "
+                             f"(default: {D['dolp_limit']}; --dolp-max is deprecated)")
     parser.add_argument("--dolp-cmap", default=D["dolp_cmap"], choices=["viridis", "gray"],
                         help=f"colour map of the DoLP panel (default: {D['dolp_cmap']})")
     parser.add_argument("--min-dolp", type=float, default=D["min_dolp"],
@@ -59,7 +61,8 @@ def picture_kwargs(args, image=None) -> dict:
     finite_float("--min-dolp", args.min_dolp, 0.0, 1.0)
     finite_float("--exposure", args.exposure)
     options = dict(panels=panels, band=args.band, dolp_cmap=args.dolp_cmap,
-                   dolp_max=scale_value("--dolp-max", args.dolp_max), min_dolp=args.min_dolp,
+                   dolp_limit=scale_value(typed_option(args, "dolp_limit", "--dolp-limit"),
+                                          args.dolp_limit), min_dolp=args.min_dolp,
                    stokes_scale=args.stokes_scale)
     if args.exposure is not None:
         options["exposure"] = 2.0 ** args.exposure
@@ -115,14 +118,15 @@ def report_quality(image, band, source: str, command: str, bands=None):
 #: a panel function)
 PICTURE_OPTIONS = {
     f"--{keyword.replace('_', '-')}": (keyword, PICTURE_DEFAULTS[keyword], keyword)
-    for keyword in ("dolp_max", "dolp_cmap", "min_dolp", "exposure")
+    for keyword in ("dolp_limit", "dolp_cmap", "min_dolp", "exposure")
 }
 STOKES_PANELS = ("s1", "s2", "s3")
 
 
 def _given(args) -> List[tuple]:
     """``(option, keyword)`` of the picture options given a non-default value."""
-    given = [(option, keyword) for option, (dest, default, keyword) in PICTURE_OPTIONS.items()
+    given = [(typed_option(args, dest, option), keyword)
+             for option, (dest, default, keyword) in PICTURE_OPTIONS.items()
              if getattr(args, dest) != default]
     if args.stokes_scale != PICTURE_DEFAULTS["stokes_scale"]:
         given.append(("--stokes-scale", "stokes_scale"))

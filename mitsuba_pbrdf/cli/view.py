@@ -110,9 +110,9 @@ def _cube_sheet(args, image, out: str, existed: bool) -> int:
     csv = os.path.splitext(out)[0] + ".csv"
     if not image.metadata.get("title"):
         image.metadata["title"] = os.path.basename(args.exr)
-    dolp_max = args.dolp_max if args.dolp_max == "auto" else float(args.dolp_max)
+    dolp_limit = args.dolp_limit if args.dolp_limit == "auto" else float(args.dolp_limit)
     with together():  # the sheet and the CSV, or neither (mitsuba_pbrdf.interrupts)
-        path = save_cube_sheet(out, image, region=region, dolp_max=dolp_max,
+        path = save_cube_sheet(out, image, region=region, dolp_limit=dolp_limit,
                                min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap,
                                dolp_scale=args.dolp_scale)
         written = write_spectrum_csv(csv, image, region) if region is not None else None
@@ -143,7 +143,7 @@ def add_parser(subparsers):
                         "of a pixel or the mean of a region (pixels from the top-left); also "
                         "written as <out>.csv")
     v.add_argument("--dolp-scale", default="shared", metavar="shared|per-band",
-                   help="with the contact sheet and --dolp-max auto: one DoLP scale for every "
+                   help="with the contact sheet and --dolp-limit auto: one DoLP scale for every "
                         "band, so bands compare by colour, or each band scaled to its own data "
                         "(default: shared)")
     v.set_defaults(func=run)

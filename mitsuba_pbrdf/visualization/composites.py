@@ -20,14 +20,14 @@ __all__ = ["polarization_hsv", "stokes_ratios", "stokes_limit"]
 
 def polarization_hsv(
     image: StokesImage,
-    dolp_max: Union[float, str] = 1.0,
+    dolp_limit: Union[float, str] = 1.0,
     exposure: Optional[float] = None,
     percentile: float = 99.0,
     band: Optional[str] = None,
 ) -> np.ndarray:
     """The usual polarization composite as RGB in [0, 1], shape (H, W, 3):
     hue = AoLP (a full turn of hue for 180°, as :func:`~mitsuba_pbrdf.visualization.panels.draw_aolp`), saturation
-    = DoLP / *dolp_max* (``"auto"``: see :func:`~mitsuba_pbrdf.visualization.panels.draw_dolp`), value =
+    = DoLP / *dolp_limit* (``"auto"``: see :func:`~mitsuba_pbrdf.visualization.panels.draw_dolp`), value =
     tone-mapped intensity (luminance)."""
     from matplotlib.colors import hsv_to_rgb
 
@@ -35,7 +35,7 @@ def polarization_hsv(
     with np.errstate(invalid="ignore"):
         d = np.nan_to_num(dolp(s, axis=-1))
         hue = (np.nan_to_num(np.degrees(aolp(s, axis=-1))) % 180.0) / 180.0
-    top, _ = resolve_limit(dolp_max, np.where(s[..., 0] > 0, d, np.nan))
+    top, _ = resolve_limit(dolp_limit, np.where(s[..., 0] > 0, d, np.nan))
     saturation = np.clip(d / top, 0.0, 1.0)
     srgb, _ = tonemap(linear_rgb(image, band), exposure, percentile)
     value = np.clip(srgb @ _LUMA, 0.0, 1.0)

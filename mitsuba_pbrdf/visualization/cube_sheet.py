@@ -148,7 +148,7 @@ def _spectrum_axes(ax, image: StokesImage, region: Region):
 
 #: The picture options :func:`cube_sheet_figure` takes (the S0 panels use each
 #: band's own exposure; there is no choice of panels nor of Stokes scale).
-SHEET_OPTIONS = ("dolp_max", "min_dolp", "dolp_cmap")
+SHEET_OPTIONS = ("dolp_limit", "min_dolp", "dolp_cmap")
 
 
 #: ``dolp_scale`` of :func:`cube_sheet_figure`: one DoLP scale for every band
@@ -181,9 +181,9 @@ def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
     """A matplotlib Figure: one row per band with S0, DoLP and AoLP (each
     with its colour bar; S0 in grey with the band's own exposure), and with
     *region* its Stokes spectrum on top, the region outlined in each S0 panel.
-    *options* (:data:`SHEET_OPTIONS`): ``dolp_max``, ``min_dolp``, ``dolp_cmap``
-    (defaults: :data:`~.defaults.PICTURE_DEFAULTS`, ``dolp_max="auto"``);
-    TypeError for any other. With ``dolp_max``
+    *options* (:data:`SHEET_OPTIONS`): ``dolp_limit``, ``min_dolp``, ``dolp_cmap``
+    (defaults: :data:`~.defaults.PICTURE_DEFAULTS`, ``dolp_limit="auto"``);
+    TypeError for any other. With ``dolp_limit``
     ``"auto"``, *dolp_scale* ``"shared"`` (default) gives every band one DoLP
     scale (:func:`shared_dolp_limit`), so a weakly polarized band looks weak;
     ``"per-band"`` scales each band to its own data."""
@@ -213,18 +213,18 @@ def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
         _spectrum_axes(fig.add_subplot(grid[0, :]), image, region)
     qualities = [assess(image, band) for band in image.bands]
     options = {**PICTURE_DEFAULTS, **options}
-    dolp_max = options["dolp_max"]
-    automatic = isinstance(dolp_max, str) and dolp_max.strip().lower() == "auto"
+    dolp_limit = options["dolp_limit"]
+    automatic = isinstance(dolp_limit, str) and dolp_limit.strip().lower() == "auto"
     if automatic and dolp_scale == "shared":
-        dolp_max = shared_dolp_limit(image, qualities)
-        title = (title + "; " if title else "") + f"DoLP 0–{dolp_max:g} in every band (auto)"
+        dolp_limit = shared_dolp_limit(image, qualities)
+        title = (title + "; " if title else "") + f"DoLP 0–{dolp_limit:g} in every band (auto)"
     for row, band in enumerate(image.bands):
         quality = qualities[row]
         axes = [fig.add_subplot(grid[row + top, c]) for c in range(3)]
         # short titles: three panels of a row share panel_width x 3 inches
         plot_intensity(axes[0], image, band=band, quality=quality, title=f"S0 [{band}]")
         _finish(axes[1], draw_dolp(axes[1], image, options["dolp_cmap"],
-                                   dolp_max, band=band, quality=quality), f"DoLP [{band}]")
+                                   dolp_limit, band=band, quality=quality), f"DoLP [{band}]")
         _finish(axes[2], draw_aolp(axes[2], image, options["min_dolp"], band=band,
                                    quality=quality), f"AoLP [{band}]")
         if region is not None:

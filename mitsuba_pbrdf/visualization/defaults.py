@@ -12,7 +12,7 @@ command line reads it while building its parser, before NumPy is imported.
 
 #: option keyword -> default
 PICTURE_DEFAULTS = {
-    "dolp_max": "auto",
+    "dolp_limit": "auto",
     "dolp_cmap": "viridis",
     "docp_max": "auto",
     "min_dolp": 0.01,

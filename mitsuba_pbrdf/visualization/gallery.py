@@ -193,7 +193,7 @@ def montage_figure(
     columns: Sequence[tuple],
     rows: Sequence[str] = ("intensity", "dolp", "aolp"),
     title: Optional[str] = None,
-    dolp_max: float = 0.5,
+    dolp_limit: float = 0.5,
     min_dolp: float = 0.02,
     panel_width: float = 2.7,
     exposure: Optional[float] = None,
@@ -211,7 +211,7 @@ def montage_figure(
     images = [im for _, im in columns]
     if exposure is None:
         exposure = shared_exposure(images)
-    shared = dict(exposure=exposure, dolp_max=dolp_max, min_dolp=min_dolp)
+    shared = dict(exposure=exposure, dolp_limit=dolp_limit, min_dolp=min_dolp)
     first = images[0]
     aspect = first.height / first.width
     fig = Figure(figsize=(panel_width * len(columns) + 1.3,
@@ -301,7 +301,7 @@ def render_brushed(settings: _Settings) -> str:
     """``brushed.png``: brushed.xml with each of :data:`BRUSHED`."""
     columns = [(label, _render(settings, "brushed.xml", f"brushed{k}", **params))
                for k, (label, params) in enumerate(BRUSHED)]
-    fig = montage_figure(columns, dolp_max=0.15, min_dolp=0.01,
+    fig = montage_figure(columns, dolp_limit=0.15, min_dolp=0.01,
                          title="Brushed aluminium: a lathe-turned disc (σu radial) and a "
                          "cylinder brushed along its axis (σu around it)\n"
                          f"scenes/gallery/brushed.xml, {_subtitle(columns[0][1])}")
@@ -325,7 +325,7 @@ def render_sky(settings: _Settings) -> str:
         for sky, label in SKIES:
             image = _render(settings, "sky.xml", f"sky_{sky}_{elevation:g}", sky=sky, **sun)
             columns.append((f"sun {elevation:g}°: {label}", image))
-    fig = montage_figure(columns, dolp_max=0.8, panel_width=2.3,
+    fig = montage_figure(columns, dolp_limit=0.8, panel_width=2.3,
                          title="Copper and brushed aluminium under a polarized clear sky and under "
                          "Mitsuba's unpolarized sunsky of the same intensity\n"
                          f"scenes/gallery/sky.xml, sun {SUN_AZIMUTH - 90:g}° of azimuth from the "
@@ -381,7 +381,7 @@ def render_normalmap_plate(settings: _Settings) -> str:
     worst, median = aolp_difference(images["normalmap"], images["polarized_normalmap"])
     fig = montage_figure(
         [(label, images[w]) for w, label in WRAPPERS],
-        dolp_max=0.3,
+        dolp_limit=0.3,
         title=f"Hammered plate (plate.xml; {_subtitle(images['normalmap'])}): same intensity\n"
               f"and DoLP, AoLP off by up to {worst:.0f}° (median {median:.0f}°) where DoLP ≥ 0.02")
     return save_png(fig, settings.out / "normalmap.png", dpi=100, colors=_PNG_COLOURS)
@@ -395,7 +395,7 @@ def render_stokes_sheet(settings: _Settings) -> str:
                          progress=settings.progress)
     if settings.exr_dir is not None:
         write_stokes_exr(settings.exr_dir / "default.exr", image)
-    fig = overview_figure(image, "all", panel_width=3.0, dolp_max=0.5,
+    fig = overview_figure(image, "all", panel_width=3.0, dolp_limit=0.5,
                           title=f"pbrdf view --panels all (scenes/default.xml; {_subtitle(image)})")
     return save_png(fig, settings.out / "stokes_sheet.png", dpi=90, colors=_PNG_COLOURS)
 

@@ -180,15 +180,15 @@ def _degree_panel(ax, image, band, quality, values, cmap, top, panel, label, tit
 
 
 def draw_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis",
-              dolp_max: Union[float, str] = 1.0, band: Optional[str] = None,
+              dolp_limit: Union[float, str] = 1.0, band: Optional[str] = None,
               quality: Optional[StokesQuality] = None) -> Drawing:
-    """Degree of linear polarization sqrt(S1² + S2²)/S0, from 0 to *dolp_max*
+    """Degree of linear polarization sqrt(S1² + S2²)/S0, from 0 to *dolp_limit*
     (a number, default 1, or ``"auto"``: the data's 99.5th percentile rounded
     up, what the command line uses; see :mod:`~mitsuba_pbrdf.visualization.colours`),
     ``viridis`` or ``gray``."""
     with np.errstate(invalid="ignore"):
         values = dolp(pixel_stokes(image, band), axis=-1)
-    return _degree_panel(ax, image, band, quality, values, dolp_cmap, dolp_max, "dolp", "DoLP",
+    return _degree_panel(ax, image, band, quality, values, dolp_cmap, dolp_limit, "dolp", "DoLP",
                          "Degree of linear polarization", "DoLP")
 
 
@@ -224,7 +224,7 @@ def draw_aolp(ax, image: StokesImage, min_dolp: float = 0.01, band: Optional[str
                    f"AoLP (DoLP ≥ {min_dolp:g})", values=shown, legend=legend)
 
 
-def draw_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = 1.0,
+def draw_polarization_hsv(ax, image: StokesImage, dolp_limit: Union[float, str] = 1.0,
                           exposure: Optional[float] = None, band: Optional[str] = None,
                           quality: Optional[StokesQuality] = None) -> Drawing:
     """:func:`polarization_hsv`: colour = AoLP, saturation = DoLP, brightness =
@@ -233,7 +233,7 @@ def draw_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = 
     s = pixel_stokes(image, band)
     with np.errstate(invalid="ignore"):
         d = np.where(~quality.unusable & (s[..., 0] > 0), dolp(s, axis=-1), np.nan)
-    top, automatic = resolve_limit(dolp_max, d)
+    top, automatic = resolve_limit(dolp_limit, d)
     rgb = polarization_hsv(image, top, exposure, band=band)
     legend = _show(ax, rgb, "hsv", quality)
     scale = f"0–{top:g}" + (", auto" if automatic else "")
@@ -298,10 +298,10 @@ def plot_intensity(ax, image: StokesImage, exposure: Optional[float] = None,
 
 
 def plot_dolp(ax, image: StokesImage, dolp_cmap: str = "viridis",
-              dolp_max: Union[float, str] = 1.0, band: Optional[str] = None,
+              dolp_limit: Union[float, str] = 1.0, band: Optional[str] = None,
               quality: Optional[StokesQuality] = None):
     """:func:`draw_dolp` with its title and colour bar."""
-    return _finish(ax, draw_dolp(ax, image, dolp_cmap, dolp_max, band, quality))
+    return _finish(ax, draw_dolp(ax, image, dolp_cmap, dolp_limit, band, quality))
 
 
 def plot_docp(ax, image: StokesImage, cmap: str = "viridis",
@@ -317,11 +317,11 @@ def plot_aolp(ax, image: StokesImage, min_dolp: float = 0.01, band: Optional[str
     return _finish(ax, draw_aolp(ax, image, min_dolp, band, quality))
 
 
-def plot_polarization_hsv(ax, image: StokesImage, dolp_max: Union[float, str] = 1.0,
+def plot_polarization_hsv(ax, image: StokesImage, dolp_limit: Union[float, str] = 1.0,
                           exposure: Optional[float] = None, band: Optional[str] = None,
                           quality: Optional[StokesQuality] = None):
     """:func:`draw_polarization_hsv` with its title and colour bar."""
-    return _finish(ax, draw_polarization_hsv(ax, image, dolp_max, exposure, band, quality))
+    return _finish(ax, draw_polarization_hsv(ax, image, dolp_limit, exposure, band, quality))
 
 
 def plot_stokes_component(ax, image: StokesImage, i: int, cmap: str = "RdBu_r",
@@ -415,7 +415,7 @@ def overview_figure(
 
     *options* go to the panel functions that take them (defaults:
     :data:`PICTURE_DEFAULTS`, those of ``pbrdf render`` and ``view``): ``band``,
-    ``exposure``, ``dolp_cmap``, ``dolp_max``, ``docp_max``, ``min_dolp``,
+    ``exposure``, ``dolp_cmap``, ``dolp_limit``, ``docp_max``, ``min_dolp``,
     ``quality`` (:func:`~mitsuba_pbrdf.stokes.quality.assess`, computed once
     if not given). S1, S2, S3 / S0 share one scale (:func:`stokes_limit`)
     unless ``stokes_scale="separate"``, or ``stokes_limit=X`` fixes it.

@@ -35,7 +35,7 @@ def polarizer_check(filtered: Dict[int, StokesImage], clear: StokesImage) -> dic
 
 
 def polarizer_figure(filtered: Dict[int, StokesImage], clear: StokesImage,
-                     title: Optional[str] = None, dolp_max: float = 0.5,
+                     title: Optional[str] = None, dolp_limit: float = 0.5,
                      min_dolp: float = 0.02):
     """The polarizer picture: row 1, the four filtered intensities (one
     exposure); row 2, the unfiltered intensity and the DoLP and AoLP a
@@ -66,11 +66,11 @@ def polarizer_figure(filtered: Dict[int, StokesImage], clear: StokesImage,
                    title=f"no filter (S0, {np.log2(exposure / 2.0):+.1f} EV)")
     fig.colorbar(matplotlib.cm.ScalarMappable(), ax=axes[1, 0], fraction=0.046,
                  pad=0.03).ax.set_visible(False)
-    plot_dolp(axes[1, 1], camera, dolp_max=dolp_max)
+    plot_dolp(axes[1, 1], camera, dolp_limit=dolp_limit)
     axes[1, 1].set_title("DoLP from the four pictures", fontsize=9)
     plot_aolp(axes[1, 2], camera, min_dolp=min_dolp)
     axes[1, 2].set_title("AoLP from the four pictures", fontsize=9)
-    plot_dolp(axes[1, 3], clear, dolp_max=dolp_max)
+    plot_dolp(axes[1, 3], clear, dolp_limit=dolp_limit)
     axes[1, 3].set_title("DoLP of the Stokes render (no filter)", fontsize=9)
     if title:
         fig.suptitle(title, fontsize=10)
