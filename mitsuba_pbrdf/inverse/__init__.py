@@ -19,8 +19,8 @@ determines::
 
 Modules: :mod:`.scenes` (a scene to invert), :mod:`.losses` (Stokes losses),
 :mod:`.gradients` (gradients by polarized path replay, or by reverse
-or forward mode in passes; Jacobians, Fisher information; the methods and
-their memory and time are in its docstring), :mod:`.driver` (the one Adam
+or forward mode in passes; Jacobians, Fisher information; the methods are
+in its docstring), :mod:`.driver` (the one Adam
 loop: seeds, learning rates, clamping, progress), :mod:`.optimize` (scalar
 parameters), :mod:`.svbrdf` (texture maps recovered by polarized path
 replay), :mod:`.normals` (shape from polarization, a subpackage: a
