@@ -1,9 +1,7 @@
-"""Docs that cannot drift: every figure a doc attributes to a report is in that
-report, every measured time or memory figure a doc quotes is attributed to a
-report (or declared a setting), and every option a doc gives a ``pbrdf``
-command is one that command's ``--help`` lists (the argparse parser is built
-in-process; nothing is rendered). The marker syntax is in
-``tests/doc_figures.py``."""
+"""Docs that cannot drift: every measured time or memory figure a doc quotes
+is in a report its paragraph links (``tests/doc_figures.py``), and every
+option a doc gives a ``pbrdf`` command is one that command's ``--help``
+lists (the argparse parser is built in-process; nothing is rendered)."""
 
 import os
 import re
@@ -13,7 +11,7 @@ import pytest
 from mitsuba_pbrdf.cli import build_parser
 from mitsuba_pbrdf.rendering.scene_params import declared_parameters
 
-from doc_figures import check, doc_files, figures, prose_lines, read, unsourced_measurements
+from doc_figures import doc_files, prose_lines, read, unsourced
 
 DOCS = doc_files()
 
@@ -21,39 +19,28 @@ DOCS = doc_files()
 # ---------------------------------------------------------------- figures
 
 @pytest.mark.parametrize("doc", DOCS)
-def test_every_attributed_figure_is_in_its_report(doc):
-    problems = [p for p in map(check, figures(doc)) if p]
-    assert not problems, "\n".join(problems)
+def test_every_measured_figure_is_in_a_linked_report(doc):
+    bad = unsourced(doc)
+    assert not bad, ("time/memory figures that no report linked from their paragraph holds "
+                     "(link the report, or write a setting as code):\n" + "\n".join(bad))
 
 
-@pytest.mark.parametrize("doc", DOCS)
-def test_every_measured_time_or_memory_figure_names_its_report(doc):
-    bad = unsourced_measurements(doc)
-    assert not bad, ("time/memory figures without a report (mark them "
-                     "'<!-- from: REPORT | ROW -->' or '<!-- fixed -->', or link the report "
-                     "instead):\n" + "\n".join(bad))
-
-
-def test_the_figure_checker_can_fail(tmp_path, monkeypatch):
-    """The checks above are not vacuous: a figure missing from its report, a
-    figure in the report but not in the labelled row, and an unmarked
-    timing are each reported."""
+def test_the_figure_check_can_fail(tmp_path, monkeypatch):
+    """Not vacuous: a figure its linked report lacks, and a figure with no
+    report linked, are reported; a rounded figure, a setting in code and a
+    figure of a code block are not."""
     import doc_figures
 
-    (tmp_path / "notes").mkdir()
-    (tmp_path / "report.md").write_text("| backend | time |\n| drjit | 1.60 s |\n"
-                                        "| reference | 3.52 s |\n")
-    (tmp_path / "notes" / "page.md").write_text(
-        "drjit 1.60 s<!-- from: report.md | drjit -->, reference 3.52<!-- from: report.md -->,\n"
-        "drjit 3.52 s<!-- from: report.md | drjit -->, old 1.7 s<!-- from: report.md -->,\n"
-        "took 9 s here, timeout 20 s<!-- fixed -->.\n"
-        "```\ncode 5 s\n```\n")
+    (tmp_path / "benchmarks").mkdir()
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "benchmarks" / "r.md").write_text("| drjit | 1.604 s |\n")
+    (tmp_path / "docs" / "page.md").write_text(
+        "drjit 1.60 s, reference 3.52 s ([r](../benchmarks/r.md)).\n\n"
+        "took 9 s here, timeout `20 s`.\n\n```\ncode 5 s\n```\n")
     monkeypatch.setattr(doc_figures, "ROOT", str(tmp_path))
-    results = [check(f) for f in figures("notes/page.md")]
-    assert [r is None for r in results] == [True, True, False, False]
-    assert "not in the line(s) of report.md with 'drjit'" in results[2]
-    assert "1.7 does not occur" in results[3]
-    assert unsourced_measurements("notes/page.md") == ["notes/page.md:3: 9 s"]
+    assert doc_figures.unsourced("docs/page.md") == [
+        "docs/page.md:1: 3.52 s (in none of the linked reports)",
+        "docs/page.md:3: 9 s (no report linked)"]
 
 
 # ---------------------------------------------------------------- options
