@@ -31,16 +31,17 @@ def test_the_figure_check_can_fail(tmp_path, monkeypatch):
     figure of a code block are not."""
     import doc_figures
 
-    (tmp_path / "benchmarks").mkdir()
-    (tmp_path / "docs").mkdir()
-    (tmp_path / "benchmarks" / "r.md").write_text("| drjit | 1.604 s |\n")
-    (tmp_path / "docs" / "page.md").write_text(
-        "drjit 1.60 s, reference 3.52 s ([r](../benchmarks/r.md)).\n\n"
+    reports = tmp_path / "benchmarks"  # a made-up report folder
+    reports.mkdir()
+    (tmp_path / "notes").mkdir()
+    (reports / "r.md").write_text("| drjit | 1.604 s |\n")
+    (tmp_path / "notes" / "page.md").write_text(
+        f"drjit 1.60 s, reference 3.52 s ([r](../{reports.name}/r.md)).\n\n"
         "took 9 s here, timeout `20 s`.\n\n```\ncode 5 s\n```\n")
     monkeypatch.setattr(doc_figures, "ROOT", str(tmp_path))
-    assert doc_figures.unsourced("docs/page.md") == [
-        "docs/page.md:1: 3.52 s (in none of the linked reports)",
-        "docs/page.md:3: 9 s (no report linked)"]
+    assert doc_figures.unsourced(os.path.join("notes", "page.md")) == [
+        "notes/page.md:1: 3.52 s (in none of the linked reports)",
+        "notes/page.md:3: 9 s (no report linked)"]
 
 
 # ---------------------------------------------------------------- options
