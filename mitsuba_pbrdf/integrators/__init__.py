@@ -7,12 +7,12 @@
   the gradients of ``path`` differentiated by AD at the memory of a primal
   render (docs/path-replay.md). Usable in the polarized JIT variants; loading
   it in another variant says which to use. :func:`supports_scene` and
-  :func:`from_path` (:mod:`.scenes`) turn a scene's ``stokes``/``path``
+  :func:`from_path` (:mod:`.support`) turn a scene's ``stokes``/``path``
   integrator into one.
 """
 
-from .scenes import MAX_DEPTH_LIMIT, STOKES_CHANNELS
-from .scenes import from_path, integrator_class, supports_scene
+from .support import MAX_DEPTH_LIMIT, STOKES_CHANNELS
+from .support import from_path, integrator_class, supports_scene
 
 __all__ = ["MAX_DEPTH_LIMIT", "STOKES_CHANNELS", "from_path", "integrator_class",
            "supports_scene"]

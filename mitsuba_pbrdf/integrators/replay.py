@@ -26,7 +26,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..mueller import to_world_mueller
+from ..mueller import rotator_entries, to_world_mueller
 
 __all__ = ["VertexStore", "trace", "replay", "column0", "mueller_times",
            "times_mueller"]
@@ -55,6 +55,20 @@ def times_mueller(d, m):
     return mi.SpectrumEntry(*[dr.fma(d[0], m[0][j], dr.fma(d[1], m[1][j],
                                      dr.fma(d[2], m[2][j], d[3] * m[3][j])))
                               for j in range(4)])
+
+
+def world_mueller_times(si, m, wo_local, wi_local, s):
+    """``to_world_mueller(si, m, wo_local, wi_local)`` times the world-basis
+    Stokes vector ``s``: ``R_out (m (R_in^T s))``, rotating two Stokes vectors
+    instead of the 4 x 4 matrix ``m`` (per wavelength)."""
+    in_forward, out_forward = si.to_world(wo_local), si.to_world(wi_local)
+    ci, si_ = rotator_entries(in_forward, si.to_world(mi.mueller.stokes_basis(wo_local)),
+                              mi.mueller.stokes_basis(in_forward))
+    co, so = rotator_entries(out_forward, si.to_world(mi.mueller.stokes_basis(wi_local)),
+                             mi.mueller.stokes_basis(out_forward))
+    t = mueller_times(m, mi.SpectrumEntry(s[0], ci * s[1] - si_ * s[2],
+                                          si_ * s[1] + ci * s[2], s[3]))
+    return mi.SpectrumEntry(t[0], co * t[1] + so * t[2], co * t[2] - so * t[1], t[3])
 
 
 def stokes_dot(d, s):
@@ -306,17 +320,15 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
             pdf = rec["pdf"]
             f_em = bsdf.eval(ctx, si, wo_em, em_ok)
             f = bsdf.eval(ctx, si, wo, has_next & smooth)
-            f_em = to_world_mueller(si, f_em, -wo_em, si.wi)
-            E[em_ok] = E + mueller_times(f_em, le_em) * rec["mis_em"]
+            E[em_ok] = E + world_mueller_times(si, f_em, -wo_em, si.wi, le_em) * rec["mis_em"]
             scale = dr.select(has_next & smooth & (pdf > 0), rec["rr"] / pdf, 0.0)
-            T = to_world_mueller(si, f, -wo, si.wi) * scale
+            TL = world_mueller_times(si, f, -wo, si.wi, L * scale)
             if dr.hint(differentiate_delta, mode="scalar"):
                 # ... or, for delta and null lobes, the sampled weight itself
                 use = has_next & ~smooth
                 _, w = bsdf.sample(ctx, si, rec["bsdf_s1"], rec["bsdf_s2"], use)
-                w = to_world_mueller(si, w, -wo, si.wi) * rec["rr"]
-                T[use] = w
-            contribution = E + mueller_times(T, L)
+                TL[use] = world_mueller_times(si, w, -wo, si.wi, L * rec["rr"])
+            contribution = E + TL
 
             if dr.hint(reverse, mode="scalar"):
                 adj = dr.select(valid, rec["adj"], 0.0)
@@ -324,8 +336,9 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
             else:
                 tangent += dr.forward_to(mueller_times(rec["adj"], contribution))
 
-        # W_k = T_k's value: the BSDF's sampled weight f / pdf (roulette included)
-        L = dr.select(here, dr.detach(E) + mueller_times(dr.detach(T), L), L)
+        # W_k L_{k+1} = T_k L_{k+1}'s value: W_k is the BSDF's sampled weight
+        # f / pdf (roulette included)
+        L = dr.select(here, dr.detach(contribution), L)
 
     if dr.hint(reverse, mode="scalar"):
         return None

@@ -67,7 +67,7 @@ import mitsuba as mi
 
 from ..variant import require_variant
 from .film import develop_stokes, has_nonsmooth_bsdf, sensor_and_film
-from .scenes import MAX_DEPTH_LIMIT, STOKES_CHANNELS, usable_variant
+from .support import MAX_DEPTH_LIMIT, STOKES_CHANNELS, usable_variant
 from .replay import VertexStore, replay, trace
 
 #: The Mitsuba variant whose base classes this module's class derives from;

@@ -1,6 +1,6 @@
-"""Which scenes ``stokes_prb`` can replay, and a ``stokes_prb`` made from a
-scene's ``stokes``/``path`` integrator; what it writes (its film channels)
-and where it runs (its depth limit, the variants it needs).
+"""What ``stokes_prb`` supports: the scenes it can replay (and a
+``stokes_prb`` made from a scene's ``stokes``/``path`` integrator), what it
+writes (its film channels), its depth limit and the variants it needs.
 Variant-independent."""
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ __all__ = ["STOKES_CHANNELS", "MAX_DEPTH_LIMIT", "usable_variant", "supports_sce
 
 #: The Stokes channels ``stokes`` adds after R, G, B (and A).
 STOKES_CHANNELS = [f"S{i}.{c}" for i in range(4) for c in "RGB"]
-#: Largest ``max_depth``: each vertex costs ~0.5 kB of local memory per lane.
+#: Largest ``max_depth``: each vertex costs up to 92 floats of local memory per lane
+#: (:class:`.replay.VertexStore`).
 MAX_DEPTH_LIMIT = 64
 
 
@@ -23,7 +24,6 @@ def usable_variant(variant):
     JIT variant)."""
     variant = variant or ""
     return "polarized" in variant and not variant.startswith("scalar")
-
 
 
 def integrator_class():
