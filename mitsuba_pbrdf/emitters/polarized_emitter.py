@@ -85,8 +85,8 @@ XML::
         </emitter>
     </shape>
 
-This module defines the class for the Mitsuba variant active when it is
-imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+:func:`build_class` defines the class on the active variant's Mitsuba base
+class; :func:`mitsuba_pbrdf.registry.plugin_class` calls it once per variant.
 """
 
 from __future__ import annotations
@@ -99,8 +99,6 @@ import mitsuba as mi
 from . import params as read, wrapped
 from ..mueller import basis, linear_diattenuator, times
 
-#: The Mitsuba variant this module's class was built for (registry.variant_module).
-VARIANT = mi.variant()
 
 _NAME = "polarized_emitter"
 
@@ -124,60 +122,66 @@ def _configure(props):
             "surface": surface, "angle_deg": math.degrees(angle)}
 
 
-class PolarizedEmitter(mi.Emitter):
-    """A lamp behind a linear polarizer (module docstring)."""
+def build_class():
+    """``PolarizedEmitter`` for the active Mitsuba variant (its base class is that
+    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
 
-    def __init__(self, props):
-        # checked before the base class registers the instance with Dr.Jit
-        config = _configure(props)
-        super().__init__(props)
-        for key, value in config.items():
-            setattr(self, key, value)
-        self.m_flags = self.inner.flags()
-        self.m_needs_sample_2 = self.inner.needs_sample_2()
-        self.m_needs_sample_3 = self.inner.needs_sample_3()
+    class PolarizedEmitter(mi.Emitter):
+        """A lamp behind a linear polarizer (module docstring)."""
 
-    def light(self, value, w, wavelengths=None):
-        """The lamp's ``value`` for light propagating along ``w`` (world),
-        through the polarizer."""
-        if not mi.is_polarized:
-            return value * self.transmittance
-        x, y = basis(w)
-        a = mi.Vector3f(self.axis)
-        # the filter's Mueller matrix times the lamp's whole matrix: a lamp
-        # that is itself polarized (another polarized_emitter, a
-        # stokes_envmap...) is filtered as Malus's law says
-        return times(linear_diattenuator(dr.dot(a, x), dr.dot(a, y), self.degree,
-                                         self.transmittance), value)
+        def __init__(self, props):
+            # checked before the base class registers the instance with Dr.Jit
+            config = _configure(props)
+            super().__init__(props)
+            for key, value in config.items():
+                setattr(self, key, value)
+            self.m_flags = self.inner.flags()
+            self.m_needs_sample_2 = self.inner.needs_sample_2()
+            self.m_needs_sample_3 = self.inner.needs_sample_3()
 
-    def eval(self, si, active=True):
-        w = si.to_world(si.wi) if self.surface else si.wi
-        return self.light(wrapped.nested(self).eval(si, active), w)
+        def light(self, value, w, wavelengths=None):
+            """The lamp's ``value`` for light propagating along ``w`` (world),
+            through the polarizer."""
+            if not mi.is_polarized:
+                return value * self.transmittance
+            x, y = basis(w)
+            a = mi.Vector3f(self.axis)
+            # the filter's Mueller matrix times the lamp's whole matrix: a lamp
+            # that is itself polarized (another polarized_emitter, a
+            # stokes_envmap...) is filtered as Malus's law says
+            return times(linear_diattenuator(dr.dot(a, x), dr.dot(a, y), self.degree,
+                                             self.transmittance), value)
 
-    eval_direction = wrapped.eval_direction
-    sample_direction = wrapped.sample_direction
-    pdf_direction = wrapped.pdf_direction
-    sample_ray = wrapped.sample_ray
-    sample_position = wrapped.sample_position
-    bbox = wrapped.bbox
+        def eval(self, si, active=True):
+            w = si.to_world(si.wi) if self.surface else si.wi
+            return self.light(wrapped.nested(self).eval(si, active), w)
 
-    def pdf_position(self, ps, active=True):
-        return wrapped.nested(self).pdf_position(ps, active)
+        eval_direction = wrapped.eval_direction
+        sample_direction = wrapped.sample_direction
+        pdf_direction = wrapped.pdf_direction
+        sample_ray = wrapped.sample_ray
+        sample_position = wrapped.sample_position
+        bbox = wrapped.bbox
 
-    def sample_wavelengths(self, si, sample, active=True):
-        wavelengths, weight = wrapped.nested(self).sample_wavelengths(si, sample, active)
-        return wavelengths, weight * self.transmittance
+        def pdf_position(self, ps, active=True):
+            return wrapped.nested(self).pdf_position(ps, active)
 
-    def set_shape(self, shape):
-        super().set_shape(shape)
-        self.inner.set_shape(shape)
+        def sample_wavelengths(self, si, sample, active=True):
+            wavelengths, weight = wrapped.nested(self).sample_wavelengths(si, sample, active)
+            return wavelengths, weight * self.transmittance
 
-    def is_environment(self):
-        return self.inner.is_environment()
+        def set_shape(self, shape):
+            super().set_shape(shape)
+            self.inner.set_shape(shape)
 
-    def traverse(self, callback):
-        callback.put("emitter", self.inner, mi.ParamFlags.Differentiable)
+        def is_environment(self):
+            return self.inner.is_environment()
 
-    def to_string(self):
-        return (f"PolarizedEmitter[\n  angle = {self.angle_deg:g},\n  degree = {self.degree:g},\n"
-                f"  transmittance = {self.transmittance:g},\n  lamp = {self.inner.class_name()}\n]")
+        def traverse(self, callback):
+            callback.put("emitter", self.inner, mi.ParamFlags.Differentiable)
+
+        def to_string(self):
+            return (f"PolarizedEmitter[\n  angle = {self.angle_deg:g},\n  degree = {self.degree:g},\n"
+                    f"  transmittance = {self.transmittance:g},\n  lamp = {self.inner.class_name()}\n]")
+
+    return PolarizedEmitter

@@ -64,8 +64,8 @@ XML::
         <string name="filename" value="sky_stokes.exr"/>
     </emitter>
 
-This module defines the class for the Mitsuba variant active when it is
-imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+:func:`build_class` defines the class on the active variant's Mitsuba base
+class; :func:`mitsuba_pbrdf.registry.plugin_class` calls it once per variant.
 """
 
 from __future__ import annotations
@@ -81,8 +81,6 @@ from . import params as read, wrapped
 from ..mueller import basis, emitted, intensity
 from ..plugin_objects import create
 
-#: The Mitsuba variant this module's class was built for (registry.variant_module).
-VARIANT = mi.variant()
 
 _NAME = "stokes_envmap"
 
@@ -138,91 +136,97 @@ def _configure(props):
             "stokes": mi.Float(stokes.ravel())}
 
 
-class StokesEnvmap(mi.Emitter):
-    """An environment map of Stokes vectors (module docstring)."""
+def build_class():
+    """``StokesEnvmap`` for the active Mitsuba variant (its base class is that
+    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
 
-    def __init__(self, props):
-        # Read and checked before the base class registers the instance with
-        # Dr.Jit (a half-built emitter left registered breaks later renders).
-        config = _configure(props)
-        super().__init__(props)
-        for key, value in config.items():
-            setattr(self, key, value)
-        self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
+    class StokesEnvmap(mi.Emitter):
+        """An environment map of Stokes vectors (module docstring)."""
 
-    # -------------------------------------------------------------- polarization
+        def __init__(self, props):
+            # Read and checked before the base class registers the instance with
+            # Dr.Jit (a half-built emitter left registered breaks later renders).
+            config = _configure(props)
+            super().__init__(props)
+            for key, value in config.items():
+                setattr(self, key, value)
+            self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
 
-    @staticmethod
-    def _apply(rows, v):
-        return mi.Vector3f(*(dr.fma(r[0], v.x, dr.fma(r[1], v.y, r[2] * v.z)) for r in rows))
+        # -------------------------------------------------------------- polarization
 
-    def _lookup(self, d):
-        """The luminance Stokes vector (4 Floats) at local direction ``d``,
-        bilinear on envmap's grid (columns at (i + 0.5) / W, wrapping; rows
-        at j / (H - 1))."""
-        w, h = self.width, self.height
-        u = dr.atan2(d.x, -d.z) * (0.5 / math.pi)
-        v = dr.safe_acos(d.y) * (1.0 / math.pi)
-        x = dr.fma(u - dr.floor(u), w, -0.5)
-        x = dr.select(x < 0, x + w, x)
-        y = dr.clip(v * (h - 1), 0.0, h - 1.0)
-        i0 = mi.UInt32(dr.minimum(dr.floor(x), w - 1))
-        j0 = mi.UInt32(dr.minimum(dr.floor(y), h - 2))
-        fx, fy = x - mi.Float(i0), y - mi.Float(j0)
-        i1 = dr.select(i0 + 1 >= w, i0 + 1 - w, i0 + 1)
-        out = []
-        for c in range(4):
-            def texel(i, j, c=c):
-                return dr.gather(mi.Float, self.stokes, (j * w + i) * 4 + c)
-            top = dr.lerp(texel(i0, j0), texel(i1, j0), fx)
-            bottom = dr.lerp(texel(i0, j0 + 1), texel(i1, j0 + 1), fx)
-            out.append(dr.lerp(top, bottom, fy))
-        return out
+        @staticmethod
+        def _apply(rows, v):
+            return mi.Vector3f(*(dr.fma(r[0], v.x, dr.fma(r[1], v.y, r[2] * v.z)) for r in rows))
 
-    def _ratios(self, w):
-        """(q, u, v) of the light propagating along ``w`` (world), in
-        ``stokes_basis(w)``."""
-        d = self._apply(self.to_local, -w)
-        s0, s1, s2, s3 = self._lookup(d)
-        inv = dr.select(s0 > 0, dr.rcp(s0), 0.0)
-        q, u, v = s1 * inv, s2 * inv, s3 * inv
-        # the lat-long basis: x along increasing azimuth (local), into world
-        east = mi.Vector3f(-d.z, 0.0, d.x)
-        east = dr.select(dr.squared_norm(east) > 1e-12, east, mi.Vector3f(1.0, 0.0, 0.0))
-        east = dr.normalize(self._apply(self.to_world_rows, east))
-        x, y = basis(w)
-        c, s = dr.dot(east, x), dr.dot(east, y)     # east = c x + s y
-        cos2, sin2 = c * c - s * s, 2.0 * c * s
-        return cos2 * q - sin2 * u, sin2 * q + cos2 * u, v
+        def _lookup(self, d):
+            """The luminance Stokes vector (4 Floats) at local direction ``d``,
+            bilinear on envmap's grid (columns at (i + 0.5) / W, wrapping; rows
+            at j / (H - 1))."""
+            w, h = self.width, self.height
+            u = dr.atan2(d.x, -d.z) * (0.5 / math.pi)
+            v = dr.safe_acos(d.y) * (1.0 / math.pi)
+            x = dr.fma(u - dr.floor(u), w, -0.5)
+            x = dr.select(x < 0, x + w, x)
+            y = dr.clip(v * (h - 1), 0.0, h - 1.0)
+            i0 = mi.UInt32(dr.minimum(dr.floor(x), w - 1))
+            j0 = mi.UInt32(dr.minimum(dr.floor(y), h - 2))
+            fx, fy = x - mi.Float(i0), y - mi.Float(j0)
+            i1 = dr.select(i0 + 1 >= w, i0 + 1 - w, i0 + 1)
+            out = []
+            for c in range(4):
+                def texel(i, j, c=c):
+                    return dr.gather(mi.Float, self.stokes, (j * w + i) * 4 + c)
+                top = dr.lerp(texel(i0, j0), texel(i1, j0), fx)
+                bottom = dr.lerp(texel(i0, j0 + 1), texel(i1, j0 + 1), fx)
+                out.append(dr.lerp(top, bottom, fy))
+            return out
 
-    def light(self, value, w, wavelengths=None):
-        """The ``envmap``'s ``value`` for light propagating along ``w``,
-        polarized (unchanged in unpolarized variants)."""
-        if not mi.is_polarized:
-            return value
-        q, u, v = self._ratios(w)
-        return emitted(intensity(value), q, u, v)
+        def _ratios(self, w):
+            """(q, u, v) of the light propagating along ``w`` (world), in
+            ``stokes_basis(w)``."""
+            d = self._apply(self.to_local, -w)
+            s0, s1, s2, s3 = self._lookup(d)
+            inv = dr.select(s0 > 0, dr.rcp(s0), 0.0)
+            q, u, v = s1 * inv, s2 * inv, s3 * inv
+            # the lat-long basis: x along increasing azimuth (local), into world
+            east = mi.Vector3f(-d.z, 0.0, d.x)
+            east = dr.select(dr.squared_norm(east) > 1e-12, east, mi.Vector3f(1.0, 0.0, 0.0))
+            east = dr.normalize(self._apply(self.to_world_rows, east))
+            x, y = basis(w)
+            c, s = dr.dot(east, x), dr.dot(east, y)     # east = c x + s y
+            cos2, sin2 = c * c - s * s, 2.0 * c * s
+            return cos2 * q - sin2 * u, sin2 * q + cos2 * u, v
 
-    # -------------------------------------------------------------- Emitter API
+        def light(self, value, w, wavelengths=None):
+            """The ``envmap``'s ``value`` for light propagating along ``w``,
+            polarized (unchanged in unpolarized variants)."""
+            if not mi.is_polarized:
+                return value
+            q, u, v = self._ratios(w)
+            return emitted(intensity(value), q, u, v)
 
-    eval = wrapped.eval
-    eval_direction = wrapped.eval_direction
-    sample_direction = wrapped.sample_direction
-    pdf_direction = wrapped.pdf_direction
-    sample_ray = wrapped.sample_ray
-    sample_position = wrapped.sample_position
-    bbox = wrapped.bbox
+        # -------------------------------------------------------------- Emitter API
 
-    def sample_wavelengths(self, si, sample, active=True):
-        # envmap draws wavelengths from a texture coordinate, not a direction
-        return self.inner.sample_wavelengths(si, sample, active)
+        eval = wrapped.eval
+        eval_direction = wrapped.eval_direction
+        sample_direction = wrapped.sample_direction
+        pdf_direction = wrapped.pdf_direction
+        sample_ray = wrapped.sample_ray
+        sample_position = wrapped.sample_position
+        bbox = wrapped.bbox
 
-    def is_environment(self):
-        return True
+        def sample_wavelengths(self, si, sample, active=True):
+            # envmap draws wavelengths from a texture coordinate, not a direction
+            return self.inner.sample_wavelengths(si, sample, active)
 
-    def traverse(self, callback):
-        callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)
+        def is_environment(self):
+            return True
 
-    def to_string(self):
-        return (f"StokesEnvmap[\n  filename = {self.filename!r},\n"
-                f"  resolution = {self.width} x {self.height}\n]")
+        def traverse(self, callback):
+            callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)
+
+        def to_string(self):
+            return (f"StokesEnvmap[\n  filename = {self.filename!r},\n"
+                    f"  resolution = {self.width} x {self.height}\n]")
+
+    return StokesEnvmap
