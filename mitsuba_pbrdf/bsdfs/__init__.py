@@ -3,8 +3,8 @@
 * ``pbrdf`` (:mod:`.pbrdf`): the three-component polarized BRDF as a
   Dr.Jit-vectorized ``mi.BSDF``, its parameter table in the module docstring;
   its lobes as records (:mod:`.lobes`), the facet's Fresnel Mueller matrix
-  (:mod:`.fresnel`), microfacet helpers (:mod:`.microfacet`), parameter
-  checks (:mod:`.params`) and named conductors (:mod:`.ior`);
+  (:mod:`.fresnel`), microfacet helpers (:mod:`.microfacet`), its textures'
+  and widths' checks (:mod:`.pbrdf_properties`) and named conductors (:mod:`.ior`);
 * ``polarized_normalmap`` (:mod:`.normalmap`) and ``polarized_bumpmap``
   (:mod:`.bumpmap`): Mitsuba's shading-frame perturbations with the Stokes
   bases rotated (docs/normal-maps.md), their shared body in

@@ -87,7 +87,7 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
-from .perturbed import flag, nested_objects, single_nested_bsdf
+from .. import properties as read
 
 
 _NAME = "polarized_bumpmap"
@@ -175,16 +175,16 @@ def build_class():
 
         def __init__(self, props):
             super().__init__(props)
-            self.nested_bsdf = single_nested_bsdf(props, _NAME)
-            textures = nested_objects(props, mi.Texture)
+            self.nested_bsdf = read.single_nested(props, _NAME, mi.BSDF)
+            textures = read.nested_objects(props, mi.Texture)
             if len(textures) != 1:
                 raise ValueError(f"{_NAME}: exactly one nested height texture must be given, "
                                  f"found {len(textures)}")
             self.nested_texture = next(iter(textures.values()))
             check_heights(self.nested_texture)
             self.scale = mi.Float(check_scale(props.get("scale", 1.0)))
-            self.flip_invalid_normals = flag(props, _NAME, "flip_invalid_normals", True)
-            self.use_shadowing_function = flag(props, _NAME, "use_shadowing_function", True)
+            self.flip_invalid_normals = read.flag(props, _NAME, "flip_invalid_normals", True)
+            self.use_shadowing_function = read.flag(props, _NAME, "use_shadowing_function", True)
             self.m_components = [self.nested_bsdf.flags(i)
                                  for i in range(self.nested_bsdf.component_count())]
             self.m_flags = self.nested_bsdf.flags()

@@ -87,7 +87,7 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
-from .perturbed import flag, single_nested_bsdf
+from .. import properties as read
 
 
 #: Decoded normals shorter than this have no usable direction (an 8-bit
@@ -189,14 +189,14 @@ def build_class():
 
         def __init__(self, props):
             super().__init__(props)
-            self.nested_bsdf = single_nested_bsdf(props, _NAME)
+            self.nested_bsdf = read.single_nested(props, _NAME, mi.BSDF)
             if "normalmap" not in props or not isinstance(props["normalmap"], mi.Texture):
                 raise ValueError(f"{_NAME}: parameter 'normalmap' must be a texture "
                                  "(a bitmap with raw = true)")
             self.normalmap = props["normalmap"]
             check_normal_texels(self.normalmap)
-            self.flip_invalid_normals = flag(props, _NAME, "flip_invalid_normals", True)
-            self.use_shadowing_function = flag(props, _NAME, "use_shadowing_function", True)
+            self.flip_invalid_normals = read.flag(props, _NAME, "flip_invalid_normals", True)
+            self.use_shadowing_function = read.flag(props, _NAME, "use_shadowing_function", True)
             self.m_components = [self.nested_bsdf.flags(i)
                                  for i in range(self.nested_bsdf.component_count())]
             self.m_flags = mi.BSDFFlags.Empty

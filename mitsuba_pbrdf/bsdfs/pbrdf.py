@@ -180,12 +180,14 @@ import drjit as dr
 import mitsuba as mi
 
 from .. import schema
-from . import params
+from .. import properties
+from . import pbrdf_properties
 from .fresnel import fresnel_unpolarized, specular_mueller
 from .ior import complex_ior_textures
 from .lobes import DeltaLobe, Evaluation, LambertianLobe, MicrofacetLobe
 from .microfacet import SHADOWING
 
+_NAME = "pbrdf"
 
 
 def _read_ior(props):
@@ -196,8 +198,8 @@ def _read_ior(props):
     if has_ior:
         if "eta" not in props or "k" not in props:
             raise ValueError("pbrdf: 'eta' and 'k' must be given together")
-        return (None, params.declared(props, schema.parameter("eta"), 0.0),
-                params.declared(props, schema.parameter("k"), 0.0))
+        return (None, pbrdf_properties.declared(props, schema.parameter("eta"), 0.0),
+                pbrdf_properties.declared(props, schema.parameter("k"), 0.0))
     if "material" in props and props.type("material") != mi.Properties.Type.String:
         raise TypeError("pbrdf: parameter 'material' must be a string such as 'Al'")
     material = props["material"] if "material" in props else schema.DEFAULTS["material"]
@@ -211,13 +213,13 @@ def _depolarized(value):
 
 def _read(props, name):
     """Float or spectrum parameter *name*, read and checked against its declaration."""
-    return params.declared(props, schema.parameter(name))
+    return pbrdf_properties.declared(props, schema.parameter(name))
 
 
 def _read_choice(props, name):
     """String parameter *name*, one of its declared choices."""
     p = schema.parameter(name)
-    return params.choice(props, name, p.choices, p.default)
+    return properties.choice(props, _NAME, name, p.choices, p.default)
 
 
 def _exposed_widths(widths):
@@ -249,15 +251,15 @@ def build_class():
             # Each parameter read once by name and checked (schema.py declares them;
             # tests/test_schema.py checks that these reads match the declarations).
             self.material, self.eta, self.k = _read_ior(props)
-            self.sigma = params.read_width(props, "sigma")
-            self.sigma_u = params.read_refinement(props, "sigma_u", self.sigma)
-            self.sigma_v = params.read_refinement(props, "sigma_v", self.sigma)
+            self.sigma = pbrdf_properties.read_width(props, "sigma")
+            self.sigma_u = pbrdf_properties.read_refinement(props, "sigma_u", self.sigma)
+            self.sigma_v = pbrdf_properties.read_refinement(props, "sigma_v", self.sigma)
             self.distribution = _read_choice(props, "distribution")
             self.ks = _read(props, "ks")
             self.kdd = _read(props, "kdd")
-            self.sigma_dd = params.read_width(props, "sigma_dd")
-            self.sigma_dd_u = params.read_refinement(props, "sigma_dd_u", self.sigma_dd)
-            self.sigma_dd_v = params.read_refinement(props, "sigma_dd_v", self.sigma_dd)
+            self.sigma_dd = pbrdf_properties.read_width(props, "sigma_dd")
+            self.sigma_dd_u = pbrdf_properties.read_refinement(props, "sigma_dd_u", self.sigma_dd)
+            self.sigma_dd_v = pbrdf_properties.read_refinement(props, "sigma_dd_v", self.sigma_dd)
             self.kid = _read(props, "kid")
             self.shadowing = _read_choice(props, "shadowing")
             self.dd_distribution = _read_choice(props, "dd_distribution")
@@ -283,28 +285,28 @@ def build_class():
             shadowing = SHADOWING[self.shadowing]
             lobes = []
             widths = (self.sigma, None) if self.sigma_u is None else (self.sigma_u, self.sigma_v)
-            smooth = params.is_smooth(*widths)
-            if smooth and self.sampling == "cosine" and not params.is_constant_zero(self.ks):
+            smooth = pbrdf_properties.is_smooth(*widths)
+            if smooth and self.sampling == "cosine" and not pbrdf_properties.is_constant_zero(self.ks):
                 raise ValueError("pbrdf: parameter 'sampling' is 'cosine', which cannot sample the "
                                  "smooth specular lobe (sigma = 0); use 'mixture'")
-            if smooth and not params.is_constant_zero(self.ks):
+            if smooth and not pbrdf_properties.is_constant_zero(self.ks):
                 lobes.append(DeltaLobe("specular", self.ks, mi.BSDFFlags.DeltaReflection, len(lobes),
                                        textures={"ks": self.ks}))
-            elif not params.is_constant_zero(self.ks):
+            elif not pbrdf_properties.is_constant_zero(self.ks):
                 textures = {"ks": self.ks, **_exposed_widths(widths)}
                 lobes.append(MicrofacetLobe("specular", self.ks, widths[0], types[self.distribution],
                                             shadowing, glossy, len(lobes), polarizing=True,
                                             textures=textures, width_v=widths[1],
-                                            projected=params.projected(*widths)))
-            if not params.is_constant_zero(self.kdd):
+                                            projected=pbrdf_properties.projected(*widths)))
+            if not pbrdf_properties.is_constant_zero(self.kdd):
                 widths = ((self.sigma_dd, None) if self.sigma_dd_u is None
                           else (self.sigma_dd_u, self.sigma_dd_v))
                 textures = {"kdd": self.kdd, **_exposed_widths(widths)}
                 lobes.append(MicrofacetLobe("directional_diffuse", self.kdd, widths[0],
                                             types[self.dd_distribution], shadowing, glossy, len(lobes),
                                             polarizing=False, textures=textures, width_v=widths[1],
-                                            projected=params.projected(*widths)))
-            if not params.is_constant_zero(self.kid):
+                                            projected=pbrdf_properties.projected(*widths)))
+            if not pbrdf_properties.is_constant_zero(self.kid):
                 lobes.append(LambertianLobe("ideal_diffuse", self.kid, diffuse, len(lobes),
                                             textures={"kid": self.kid}))
             return lobes
@@ -334,7 +336,7 @@ def build_class():
             # Textures refresh their own state; re-check values an update may have broken.
             for name, exposed in self._exposed().items():
                 if not keys or any(k == name or k.startswith(name + ".") for k in keys):
-                    params.check_texture_values(name, exposed.texture, exposed.positive,
+                    pbrdf_properties.check_texture_values(name, exposed.texture, exposed.positive,
                                                 exposed.floor, spectral=exposed.spectral)
 
         def to_string(self):

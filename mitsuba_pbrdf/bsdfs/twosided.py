@@ -50,7 +50,7 @@ import drjit as dr
 import mitsuba as mi
 
 from ..mueller import rotate_mueller, rotator_entries
-from .perturbed import nested_objects
+from .. import properties as read
 
 
 _NAME = "polarized_twosided"
@@ -92,7 +92,7 @@ def build_class():
         Stokes bases (module docstring)."""
 
         def __init__(self, props):
-            bsdfs = list(nested_objects(props, mi.BSDF).values())
+            bsdfs = list(read.nested_objects(props, mi.BSDF).values())
             if not 1 <= len(bsdfs) <= 2:
                 raise ValueError(f"{_NAME}: one or two nested BSDFs must be given, found "
                                  f"{len(bsdfs)}")

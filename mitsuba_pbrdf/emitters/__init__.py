@@ -14,8 +14,8 @@ Each plugin module's ``build_class()`` defines its class for the active
 variant; :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant and
 :data:`mitsuba_pbrdf.registry.PLUGINS` registers it. :mod:`mitsuba_pbrdf.mueller`
 (emitted Stokes vectors as Mueller matrices, the Stokes basis of emitted
-light), :mod:`.sky_models` (the sky's polarization pattern), :mod:`.params`
-(reading and checking parameters) and :mod:`.wrapped` (the Emitter methods
+light), :mod:`.sky_models` (the sky's polarization pattern), :mod:`mitsuba_pbrdf.properties`
+(reading and checking every plugin's parameters) and :mod:`.wrapped` (the Emitter methods
 that hand the wrapped emitter's sampling on) are plain modules shared by the
 plugins.
 """

@@ -96,7 +96,8 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from . import params as read, wrapped
+from . import wrapped
+from .. import properties as read
 from ..mueller import basis, linear_diattenuator, times
 
 

@@ -73,7 +73,7 @@
        towards +X / 2 pi, zenith angle from local +Z / pi), the lat-long
        layout of Mitsuba's ``envmap`` turned +Y to +Z
        (``<rotate x="1" angle="90"/>``). Refused at load time if negative,
-       NaN or infinite (``params.nonnegative_texels``).
+       NaN or infinite (``properties.nonnegative_texels``).
      - --
      - ``intensity.*`` (a spectrum), ``radiance.*`` (a texture)
    * - (nested emitter)
@@ -136,7 +136,8 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from . import params as read, wrapped
+from . import wrapped
+from .. import properties as read
 from .sky_models import MODELS, berry, neutral_points, rayleigh
 from ..mueller import emitted, intensity
 from ..plugin_objects import create

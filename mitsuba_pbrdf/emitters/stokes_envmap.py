@@ -77,7 +77,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from . import params as read, wrapped
+from . import wrapped
+from .. import properties as read
 from ..mueller import basis, emitted, intensity
 from ..plugin_objects import create
 

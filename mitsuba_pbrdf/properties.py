@@ -1,5 +1,6 @@
-"""Reading and checking the emitters' parameters, with one-line errors that
-name the plugin and the parameter (``ValueError`` for a bad value,
+"""Reading and checking Mitsuba ``Properties``: the one reader of every
+plugin's parameters, with one-line errors that name the plugin and the
+parameter (``ValueError`` for a bad value,
 ``TypeError`` for a bad type), raised in the constructor so that a bad scene
 fails at load time. Plain functions: ``mi.*`` is looked up when called, so
 this module serves every variant without a reload.
@@ -86,11 +87,30 @@ def string(props, plugin, name, default=None):
     return props[name]
 
 
+def flag(props, plugin, name, default):
+    """A boolean parameter; ``default`` where absent."""
+    if name not in props:
+        return default
+    if props.type(name) != mi.Properties.Type.Bool:
+        raise TypeError(f"{plugin}: parameter '{name}' must be a boolean")
+    return bool(props[name])
+
+
 def nested_objects(props, kinds):
     """``{key: object}`` of the nested objects of ``props`` that are instances
     of ``kinds`` (read, so Mitsuba counts them as used)."""
     return {key: props[key] for key in props.keys()
             if props.type(key) == mi.Properties.Type.Object and isinstance(props[key], kinds)}
+
+
+def single_nested(props, plugin, kind):
+    """The one nested object of type *kind* (``mi.BSDF``); a one-line error
+    otherwise."""
+    found = nested_objects(props, kind)
+    if len(found) != 1:
+        raise ValueError(f"{plugin}: exactly one nested {kind.__name__} must be given, "
+                         f"found {len(found)}")
+    return next(iter(found.values()))
 
 
 #: A transform whose 3 x 3 part has |det| below this fraction of the product
