@@ -32,10 +32,24 @@ def number(props, plugin, name, default=None, low=None, high=None, what=""):
     if not math.isfinite(value):
         raise ValueError(f"{plugin}: parameter '{name}' must be finite, got {value}")
     if (low is not None and value < low) or (high is not None and value > high):
-        bounds = (f"in [{low:g}, {high:g}]" if low is not None and high is not None
-                  else f">= {low:g}" if low is not None else f"<= {high:g}")
-        raise ValueError(f"{plugin}: parameter '{name}' must be {bounds}{what}, got {value:g}")
+        raise ValueError(f"{plugin}: parameter '{name}' must be {bounds(low, high)}{what}, "
+                         f"got {value:g}")
     return value
+
+
+def declared(props, setting):
+    """Setting *setting* (a :class:`mitsuba_pbrdf.schema.Setting`) read and
+    checked against its declaration: a choice or a bounded number."""
+    if setting.choices:
+        return choice(props, setting.plugin, setting.name, setting.choices, setting.default)
+    return number(props, setting.plugin, setting.name, setting.default, setting.low,
+                  setting.high)
+
+
+def bounds(low, high):
+    """``in [low, high]``, ``>= low`` or ``<= high``, as errors word a range."""
+    return (f"in [{low:g}, {high:g}]" if low is not None and high is not None
+            else f">= {low:g}" if low is not None else f"<= {high:g}")
 
 
 def direction(props, plugin, name):

@@ -99,6 +99,7 @@ import mitsuba as mi
 from . import wrapped
 from .. import properties as read
 from ..mueller import basis, linear_diattenuator, times
+from ..schema import setting
 
 
 _NAME = "polarized_emitter"
@@ -111,9 +112,9 @@ def _configure(props):
         raise ValueError(f"{_NAME}: exactly one nested emitter (the lamp) must be given, "
                          f"found {len(nested)}")
     lamp = next(iter(nested.values()))
-    angle = math.radians(read.number(props, _NAME, "angle", 0.0))
-    degree = read.number(props, _NAME, "degree", 1.0, 0.0, 1.0)
-    transmittance = read.number(props, _NAME, "transmittance", 1.0, 0.0, 1.0)
+    angle = math.radians(read.declared(props, setting(_NAME, "angle")))
+    degree = read.declared(props, setting(_NAME, "degree"))
+    transmittance = read.declared(props, setting(_NAME, "transmittance"))
     m = read.transform(props, _NAME, "to_world")
     local = (math.cos(angle), math.sin(angle), 0.0)
     axis = read.unit_vector(_NAME, "to_world",

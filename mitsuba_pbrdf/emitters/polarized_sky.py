@@ -138,7 +138,8 @@ import mitsuba as mi
 
 from . import wrapped
 from .. import properties as read
-from .sky_models import MODELS, berry, neutral_points, rayleigh
+from ..schema import setting
+from .sky_models import berry, neutral_points, rayleigh
 from ..mueller import emitted, intensity
 from ..plugin_objects import create
 
@@ -273,9 +274,9 @@ def _floats(value):
 
 def _configure(props):
     """The checked parameters of a ``polarized_sky``, as attributes."""
-    model = read.choice(props, _NAME, "model", MODELS, "rayleigh")
-    dolp_max = read.number(props, _NAME, "dolp_max", 0.8, 0.0, 1.0)
-    separation = read.number(props, _NAME, "neutral_point_separation", 35.0, 0.0, 90.0)
+    model = read.declared(props, setting(_NAME, "model"))
+    dolp_max = read.declared(props, setting(_NAME, "dolp_max"))
+    separation = read.declared(props, setting(_NAME, "neutral_point_separation"))
     if model != "berry" and "neutral_point_separation" in props:
         raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
                          "model 'berry' only")
@@ -405,9 +406,10 @@ def build_class():
 
         def parameters_changed(self, keys):
             if not keys or "dolp_max" in keys:
-                value = _floats(self.dolp_max)
-                if len(value) != 1 or not (0.0 <= value[0] <= 1.0):
-                    raise ValueError(f"{_NAME}: parameter 'dolp_max' must be in [0, 1], got "
+                value, declared = _floats(self.dolp_max), setting(_NAME, "dolp_max")
+                if len(value) != 1 or not (declared.low <= value[0] <= declared.high):
+                    raise ValueError(f"{_NAME}: parameter 'dolp_max' must be "
+                                     f"{read.bounds(declared.low, declared.high)}, got "
                                      f"{value if len(value) != 1 else value[0]}")
             if not keys or "sun_direction" in keys:
                 # a new sun: checked, handed to the sunsky intensity without its

@@ -81,6 +81,7 @@ from . import wrapped
 from .. import properties as read
 from ..mueller import basis, emitted, intensity
 from ..plugin_objects import create
+from ..schema import setting
 
 
 _NAME = "stokes_envmap"
@@ -124,7 +125,7 @@ def _configure(props):
     path = str(mi.file_resolver().resolve(filename))
     if not os.path.isfile(path):
         raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
-    scale = read.number(props, _NAME, "scale", 1.0, low=0.0)
+    scale = read.declared(props, setting(_NAME, "scale"))
     m = np.array(read.rotation(props, _NAME, "to_world"), np.float64)
     s0, stokes = load_stokes_map(path)
     config = {"bitmap": mi.Bitmap(s0), "scale": scale}
