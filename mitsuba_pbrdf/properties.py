@@ -301,3 +301,25 @@ def mitsuba_reason(error):
     text = re.sub(r"\[[\w./-]+:\d+\]\s*", "", text)
     text = re.sub(r"At dictionary node \"[^\"]*\": failed to instantiate [^:]*:\s*", "", text)
     return " ".join(text.split())
+
+
+def create(plugin_type: str, **params):
+    """A new instance of Mitsuba plugin *plugin_type* (``"irregular"``,
+    ``"sunsky"``, ...) of the active variant, with *params* as its properties,
+    for a plugin's constructor to nest. Values are set as given, so give them
+    the types the plugin reads: ``float``, ``int``, ``bool``, ``str``, Mitsuba
+    objects (a texture, a bitmap), ``mi.ScalarColor3f`` for a colour,
+    ``mi.ScalarVector3f`` for a vector, ``mi.ScalarTransform4f`` for a
+    transform. Raises Mitsuba's ``RuntimeError`` when the plugin refuses its
+    parameters.
+
+    Through Mitsuba's plugin manager, never its scene parser: ``mi.load_dict``
+    swaps the process-wide file resolver for a copy and frees the copy when
+    done, while a parallel scene load runs other constructors on other threads
+    that read it (``sunsky`` for its data files), so a ``load_dict`` inside a
+    constructor can free what another thread reads (tests/test_plugin_objects.py).
+    The plugin manager touches no resolver."""
+    props = mi.Properties(plugin_type)
+    for key, value in params.items():
+        props[key] = value
+    return mi.PluginManager.instance().create_object(props)

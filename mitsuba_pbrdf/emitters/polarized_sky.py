@@ -141,7 +141,6 @@ from .. import properties as read
 from ..schema import setting
 from .sky_models import berry, neutral_points, rayleigh
 from ..mueller import emitted, intensity
-from ..plugin_objects import create
 
 
 _NAME = "polarized_sky"
@@ -228,9 +227,9 @@ def _intensity_emitter(props, up, sun, when):
     if "radiance" in props:
         texture, varying = _texture(props)
         if varying:   # unit radiance, uniform sampling; the texture scales it by direction
-            unit = create("constant", radiance=create("uniform", value=1.0))
+            unit = read.create("constant", radiance=read.create("uniform", value=1.0))
             return unit, "texture", None, texture, sun
-        return create("constant", radiance=texture), "constant", None, None, sun
+        return read.create("constant", radiance=texture), "constant", None, None, sun
 
     if not (mi.is_rgb or mi.is_spectral):
         raise ValueError(f"{_NAME}: the default sunsky intensity needs an RGB or spectral "
@@ -251,7 +250,7 @@ def _intensity_emitter(props, up, sun, when):
     if "to_world" in props:
         config["to_world"] = read.as_transform(read.rotation(props, _NAME, "to_world"))
     try:
-        emitter = create("sunsky", **config)
+        emitter = read.create("sunsky", **config)
     except RuntimeError as error:
         raise ValueError(f"{_NAME}: the sunsky intensity refused its parameters: "
                          f"{read.mitsuba_reason(error)}") from None

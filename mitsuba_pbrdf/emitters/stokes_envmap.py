@@ -80,7 +80,6 @@ import numpy as np
 from . import wrapped
 from .. import properties as read
 from ..mueller import basis, emitted, intensity
-from ..plugin_objects import create
 from ..schema import setting
 
 
@@ -131,7 +130,7 @@ def _configure(props):
     config = {"bitmap": mi.Bitmap(s0), "scale": scale}
     if "to_world" in props:
         config["to_world"] = read.as_transform(m)
-    return {"filename": filename, "inner": create("envmap", **config),
+    return {"filename": filename, "inner": read.create("envmap", **config),
             "to_local": [[float(c) for c in row] for row in m.T],
             "to_world_rows": [[float(c) for c in row] for row in m],
             "height": stokes.shape[0], "width": stokes.shape[1],
