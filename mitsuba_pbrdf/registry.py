@@ -1,5 +1,5 @@
-"""Registering the package's Mitsuba plugins (the ``pbrdf`` BSDF and the
-integrators of :mod:`mitsuba_pbrdf.integrators`) in the active variant, and
+"""Registering the package's Mitsuba plugins (:data:`PLUGINS`: the BSDFs,
+emitters and integrators) in the active variant, and
 keeping them registered when the variant changes.
 
 ::
@@ -79,9 +79,8 @@ def _factory(name):
 
 
 def register():
-    """Register the package's plugins (:data:`PLUGINS`: the ``pbrdf`` BSDF and
-    the ``stokes_prb`` integrator) in the active variant; returns the
-    variant's name. Raises :class:`VariantNotSetError` if none is set."""
+    """Register the package's plugins (every one of :data:`PLUGINS`) in the
+    active variant, each built on first use; returns the variant's name. Raises :class:`VariantNotSetError` if none is set."""
     mi = require_variant()
     for kind, name, _, _ in PLUGINS:
         getattr(mi, f"register_{kind}")(name, _factory(name))
@@ -89,7 +88,7 @@ def register():
 
 
 def use_variant(name: str) -> None:
-    """Set Mitsuba's variant *name* and register the ``pbrdf`` plugin in it.
+    """Set Mitsuba's variant *name* and register the package's plugins in it.
 
     Raises :class:`UnknownVariantError`, listing the variants this Mitsuba
     build has, for a variant it lacks or that cannot start here.
