@@ -166,9 +166,7 @@ def bumpmap_frame(texture, scale, si, flip_invalid_normals, active):
 
 
 def build_class():
-    """``PolarizedBumpMap`` for the active Mitsuba variant (its base class is that
-    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
-
+    """``PolarizedBumpMap`` on the active variant's base class (registry.plugin_class)."""
     class PolarizedBumpMap(mi.BSDF):
         """Mitsuba's ``bumpmap`` with the nested Mueller matrix rotated into the
         unperturbed frame's Stokes bases (module docstring)."""

@@ -180,9 +180,7 @@ def normalmap_frame(texture, si, flip_invalid_normals, active):
 
 
 def build_class():
-    """``PolarizedNormalMap`` for the active Mitsuba variant (its base class is that
-    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
-
+    """``PolarizedNormalMap`` on the active variant's base class (registry.plugin_class)."""
     class PolarizedNormalMap(mi.BSDF):
         """Mitsuba's ``normalmap`` with the nested Mueller matrix rotated into the
         unperturbed frame's Stokes bases (module docstring)."""

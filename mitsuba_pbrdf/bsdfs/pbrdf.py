@@ -179,8 +179,7 @@ from typing import NamedTuple, Optional
 import drjit as dr
 import mitsuba as mi
 
-from .. import schema
-from .. import properties
+from .. import properties, schema
 from . import pbrdf_properties
 from .fresnel import fresnel_unpolarized, specular_mueller
 from .ior import complex_ior_textures
@@ -240,9 +239,7 @@ class Exposed(NamedTuple):
 
 
 def build_class():
-    """``PolarizedBRDF`` for the active Mitsuba variant (its base class is that
-    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
-
+    """``PolarizedBRDF`` on the active variant's base class (registry.plugin_class)."""
     class PolarizedBRDF(mi.BSDF):
         __doc__ = __doc__
 

@@ -84,9 +84,7 @@ def to_back_bases(ctx, value, wo_m, wi_m, back):
 
 
 def build_class():
-    """``PolarizedTwoSided`` for the active Mitsuba variant (its base class is that
-    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
-
+    """``PolarizedTwoSided`` on the active variant's base class (registry.plugin_class)."""
     class PolarizedTwoSided(mi.BSDF):
         """Mitsuba's ``twosided`` with the back side's Mueller matrix in the right
         Stokes bases (module docstring)."""

@@ -125,9 +125,7 @@ def _configure(props):
 
 
 def build_class():
-    """``PolarizedEmitter`` for the active Mitsuba variant (its base class is that
-    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
-
+    """``PolarizedEmitter`` on the active variant's base class (registry.plugin_class)."""
     class PolarizedEmitter(mi.Emitter):
         """A lamp behind a linear polarizer (module docstring)."""
 

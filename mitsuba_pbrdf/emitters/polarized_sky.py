@@ -301,9 +301,7 @@ def _configure(props):
 
 
 def build_class():
-    """``PolarizedSky`` for the active Mitsuba variant (its base class is that
-    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
-
+    """``PolarizedSky`` on the active variant's base class (registry.plugin_class)."""
     class PolarizedSky(mi.Emitter):
         """A sky whose light carries the polarization of :mod:`.sky_models`
         (module docstring)."""

@@ -138,9 +138,7 @@ def _configure(props):
 
 
 def build_class():
-    """``StokesEnvmap`` for the active Mitsuba variant (its base class is that
-    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
-
+    """``StokesEnvmap`` on the active variant's base class (registry.plugin_class)."""
     class StokesEnvmap(mi.Emitter):
         """An environment map of Stokes vectors (module docstring)."""
 

@@ -71,8 +71,7 @@ from .replay import VertexStore, replay, trace
 
 
 def build_class():
-    """``StokesPRBIntegrator`` for the active Mitsuba variant (its base class is that
-    variant's); :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant."""
+    """``StokesPRBIntegrator`` on the active variant's base class (registry.plugin_class)."""
     # mi.ad is the active variant's; ``from mitsuba.ad... import`` would give
     # the ADIntegrator of the variant that first imported it.
     ADIntegrator = mi.ad.integrators.common.ADIntegrator
