@@ -181,7 +181,7 @@ def normalmap_frame(texture, si, flip_invalid_normals, active):
 
 def build_class():
     """``PolarizedNormalMap`` on the active variant's base class (registry.plugin_class)."""
-    class PolarizedNormalMap(mi.BSDF):
+    class PolarizedNormalMap(perturbed.wrapper_base(zero_pdf_on_wrong_side=True)):
         """Mitsuba's ``normalmap`` with the nested Mueller matrix rotated into the
         unperturbed frame's Stokes bases (module docstring)."""
 
@@ -212,26 +212,6 @@ def build_class():
 
         def frame(self, si, active=True):
             return normalmap_frame(self.normalmap, si, self.flip_invalid_normals, active)
-
-        def eval(self, ctx, si, wo, active=True):
-            return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
-                                      self.use_shadowing_function, want_pdf=False)[0]
-
-        def pdf(self, ctx, si, wo, active=True):
-            return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
-                                      self.use_shadowing_function, want_value=False)[1]
-
-        def eval_pdf(self, ctx, si, wo, active=True):
-            return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
-                                      self.use_shadowing_function)
-
-        def sample(self, ctx, si, sample1, sample2, active=True):
-            return perturbed.sample(self.nested_bsdf, ctx, si, sample1, sample2, active,
-                                    *self.frame(si, active), self.use_shadowing_function,
-                                    zero_pdf_on_wrong_side=True)
-
-        def eval_diffuse_reflectance(self, si, active=True):
-            return self.nested_bsdf.eval_diffuse_reflectance(si, active)
 
         def to_string(self):
             return (f"PolarizedNormalMap[\n  nested_bsdf = {self.nested_bsdf},\n"
