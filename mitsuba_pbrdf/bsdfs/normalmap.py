@@ -172,11 +172,7 @@ def normalmap_frame(texture, si, flip_invalid_normals, active):
     frame_si.s = dr.normalize(s)
     frame_si.t = dr.cross(frame_si.n, frame_si.s)
 
-    frame_world = dr.zeros(mi.Frame3f)
-    frame_world.n = si.to_world(frame_si.n)
-    frame_world.s = si.to_world(frame_si.s)
-    frame_world.t = si.to_world(frame_si.t)
-    return frame_si, frame_world
+    return frame_si, perturbed.to_world_frame(si, frame_si)
 
 
 def build_class():

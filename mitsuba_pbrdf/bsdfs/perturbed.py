@@ -100,6 +100,16 @@ def sample(nested, ctx, si, sample1, sample2, active, frame_si, frame_world, sha
 # ------------------------------------------------- the wrappers' base class
 
 
+def to_world_frame(si, frame_si):
+    """The perturbed frame *frame_si* (in the shading frame of *si*) in world
+    space: the ``frame_world`` the steps above take."""
+    frame_world = dr.zeros(mi.Frame3f)
+    frame_world.n = si.to_world(frame_si.n)
+    frame_world.s = si.to_world(frame_si.s)
+    frame_world.t = si.to_world(frame_si.t)
+    return frame_world
+
+
 def wrapper_base(zero_pdf_on_wrong_side):
     """The active variant's ``mi.BSDF`` with the steps both map wrappers share
     (eval, pdf, eval_pdf, sample of ``nested_bsdf`` in the frame the subclass's
