@@ -1,5 +1,5 @@
-"""Registering the package's Mitsuba plugins (the ``pbrdf`` BSDF and the
-integrators of :mod:`mitsuba_pbrdf.integrators`) in the active variant, and
+"""Registering the package's Mitsuba plugins (:data:`PLUGINS`: the BSDFs,
+emitters and integrators) in the active variant, and
 keeping them registered when the variant changes.
 
 ::
@@ -7,11 +7,13 @@ keeping them registered when the variant changes.
     import mitsuba_pbrdf
     mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")   # set it, register the plugins
 
-Each plugin class is defined at module level, in a module that subclasses the
-active variant's Mitsuba base class (``mi.BSDF``, Mitsuba's ``ADIntegrator``)
-when it runs, as Mitsuba's own Python integrators do; :func:`variant_module`
-runs such a module once per variant and keeps each variant's copy, so a
-variant's classes stay the same objects however often the variant changes.
+A plugin class derives from the active variant's Mitsuba base class
+(``mi.BSDF``, ``mi.Emitter``, Mitsuba's ``ADIntegrator``), so there is one per
+variant. Each plugin module defines it in a factory, ``build_class()``, that
+:func:`plugin_class` calls once per variant and keeps; the modules themselves
+import without a variant, and no module is run twice. Variants used side by
+side (threads, Dask workers) and switched back and forth each keep their own
+classes, the same objects however often the variant changes.
 
 Mitsuba's Python plugins are registered per variant. Importing
 ``mitsuba_pbrdf`` registers them in the variant already set (if any) and,
@@ -27,18 +29,17 @@ import importlib
 import importlib.util
 import logging
 import sys
-import threading
 
 from .interrupts import held
 from .variant import UnknownVariantError, _mitsuba, require_variant
 
-__all__ = ["PLUGINS", "register", "use_variant", "install_hook", "variant_module", "plugin_class"]
+__all__ = ["PLUGINS", "register", "use_variant", "install_hook", "plugin_class"]
 
 log = logging.getLogger(__name__)
 
 
 #: Every Mitsuba plugin the package registers: (plugin kind, name in scene
-#: files, module, class). Each module sets ``VARIANT = mi.variant()``.
+#: files, module, class). Each module's ``build_class()`` defines the class.
 PLUGINS = (
     ("bsdf", "pbrdf", "mitsuba_pbrdf.bsdfs.pbrdf", "PolarizedBRDF"),
     ("integrator", "stokes_prb", "mitsuba_pbrdf.integrators.stokes_prb", "StokesPRBIntegrator"),
@@ -51,50 +52,26 @@ PLUGINS = (
      "PolarizedEmitter"),
 )
 
-_modules = {}
-#: Held while a module is looked up or run: Mitsuba builds a scene's plugins on
-#: several threads, and another thread must not take a module whose body is
-#: still running (its VARIANT set, its classes not yet: CI, "no attribute
-#: 'PolarizedBRDF'"). Reentrant: a module may import another one.
-_modules_lock = threading.RLock()
-
-
-def variant_module(name: str):
-    """Module *name* as run under the active variant (its classes derive from
-    that variant's Mitsuba base classes): run once per variant, then reused."""
-    mi = require_variant()
-    variant = mi.variant()
-    with _modules_lock:
-        return _variant_module(name, variant)
-
-
-def _variant_module(name: str, variant: str):
-    module = _modules.get((name, variant))
-    if module is None:
-        current = sys.modules.get(name)
-        if current is not None and getattr(current, "VARIANT", None) == variant:
-            module = current
-        else:
-            spec = importlib.util.find_spec(name)
-            module = importlib.util.module_from_spec(spec)
-            sys.modules[name] = module
-            try:
-                spec.loader.exec_module(module)
-            except BaseException:
-                sys.modules.pop(name, None)
-                raise
-        _modules[(name, variant)] = module
-    sys.modules[name] = module
-    return module
+#: (plugin name, variant) -> the plugin's class for that variant.
+_classes = {}
 
 
 def plugin_class(name: str):
     """The class of plugin *name* (``"pbrdf"``, ``"stokes_prb"``) for the
-    active variant."""
-    for _, plugin, module, cls in PLUGINS:
+    active variant, built by its module's ``build_class()`` the first time.
+
+    No lock: threads that build the same variant's class at once each get the
+    one that ``dict.setdefault`` (atomic) kept, so a variant has one class."""
+    for _, plugin, module, _ in PLUGINS:
         if plugin == name:
-            return getattr(variant_module(module), cls)
-    raise KeyError(f"no plugin {name!r}; plugins: {', '.join(p[1] for p in PLUGINS)}")
+            break
+    else:
+        raise KeyError(f"no plugin {name!r}; plugins: {', '.join(p[1] for p in PLUGINS)}")
+    key = (name, require_variant().variant())
+    cls = _classes.get(key)
+    if cls is None:
+        cls = _classes.setdefault(key, importlib.import_module(module).build_class())
+    return cls
 
 
 def _factory(name):
@@ -102,9 +79,8 @@ def _factory(name):
 
 
 def register():
-    """Register the package's plugins (:data:`PLUGINS`: the ``pbrdf`` BSDF and
-    the ``stokes_prb`` integrator) in the active variant; returns the
-    variant's name. Raises :class:`VariantNotSetError` if none is set."""
+    """Register the package's plugins (every one of :data:`PLUGINS`) in the
+    active variant, each built on first use; returns the variant's name. Raises :class:`VariantNotSetError` if none is set."""
     mi = require_variant()
     for kind, name, _, _ in PLUGINS:
         getattr(mi, f"register_{kind}")(name, _factory(name))
@@ -112,7 +88,7 @@ def register():
 
 
 def use_variant(name: str) -> None:
-    """Set Mitsuba's variant *name* and register the ``pbrdf`` plugin in it.
+    """Set Mitsuba's variant *name* and register the package's plugins in it.
 
     Raises :class:`UnknownVariantError`, listing the variants this Mitsuba
     build has, for a variant it lacks or that cannot start here.

@@ -30,7 +30,7 @@ from typing import Optional, Tuple
 __all__ = ["Parameter", "Fit", "Alias", "ALIASES", "PARAMETERS", "MIN_SIGMA", "LOBES", "DEFAULTS", "SHADOWING",
            "REFERENCE_SHADOWING", "DD_DISTRIBUTIONS", "DISTRIBUTIONS", "SAMPLING",
            "REFINEMENTS", "ANISOTROPIC_WIDTHS", "exposed_widths", "parameter", "names",
-           "markdown_table", "rst_table"]
+           "markdown_table", "rst_table", "Setting", "SETTINGS", "setting"]
 
 #: Smallest accepted RMS slope (``sigma``, ``sigma_dd``): Mitsuba's microfacet
 #: distributions clamp the Beckmann/GGX width alpha = sqrt(2) sigma to 1e-4.
@@ -295,6 +295,42 @@ def exposed_widths(lobe: str, anisotropic: bool) -> Tuple[str, ...]:
 
 #: Default values by name (eta and k: None, meaning "from the material").
 DEFAULTS = {p.name: p.default for p in PARAMETERS}
+
+
+@dataclass(frozen=True)
+class Setting:
+    """A number or choice of another of the package's plugins (the emitters;
+    ``pbrdf``'s are :data:`PARAMETERS`): its default, its bounds ``[low,
+    high]`` (either None: unbounded), its ``choices`` (a string setting) and
+    whether ``traverse`` exposes it as differentiable. Read by
+    :func:`mitsuba_pbrdf.properties.declared`; the plugin's docstring table
+    states the same default and flag (tests/test_plugin_tables.py)."""
+
+    plugin: str
+    name: str
+    default: object
+    low: Optional[float] = None
+    high: Optional[float] = None
+    choices: Tuple[str, ...] = ()
+    differentiable: bool = False
+
+
+SETTINGS: Tuple[Setting, ...] = (
+    Setting("polarized_sky", "model", "rayleigh", choices=("rayleigh", "berry")),
+    Setting("polarized_sky", "dolp_max", 0.8, 0.0, 1.0, differentiable=True),
+    Setting("polarized_sky", "neutral_point_separation", 35.0, 0.0, 90.0),
+    Setting("polarized_emitter", "angle", 0.0),
+    Setting("polarized_emitter", "degree", 1.0, 0.0, 1.0),
+    Setting("polarized_emitter", "transmittance", 1.0, 0.0, 1.0),
+    Setting("stokes_envmap", "scale", 1.0, low=0.0),
+)
+
+_SETTINGS = {(s.plugin, s.name): s for s in SETTINGS}
+
+
+def setting(plugin: str, name: str) -> Setting:
+    """The declaration of plugin *plugin*'s setting *name*."""
+    return _SETTINGS[(plugin, name)]
 
 SHADOWING = parameter("shadowing").choices
 #: The reference evaluator also offers ``"none"`` (G = 1: the original

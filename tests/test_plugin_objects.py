@@ -1,7 +1,7 @@
 """The package's plugins create their nested objects (a material's n and k
 spectra, the sky's ``sunsky`` or ``constant`` intensity, the Stokes map's
 ``envmap``) through Mitsuba's plugin manager, never its scene parser
-(:mod:`mitsuba_pbrdf.plugin_objects`).
+(:func:`mitsuba_pbrdf.properties.create`).
 
 The hazard, shown by the control: ``mi.load_dict`` swaps Mitsuba's
 process-wide file resolver and frees its copy; a ``sunsky`` constructed on
@@ -26,7 +26,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf.plugin_objects import create
+from mitsuba_pbrdf.properties import create
 from mitsuba_pbrdf.stokes import write_stokes_exr
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir))
@@ -43,7 +43,7 @@ RACE = textwrap.dedent("""
     import mitsuba as mi
     import mitsuba_pbrdf
     mitsuba_pbrdf.use_variant("llvm_ad_spectral_polarized")
-    from mitsuba_pbrdf.plugin_objects import create
+    from mitsuba_pbrdf.properties import create
 
     def by_the_parser():
         mi.load_dict({"type": "uniform", "value": 0.5})

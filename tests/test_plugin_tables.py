@@ -27,7 +27,7 @@ CPP_BASE_READS = {
 }
 
 #: Parameters read under names the schema derives (Mitsuba's ``alpha`` beside
-#: ``sigma``: ``bsdfs/params.read_width``); tests/test_alpha_names.py loads each.
+#: ``sigma``: ``bsdfs/pbrdf_properties.read_width``); tests/test_alpha_names.py loads each.
 SCHEMA_READS = {"pbrdf": set(schema.ALIASES)}
 
 
@@ -75,6 +75,9 @@ def reads(source: str) -> set:
         if isinstance(n, ast.Call) and (any(is_props(a) for a in n.args)
                                         or isinstance(n.func, ast.Attribute) and is_props(n.func.value)):
             keys = [a.value for a in n.args if isinstance(a, ast.Constant) and isinstance(a.value, str)]
+            keys += [k.value for a in n.args   # read.declared(props, setting(NAME, "key"))
+                     if isinstance(a, ast.Call) and getattr(a.func, "id", "") == "setting"
+                     for k in a.args[1:] if isinstance(k, ast.Constant)]
             found |= set(keys[:1])   # the key; a later string is a default
         elif isinstance(n, ast.Subscript) and is_props(n.value):
             found |= _string_constants(n.slice, constants)
@@ -124,6 +127,31 @@ def f(props):
         if key in props:
             pass
     [k for k in ("h", "i") if k in props]
+    read.declared(props, setting(NAME, "j"))
 '''
-    assert reads(source) == set("abcdeghi")
+    assert reads(source) == set("abcdeghij")
     assert documented("   * - ``x``, ``y``\n     - float\n   * - (nested)\n") == {"x", "y"}
+
+
+def table_rows(docstring: str) -> dict:
+    """``{name: [type, description, default, flags]}`` of a list-table, each
+    cell's lines joined."""
+    rows = {}
+    for row in re.split(r"^ *\* - ", docstring, flags=re.M)[1:]:
+        cells = [" ".join(c.split()) for c in re.split(r"^ *- ", row, flags=re.M)]
+        name = re.match(r"``(\w+)``", cells[0])
+        if name:
+            rows[name.group(1)] = cells[1:]
+    return rows
+
+
+@pytest.mark.parametrize("s", schema.SETTINGS, ids=[f"{s.plugin}.{s.name}" for s in schema.SETTINGS])
+def test_the_table_states_each_declared_setting(s):
+    """Each declared setting's row gives its default and, where ``traverse``
+    exposes it as differentiable, says so; the module reads it by declaration."""
+    module = next(p[2] for p in PLUGINS if p[1] == s.plugin)
+    source = inspect.getsource(importlib.import_module(module))
+    _, _, default, flags = table_rows(ast.get_docstring(ast.parse(source)))[s.name]
+    assert default == (f"``{s.default}``" if s.choices else f"{s.default:g}"), s
+    assert ("differentiable" in flags) == s.differentiable, (s, flags)
+    assert f'setting(_NAME, "{s.name}")' in source

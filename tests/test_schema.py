@@ -71,7 +71,7 @@ def plugin_reads():
 
     path = os.path.join(ROOT, "mitsuba_pbrdf", "bsdfs", "pbrdf.py")
     tree = ast.parse(open(path, encoding="utf-8").read())
-    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "PolarizedBRDF")
+    cls = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef) and n.name == "PolarizedBRDF")
     init = next(n for n in cls.body if isinstance(n, ast.FunctionDef) and n.name == "__init__")
     names = set()
     for node in ast.walk(init):

@@ -3,8 +3,8 @@
 * ``pbrdf`` (:mod:`.pbrdf`): the three-component polarized BRDF as a
   Dr.Jit-vectorized ``mi.BSDF``, its parameter table in the module docstring;
   its lobes as records (:mod:`.lobes`), the facet's Fresnel Mueller matrix
-  (:mod:`.fresnel`), microfacet helpers (:mod:`.microfacet`), parameter
-  checks (:mod:`.params`) and named conductors (:mod:`.ior`);
+  (:mod:`.fresnel`), microfacet helpers (:mod:`.microfacet`), its textures'
+  and widths' checks (:mod:`.pbrdf_properties`) and named conductors (:mod:`.ior`);
 * ``polarized_normalmap`` (:mod:`.normalmap`) and ``polarized_bumpmap``
   (:mod:`.bumpmap`): Mitsuba's shading-frame perturbations with the Stokes
   bases rotated (docs/normal-maps.md), their shared body in
@@ -13,10 +13,9 @@
 * ``polarized_twosided`` (:mod:`.twosided`): Mitsuba's ``twosided`` with the
   back side's Stokes bases put right.
 
-The plugin modules subclass the active variant's ``mi.BSDF`` when they run, so
-they are loaded per variant by :func:`mitsuba_pbrdf.registry.variant_module`
-(``mitsuba_pbrdf.registry.plugin_class("pbrdf")`` gives the class); this
-package itself needs no variant. The Stokes-basis rotations they share with
+Each plugin module's ``build_class()`` subclasses the active variant's
+``mi.BSDF``; :func:`mitsuba_pbrdf.registry.plugin_class` (``plugin_class("pbrdf")``)
+builds and keeps one class per variant. The modules import without a variant. The Stokes-basis rotations they share with
 the integrators and emitters are in :mod:`mitsuba_pbrdf.mueller`. ``pbrdf``
 never imports the NumPy reference evaluator (:mod:`mitsuba_pbrdf.reference`):
 the two are independent implementations of the model that tests compare.

@@ -74,8 +74,8 @@ XML::
         <bsdf type="roughconductor"/>
     </bsdf>
 
-This module defines the class for the Mitsuba variant active when it is
-imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+:func:`build_class` defines the class on the active variant's Mitsuba base
+class; :func:`mitsuba_pbrdf.registry.plugin_class` calls it once per variant.
 """
 
 from __future__ import annotations
@@ -87,10 +87,8 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
-from .perturbed import flag, nested_objects, single_nested_bsdf
+from .. import properties as read
 
-#: The Mitsuba variant this module's class was built for (registry.variant_module).
-VARIANT = mi.variant()
 
 _NAME = "polarized_bumpmap"
 
@@ -160,75 +158,55 @@ def bumpmap_frame(texture, scale, si, flip_invalid_normals, active):
     frame_si.s = dr.normalize(s)
     frame_si.t = dr.cross(n, frame_si.s)
 
-    frame_world = dr.zeros(mi.Frame3f)
-    frame_world.n = si.to_world(frame_si.n)
-    frame_world.s = si.to_world(frame_si.s)
-    frame_world.t = si.to_world(frame_si.t)
-    return frame_si, frame_world
+    return frame_si, perturbed.to_world_frame(si, frame_si)
 
 
-class PolarizedBumpMap(mi.BSDF):
-    """Mitsuba's ``bumpmap`` with the nested Mueller matrix rotated into the
-    unperturbed frame's Stokes bases (module docstring)."""
+def build_class():
+    """``PolarizedBumpMap`` on the active variant's base class (registry.plugin_class)."""
+    class PolarizedBumpMap(perturbed.wrapper_base(zero_pdf_on_wrong_side=False)):
+        """Mitsuba's ``bumpmap`` with the nested Mueller matrix rotated into the
+        unperturbed frame's Stokes bases (module docstring)."""
 
-    def __init__(self, props):
-        super().__init__(props)
-        self.nested_bsdf = single_nested_bsdf(props, _NAME)
-        textures = nested_objects(props, mi.Texture)
-        if len(textures) != 1:
-            raise ValueError(f"{_NAME}: exactly one nested height texture must be given, "
-                             f"found {len(textures)}")
-        self.nested_texture = next(iter(textures.values()))
-        check_heights(self.nested_texture)
-        self.scale = mi.Float(check_scale(props.get("scale", 1.0)))
-        self.flip_invalid_normals = flag(props, _NAME, "flip_invalid_normals", True)
-        self.use_shadowing_function = flag(props, _NAME, "use_shadowing_function", True)
-        self.m_components = [self.nested_bsdf.flags(i)
-                             for i in range(self.nested_bsdf.component_count())]
-        self.m_flags = self.nested_bsdf.flags()
-
-    def traverse(self, callback):
-        disc = mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous
-        callback.put("nested_bsdf", self.nested_bsdf, disc)
-        callback.put("nested_texture", self.nested_texture, disc)
-        callback.put("scale", self.scale, mi.ParamFlags.NonDifferentiable)
-
-    def parameters_changed(self, keys):
-        # every update re-checked, as at load time (the normal map does the same)
-        if not keys or any(k.startswith("nested_texture") for k in keys):
+        def __init__(self, props):
+            super().__init__(props)
+            self.nested_bsdf = read.single_nested(props, _NAME, mi.BSDF)
+            textures = read.nested_objects(props, mi.Texture)
+            if len(textures) != 1:
+                raise ValueError(f"{_NAME}: exactly one nested height texture must be given, "
+                                 f"found {len(textures)}")
+            self.nested_texture = next(iter(textures.values()))
             check_heights(self.nested_texture)
-        if not keys or "scale" in keys:
-            values = np.atleast_1d(np.asarray(dr.detach(self.scale), dtype=np.float64))
-            if values.size != 1 or not np.all(np.isfinite(values)):
-                raise ValueError(f"{_NAME}: parameter 'scale' must be a finite number, got "
-                                 f"{values.tolist()}")
+            self.scale = mi.Float(check_scale(props.get("scale", 1.0)))
+            self.flip_invalid_normals = read.flag(props, _NAME, "flip_invalid_normals", True)
+            self.use_shadowing_function = read.flag(props, _NAME, "use_shadowing_function", True)
+            self.m_components = [self.nested_bsdf.flags(i)
+                                 for i in range(self.nested_bsdf.component_count())]
+            self.m_flags = self.nested_bsdf.flags()
 
-    def frame(self, si, active=True):
-        return bumpmap_frame(self.nested_texture, self.scale, si, self.flip_invalid_normals,
-                             active)
+        def traverse(self, callback):
+            disc = mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous
+            callback.put("nested_bsdf", self.nested_bsdf, disc)
+            callback.put("nested_texture", self.nested_texture, disc)
+            callback.put("scale", self.scale, mi.ParamFlags.NonDifferentiable)
 
-    def eval(self, ctx, si, wo, active=True):
-        return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
-                                  self.use_shadowing_function, want_pdf=False)[0]
+        def parameters_changed(self, keys):
+            # every update re-checked, as at load time (the normal map does the same)
+            if not keys or any(k.startswith("nested_texture") for k in keys):
+                check_heights(self.nested_texture)
+            if not keys or "scale" in keys:
+                values = np.atleast_1d(np.asarray(dr.detach(self.scale), dtype=np.float64))
+                if values.size != 1 or not np.all(np.isfinite(values)):
+                    raise ValueError(f"{_NAME}: parameter 'scale' must be a finite number, got "
+                                     f"{values.tolist()}")
 
-    def pdf(self, ctx, si, wo, active=True):
-        return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
-                                  self.use_shadowing_function, want_value=False)[1]
+        def frame(self, si, active=True):
+            return bumpmap_frame(self.nested_texture, self.scale, si, self.flip_invalid_normals,
+                                 active)
 
-    def eval_pdf(self, ctx, si, wo, active=True):
-        return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
-                                  self.use_shadowing_function)
+        def to_string(self):
+            return (f"PolarizedBumpMap[\n  nested_bsdf = {self.nested_bsdf},\n"
+                    f"  nested_texture = {self.nested_texture},\n  scale = {self.scale},\n"
+                    f"  flip_invalid_normals = {self.flip_invalid_normals},\n"
+                    f"  use_shadowing_function = {self.use_shadowing_function}\n]")
 
-    def sample(self, ctx, si, sample1, sample2, active=True):
-        return perturbed.sample(self.nested_bsdf, ctx, si, sample1, sample2, active,
-                                *self.frame(si, active), self.use_shadowing_function,
-                                zero_pdf_on_wrong_side=False)
-
-    def eval_diffuse_reflectance(self, si, active=True):
-        return self.nested_bsdf.eval_diffuse_reflectance(si, active)
-
-    def to_string(self):
-        return (f"PolarizedBumpMap[\n  nested_bsdf = {self.nested_bsdf},\n"
-                f"  nested_texture = {self.nested_texture},\n  scale = {self.scale},\n"
-                f"  flip_invalid_normals = {self.flip_invalid_normals},\n"
-                f"  use_shadowing_function = {self.use_shadowing_function}\n]")
+    return PolarizedBumpMap

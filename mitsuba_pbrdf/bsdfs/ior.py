@@ -11,7 +11,7 @@ import os
 
 import mitsuba as mi
 
-from ..plugin_objects import create
+from ..properties import create
 
 
 def ior_directory():

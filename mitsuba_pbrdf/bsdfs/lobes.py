@@ -37,7 +37,7 @@ import drjit as dr
 import mitsuba as mi
 
 from .microfacet import visible_g1
-from .params import Width
+from .pbrdf_properties import Width
 
 _INV_PI = 1.0 / math.pi
 

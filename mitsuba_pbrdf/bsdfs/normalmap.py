@@ -76,8 +76,8 @@ XML::
         </bsdf>
     </bsdf>
 
-This module defines the class for the Mitsuba variant active when it is
-imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+:func:`build_class` defines the class on the active variant's Mitsuba base
+class; :func:`mitsuba_pbrdf.registry.plugin_class` calls it once per variant.
 """
 
 from __future__ import annotations
@@ -87,10 +87,8 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
-from .perturbed import flag, single_nested_bsdf
+from .. import properties as read
 
-#: The Mitsuba variant this module's class was built for (registry.variant_module).
-VARIANT = mi.variant()
 
 #: Decoded normals shorter than this have no usable direction (an 8-bit
 #: texel's step is 2/255 = 0.008 per component).
@@ -174,67 +172,47 @@ def normalmap_frame(texture, si, flip_invalid_normals, active):
     frame_si.s = dr.normalize(s)
     frame_si.t = dr.cross(frame_si.n, frame_si.s)
 
-    frame_world = dr.zeros(mi.Frame3f)
-    frame_world.n = si.to_world(frame_si.n)
-    frame_world.s = si.to_world(frame_si.s)
-    frame_world.t = si.to_world(frame_si.t)
-    return frame_si, frame_world
+    return frame_si, perturbed.to_world_frame(si, frame_si)
 
 
-class PolarizedNormalMap(mi.BSDF):
-    """Mitsuba's ``normalmap`` with the nested Mueller matrix rotated into the
-    unperturbed frame's Stokes bases (module docstring)."""
+def build_class():
+    """``PolarizedNormalMap`` on the active variant's base class (registry.plugin_class)."""
+    class PolarizedNormalMap(perturbed.wrapper_base(zero_pdf_on_wrong_side=True)):
+        """Mitsuba's ``normalmap`` with the nested Mueller matrix rotated into the
+        unperturbed frame's Stokes bases (module docstring)."""
 
-    def __init__(self, props):
-        super().__init__(props)
-        self.nested_bsdf = single_nested_bsdf(props, _NAME)
-        if "normalmap" not in props or not isinstance(props["normalmap"], mi.Texture):
-            raise ValueError(f"{_NAME}: parameter 'normalmap' must be a texture "
-                             "(a bitmap with raw = true)")
-        self.normalmap = props["normalmap"]
-        check_normal_texels(self.normalmap)
-        self.flip_invalid_normals = flag(props, _NAME, "flip_invalid_normals", True)
-        self.use_shadowing_function = flag(props, _NAME, "use_shadowing_function", True)
-        self.m_components = [self.nested_bsdf.flags(i)
-                             for i in range(self.nested_bsdf.component_count())]
-        self.m_flags = mi.BSDFFlags.Empty
-        for flags in self.m_components:
-            self.m_flags = self.m_flags | flags
-
-    def traverse(self, callback):
-        callback.put("nested_bsdf", self.nested_bsdf, mi.ParamFlags.Differentiable)
-        callback.put("normalmap", self.normalmap,
-                     mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous)
-
-    def parameters_changed(self, keys):
-        if not keys or any(k == "normalmap" or k.startswith("normalmap.") for k in keys):
+        def __init__(self, props):
+            super().__init__(props)
+            self.nested_bsdf = read.single_nested(props, _NAME, mi.BSDF)
+            if "normalmap" not in props or not isinstance(props["normalmap"], mi.Texture):
+                raise ValueError(f"{_NAME}: parameter 'normalmap' must be a texture "
+                                 "(a bitmap with raw = true)")
+            self.normalmap = props["normalmap"]
             check_normal_texels(self.normalmap)
+            self.flip_invalid_normals = read.flag(props, _NAME, "flip_invalid_normals", True)
+            self.use_shadowing_function = read.flag(props, _NAME, "use_shadowing_function", True)
+            self.m_components = [self.nested_bsdf.flags(i)
+                                 for i in range(self.nested_bsdf.component_count())]
+            self.m_flags = mi.BSDFFlags.Empty
+            for flags in self.m_components:
+                self.m_flags = self.m_flags | flags
 
-    def frame(self, si, active=True):
-        return normalmap_frame(self.normalmap, si, self.flip_invalid_normals, active)
+        def traverse(self, callback):
+            callback.put("nested_bsdf", self.nested_bsdf, mi.ParamFlags.Differentiable)
+            callback.put("normalmap", self.normalmap,
+                         mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous)
 
-    def eval(self, ctx, si, wo, active=True):
-        return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
-                                  self.use_shadowing_function, want_pdf=False)[0]
+        def parameters_changed(self, keys):
+            if not keys or any(k == "normalmap" or k.startswith("normalmap.") for k in keys):
+                check_normal_texels(self.normalmap)
 
-    def pdf(self, ctx, si, wo, active=True):
-        return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
-                                  self.use_shadowing_function, want_value=False)[1]
+        def frame(self, si, active=True):
+            return normalmap_frame(self.normalmap, si, self.flip_invalid_normals, active)
 
-    def eval_pdf(self, ctx, si, wo, active=True):
-        return perturbed.eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
-                                  self.use_shadowing_function)
+        def to_string(self):
+            return (f"PolarizedNormalMap[\n  nested_bsdf = {self.nested_bsdf},\n"
+                    f"  normalmap = {self.normalmap},\n"
+                    f"  flip_invalid_normals = {self.flip_invalid_normals},\n"
+                    f"  use_shadowing_function = {self.use_shadowing_function}\n]")
 
-    def sample(self, ctx, si, sample1, sample2, active=True):
-        return perturbed.sample(self.nested_bsdf, ctx, si, sample1, sample2, active,
-                                *self.frame(si, active), self.use_shadowing_function,
-                                zero_pdf_on_wrong_side=True)
-
-    def eval_diffuse_reflectance(self, si, active=True):
-        return self.nested_bsdf.eval_diffuse_reflectance(si, active)
-
-    def to_string(self):
-        return (f"PolarizedNormalMap[\n  nested_bsdf = {self.nested_bsdf},\n"
-                f"  normalmap = {self.normalmap},\n"
-                f"  flip_invalid_normals = {self.flip_invalid_normals},\n"
-                f"  use_shadowing_function = {self.use_shadowing_function}\n]")
+    return PolarizedNormalMap

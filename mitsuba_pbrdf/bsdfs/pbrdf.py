@@ -179,17 +179,14 @@ from typing import NamedTuple, Optional
 import drjit as dr
 import mitsuba as mi
 
-from .. import schema
-from ..variant import require_variant
-from . import params
+from .. import properties, schema
+from . import pbrdf_properties
 from .fresnel import fresnel_unpolarized, specular_mueller
 from .ior import complex_ior_textures
 from .lobes import DeltaLobe, Evaluation, LambertianLobe, MicrofacetLobe
 from .microfacet import SHADOWING
 
-#: The Mitsuba variant whose ``mi.BSDF`` this module's class derives from;
-#: :func:`mitsuba_pbrdf.registry.variant_module` runs the module once per variant.
-VARIANT = require_variant().variant()
+_NAME = "pbrdf"
 
 
 def _read_ior(props):
@@ -200,8 +197,8 @@ def _read_ior(props):
     if has_ior:
         if "eta" not in props or "k" not in props:
             raise ValueError("pbrdf: 'eta' and 'k' must be given together")
-        return (None, params.declared(props, schema.parameter("eta"), 0.0),
-                params.declared(props, schema.parameter("k"), 0.0))
+        return (None, pbrdf_properties.declared(props, schema.parameter("eta"), 0.0),
+                pbrdf_properties.declared(props, schema.parameter("k"), 0.0))
     if "material" in props and props.type("material") != mi.Properties.Type.String:
         raise TypeError("pbrdf: parameter 'material' must be a string such as 'Al'")
     material = props["material"] if "material" in props else schema.DEFAULTS["material"]
@@ -215,13 +212,13 @@ def _depolarized(value):
 
 def _read(props, name):
     """Float or spectrum parameter *name*, read and checked against its declaration."""
-    return params.declared(props, schema.parameter(name))
+    return pbrdf_properties.declared(props, schema.parameter(name))
 
 
 def _read_choice(props, name):
     """String parameter *name*, one of its declared choices."""
     p = schema.parameter(name)
-    return params.choice(props, name, p.choices, p.default)
+    return properties.choice(props, _NAME, name, p.choices, p.default)
 
 
 def _exposed_widths(widths):
@@ -241,248 +238,252 @@ class Exposed(NamedTuple):
     spectral: bool
 
 
-class PolarizedBRDF(mi.BSDF):
-    __doc__ = __doc__
+def build_class():
+    """``PolarizedBRDF`` on the active variant's base class (registry.plugin_class)."""
+    class PolarizedBRDF(mi.BSDF):
+        __doc__ = __doc__
 
-    def __init__(self, props):
-        super().__init__(props)
-        # Each parameter read once by name and checked (schema.py declares them;
-        # tests/test_schema.py checks that these reads match the declarations).
-        self.material, self.eta, self.k = _read_ior(props)
-        self.sigma = params.read_width(props, "sigma")
-        self.sigma_u = params.read_refinement(props, "sigma_u", self.sigma)
-        self.sigma_v = params.read_refinement(props, "sigma_v", self.sigma)
-        self.distribution = _read_choice(props, "distribution")
-        self.ks = _read(props, "ks")
-        self.kdd = _read(props, "kdd")
-        self.sigma_dd = params.read_width(props, "sigma_dd")
-        self.sigma_dd_u = params.read_refinement(props, "sigma_dd_u", self.sigma_dd)
-        self.sigma_dd_v = params.read_refinement(props, "sigma_dd_v", self.sigma_dd)
-        self.kid = _read(props, "kid")
-        self.shadowing = _read_choice(props, "shadowing")
-        self.dd_distribution = _read_choice(props, "dd_distribution")
-        self.sampling = _read_choice(props, "sampling")
+        def __init__(self, props):
+            super().__init__(props)
+            # Each parameter read once by name and checked (schema.py declares them;
+            # tests/test_schema.py checks that these reads match the declarations).
+            self.material, self.eta, self.k = _read_ior(props)
+            self.sigma = pbrdf_properties.read_width(props, "sigma")
+            self.sigma_u = pbrdf_properties.read_refinement(props, "sigma_u", self.sigma)
+            self.sigma_v = pbrdf_properties.read_refinement(props, "sigma_v", self.sigma)
+            self.distribution = _read_choice(props, "distribution")
+            self.ks = _read(props, "ks")
+            self.kdd = _read(props, "kdd")
+            self.sigma_dd = pbrdf_properties.read_width(props, "sigma_dd")
+            self.sigma_dd_u = pbrdf_properties.read_refinement(props, "sigma_dd_u", self.sigma_dd)
+            self.sigma_dd_v = pbrdf_properties.read_refinement(props, "sigma_dd_v", self.sigma_dd)
+            self.kid = _read(props, "kid")
+            self.shadowing = _read_choice(props, "shadowing")
+            self.dd_distribution = _read_choice(props, "dd_distribution")
+            self.sampling = _read_choice(props, "sampling")
 
-        self.lobes = self._build_lobes()
-        # a component's flags: its lobe type, front side, and anisotropic where it is
-        self.m_components = [lobe.flags | mi.BSDFFlags.FrontSide
-                             | (mi.BSDFFlags.Anisotropic if lobe.anisotropic else 0)
-                             for lobe in self.lobes]
-        self.m_flags = mi.BSDFFlags.Empty
-        for flags in self.m_components:
-            self.m_flags = self.m_flags | flags
+            self.lobes = self._build_lobes()
+            # a component's flags: its lobe type, front side, and anisotropic where it is
+            self.m_components = [lobe.flags | mi.BSDFFlags.FrontSide
+                                 | (mi.BSDFFlags.Anisotropic if lobe.anisotropic else 0)
+                                 for lobe in self.lobes]
+            self.m_flags = mi.BSDFFlags.Empty
+            for flags in self.m_components:
+                self.m_flags = self.m_flags | flags
 
-    def _build_lobes(self):
-        """One record per lobe whose weight is not exactly zero, in component
-        order: specular, directional diffuse, ideal diffuse. A microfacet lobe
-        with refined widths is anisotropic (its component flags then carry
-        ``BSDFFlags.Anisotropic``). A specular lobe of widths exactly 0 is
-        the smooth limit, a :class:`DeltaLobe` (``DeltaReflection``)."""
-        glossy, diffuse = mi.BSDFFlags.GlossyReflection, mi.BSDFFlags.DiffuseReflection
-        types = {"beckmann": mi.MicrofacetType.Beckmann, "ggx": mi.MicrofacetType.GGX}
-        shadowing = SHADOWING[self.shadowing]
-        lobes = []
-        widths = (self.sigma, None) if self.sigma_u is None else (self.sigma_u, self.sigma_v)
-        smooth = params.is_smooth(*widths)
-        if smooth and self.sampling == "cosine" and not params.is_constant_zero(self.ks):
-            raise ValueError("pbrdf: parameter 'sampling' is 'cosine', which cannot sample the "
-                             "smooth specular lobe (sigma = 0); use 'mixture'")
-        if smooth and not params.is_constant_zero(self.ks):
-            lobes.append(DeltaLobe("specular", self.ks, mi.BSDFFlags.DeltaReflection, len(lobes),
-                                   textures={"ks": self.ks}))
-        elif not params.is_constant_zero(self.ks):
-            textures = {"ks": self.ks, **_exposed_widths(widths)}
-            lobes.append(MicrofacetLobe("specular", self.ks, widths[0], types[self.distribution],
-                                        shadowing, glossy, len(lobes), polarizing=True,
-                                        textures=textures, width_v=widths[1],
-                                        projected=params.projected(*widths)))
-        if not params.is_constant_zero(self.kdd):
-            widths = ((self.sigma_dd, None) if self.sigma_dd_u is None
-                      else (self.sigma_dd_u, self.sigma_dd_v))
-            textures = {"kdd": self.kdd, **_exposed_widths(widths)}
-            lobes.append(MicrofacetLobe("directional_diffuse", self.kdd, widths[0],
-                                        types[self.dd_distribution], shadowing, glossy, len(lobes),
-                                        polarizing=False, textures=textures, width_v=widths[1],
-                                        projected=params.projected(*widths)))
-        if not params.is_constant_zero(self.kid):
-            lobes.append(LambertianLobe("ideal_diffuse", self.kid, diffuse, len(lobes),
-                                        textures={"kid": self.kid}))
-        return lobes
+        def _build_lobes(self):
+            """One record per lobe whose weight is not exactly zero, in component
+            order: specular, directional diffuse, ideal diffuse. A microfacet lobe
+            with refined widths is anisotropic (its component flags then carry
+            ``BSDFFlags.Anisotropic``). A specular lobe of widths exactly 0 is
+            the smooth limit, a :class:`DeltaLobe` (``DeltaReflection``)."""
+            glossy, diffuse = mi.BSDFFlags.GlossyReflection, mi.BSDFFlags.DiffuseReflection
+            types = {"beckmann": mi.MicrofacetType.Beckmann, "ggx": mi.MicrofacetType.GGX}
+            shadowing = SHADOWING[self.shadowing]
+            lobes = []
+            widths = (self.sigma, None) if self.sigma_u is None else (self.sigma_u, self.sigma_v)
+            smooth = pbrdf_properties.is_smooth(*widths)
+            if smooth and self.sampling == "cosine" and not pbrdf_properties.is_constant_zero(self.ks):
+                raise ValueError("pbrdf: parameter 'sampling' is 'cosine', which cannot sample the "
+                                 "smooth specular lobe (sigma = 0); use 'mixture'")
+            if smooth and not pbrdf_properties.is_constant_zero(self.ks):
+                lobes.append(DeltaLobe("specular", self.ks, mi.BSDFFlags.DeltaReflection, len(lobes),
+                                       textures={"ks": self.ks}))
+            elif not pbrdf_properties.is_constant_zero(self.ks):
+                textures = {"ks": self.ks, **_exposed_widths(widths)}
+                lobes.append(MicrofacetLobe("specular", self.ks, widths[0], types[self.distribution],
+                                            shadowing, glossy, len(lobes), polarizing=True,
+                                            textures=textures, width_v=widths[1],
+                                            projected=pbrdf_properties.projected(*widths)))
+            if not pbrdf_properties.is_constant_zero(self.kdd):
+                widths = ((self.sigma_dd, None) if self.sigma_dd_u is None
+                          else (self.sigma_dd_u, self.sigma_dd_v))
+                textures = {"kdd": self.kdd, **_exposed_widths(widths)}
+                lobes.append(MicrofacetLobe("directional_diffuse", self.kdd, widths[0],
+                                            types[self.dd_distribution], shadowing, glossy, len(lobes),
+                                            polarizing=False, textures=textures, width_v=widths[1],
+                                            projected=pbrdf_properties.projected(*widths)))
+            if not pbrdf_properties.is_constant_zero(self.kid):
+                lobes.append(LambertianLobe("ideal_diffuse", self.kid, diffuse, len(lobes),
+                                            textures={"kid": self.kid}))
+            return lobes
 
-    # -------------------------------------------------------------- traversal
+        # -------------------------------------------------------------- traversal
 
-    def _exposed(self):
-        """name -> :class:`Exposed` of every parameter ``traverse`` exposes:
-        the index, then each present lobe's weight and widths."""
-        textures = {"eta": self.eta, "k": self.k}
-        for lobe in self.lobes:
-            textures.update(lobe.textures)
-        exposed = {}
-        for name, texture in textures.items():
-            p = schema.parameter(name)
-            flags = mi.ParamFlags.Differentiable
-            if p.discontinuous:
-                flags = flags | mi.ParamFlags.Discontinuous
-            exposed[name] = Exposed(texture, flags, p.positive, p.floor, p.kind == "spectrum")
-        return exposed
+        def _exposed(self):
+            """name -> :class:`Exposed` of every parameter ``traverse`` exposes:
+            the index, then each present lobe's weight and widths."""
+            textures = {"eta": self.eta, "k": self.k}
+            for lobe in self.lobes:
+                textures.update(lobe.textures)
+            exposed = {}
+            for name, texture in textures.items():
+                p = schema.parameter(name)
+                flags = mi.ParamFlags.Differentiable
+                if p.discontinuous:
+                    flags = flags | mi.ParamFlags.Discontinuous
+                exposed[name] = Exposed(texture, flags, p.positive, p.floor, p.kind == "spectrum")
+            return exposed
 
-    def traverse(self, callback):
-        for name, exposed in self._exposed().items():
-            callback.put(name, exposed.texture, exposed.flags)
+        def traverse(self, callback):
+            for name, exposed in self._exposed().items():
+                callback.put(name, exposed.texture, exposed.flags)
 
-    def parameters_changed(self, keys):
-        # Textures refresh their own state; re-check values an update may have broken.
-        for name, exposed in self._exposed().items():
-            if not keys or any(k == name or k.startswith(name + ".") for k in keys):
-                params.check_texture_values(name, exposed.texture, exposed.positive,
-                                            exposed.floor, spectral=exposed.spectral)
+        def parameters_changed(self, keys):
+            # Textures refresh their own state; re-check values an update may have broken.
+            for name, exposed in self._exposed().items():
+                if not keys or any(k == name or k.startswith(name + ".") for k in keys):
+                    pbrdf_properties.check_texture_values(name, exposed.texture, exposed.positive,
+                                                exposed.floor, spectral=exposed.spectral)
 
-    def to_string(self):
-        ior = (f"material = {self.material!r}" if self.material
-               else f"eta = {self.eta},\n  k = {self.k}")
-        rest = "".join(f",\n  {p.name} = {getattr(self, p.name)!r}" if p.kind == "choice"
-                       else f",\n  {p.name} = {getattr(self, p.name)}"
-                       for p in schema.PARAMETERS
-                       if p.plugin and p.kind != "material" and p.name not in ("eta", "k"))
-        return (f"PolarizedBRDF[\n  {ior},\n  lobes = {[lobe.name for lobe in self.lobes]}"
-                f"{rest}\n]")
+        def to_string(self):
+            ior = (f"material = {self.material!r}" if self.material
+                   else f"eta = {self.eta},\n  k = {self.k}")
+            rest = "".join(f",\n  {p.name} = {getattr(self, p.name)!r}" if p.kind == "choice"
+                           else f",\n  {p.name} = {getattr(self, p.name)}"
+                           for p in schema.PARAMETERS
+                           if p.plugin and p.kind != "material" and p.name not in ("eta", "k"))
+            return (f"PolarizedBRDF[\n  {ior},\n  lobes = {[lobe.name for lobe in self.lobes]}"
+                    f"{rest}\n]")
 
-    # -------------------------------------------------------------- BSDF API
+        # -------------------------------------------------------------- BSDF API
 
-    def eval(self, ctx, si, wo, active=True):
-        ev = Evaluation.of(si, wo, active)
-        return self._value(ctx, ev)
-
-    def pdf(self, ctx, si, wo, active=True):
-        ev = Evaluation.of(si, wo, active)
-        return self._pdf(ctx, ev)
-
-    def eval_pdf(self, ctx, si, wo, active=True):
-        ev = Evaluation.of(si, wo, active)
-        return self._value(ctx, ev), self._pdf(ctx, ev)
-
-    def sample(self, ctx, si, sample1, sample2, active=True):
-        cos_i = mi.Frame3f.cos_theta(si.wi)
-        active = mi.Bool(active) & (cos_i > 0)
-        enabled = self._enabled_lobes(ctx)
-        if not enabled:
-            return _sample_record(si.wi, mi.Float(0.0), mi.UInt32(0), mi.UInt32(0),
-                                  mi.Bool(False), dr.zeros(mi.Spectrum))
-        if self.sampling == "cosine":
-            wo = mi.warp.square_to_cosine_hemisphere(sample2)
+        def eval(self, ctx, si, wo, active=True):
             ev = Evaluation.of(si, wo, active)
-            return _sample_record(wo, self._pdf(ctx, ev), mi.UInt32(enabled[0].index),
-                                  mi.UInt32(self._component_flags(enabled[0])), ev.active,
-                                  self._value(ctx, ev))
-        if len(enabled) == 1:
-            lobe = enabled[0]
-            s = lobe.sample_alone(si, sample2, active)
-            value = self._weighted(lobe, ctx, si, s.wo, s.facet_normal, s.value, s.active)
-            return _sample_record(s.wo, s.pdf, mi.UInt32(lobe.index),
-                                  mi.UInt32(self._component_flags(lobe)), s.active, value)
-        probs = self._lobe_probabilities(ctx, si, active)
+            return self._value(ctx, ev)
 
-        # Pick a lobe with sample1, then draw a direction from it with sample2.
-        wo = mi.Vector3f(0.0, 0.0, 1.0)
-        component = mi.UInt32(0)
-        sampled_type = mi.UInt32(0)
-        cdf = mi.Float(0.0)
-        for lobe in enabled:
-            prob = probs[lobe.index]
-            chosen = active & (sample1 >= cdf) & (sample1 < cdf + prob)
-            if lobe is enabled[-1]:  # guard against rounding at the top of the cdf
-                chosen = active & (sample1 >= cdf) & (prob > 0)
-            cdf = cdf + prob
-            wo = dr.select(chosen, lobe.sample_direction(si, sample2, chosen), wo)
-            component = dr.select(chosen, lobe.index, component)
-            sampled_type = dr.select(chosen, self._component_flags(lobe), sampled_type)
+        def pdf(self, ctx, si, wo, active=True):
+            ev = Evaluation.of(si, wo, active)
+            return self._pdf(ctx, ev)
 
-        # One-sample MIS: the weight is the full value over the mixture pdf.
-        ev = Evaluation.of(si, wo, active)
-        pdf, value = self._pdf(ctx, ev, probs), self._value(ctx, ev)
-        delta = next((lobe for lobe in enabled if lobe.delta), None)
-        if delta is not None:
-            # A delta's sample is weighed alone (the other lobes have no mass
-            # on its direction): its selection probability, its value there.
-            on_delta = sampled_type == self._component_flags(delta)
-            pdf = dr.select(on_delta, probs[delta.index], pdf)
-            value = dr.select(on_delta, self._weighted(delta, ctx, si, wo, mi.Vector3f(0, 0, 1),
-                                                       1.0, ev.active), value)
-        return _sample_record(wo, pdf, component, sampled_type, ev.active, value)
+        def eval_pdf(self, ctx, si, wo, active=True):
+            ev = Evaluation.of(si, wo, active)
+            return self._value(ctx, ev), self._pdf(ctx, ev)
 
-    # -------------------------------------------------------------- internals
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            active = mi.Bool(active) & (cos_i > 0)
+            enabled = self._enabled_lobes(ctx)
+            if not enabled:
+                return _sample_record(si.wi, mi.Float(0.0), mi.UInt32(0), mi.UInt32(0),
+                                      mi.Bool(False), dr.zeros(mi.Spectrum))
+            if self.sampling == "cosine":
+                wo = mi.warp.square_to_cosine_hemisphere(sample2)
+                ev = Evaluation.of(si, wo, active)
+                return _sample_record(wo, self._pdf(ctx, ev), mi.UInt32(enabled[0].index),
+                                      mi.UInt32(self._component_flags(enabled[0])), ev.active,
+                                      self._value(ctx, ev))
+            if len(enabled) == 1:
+                lobe = enabled[0]
+                s = lobe.sample_alone(si, sample2, active)
+                value = self._weighted(lobe, ctx, si, s.wo, s.facet_normal, s.value, s.active)
+                return _sample_record(s.wo, s.pdf, mi.UInt32(lobe.index),
+                                      mi.UInt32(self._component_flags(lobe)), s.active, value)
+            probs = self._lobe_probabilities(ctx, si, active)
 
-    def _enabled_lobes(self, ctx):
-        """The lobes that ``ctx`` selects (a Python-level choice: nothing else
-        is traced)."""
-        return [lobe for lobe in self.lobes if ctx.is_enabled(lobe.flags, lobe.index)]
-
-    def _component_flags(self, lobe):
-        """A sample's ``sampled_type``: the lobe's type on the front side."""
-        return int(lobe.flags | mi.BSDFFlags.FrontSide)
-
-    def _weighted(self, lobe, ctx, si, wo, h, value, active):
-        """The lobe's weight times its unweighted ``value`` (times cos_o): a
-        depolarizer, or for the polarizing lobe the facet's Fresnel
-        reflection (Mueller matrix in polarized variants)."""
-        weight = lobe.weight.eval(si, active) * value
-        if not lobe.polarizing:
-            return _depolarized(weight)
-        eta, k = self.eta.eval(si, active), self.k.eval(si, active)
-        if mi.is_polarized:
-            return specular_mueller(ctx, si, wo, h, eta, k, weight)
-        return weight * fresnel_unpolarized(dr.dot(si.wi, h), eta, k)
-
-    def _lobe_probabilities(self, ctx, si, active):
-        """Lobe selection probabilities (scalar per sample) by component
-        index, proportional to each enabled lobe's estimated albedo for
-        ``si.wi``: ks times the unpolarized Fresnel reflectance at the
-        incidence angle, kdd, kid, averaged over wavelengths."""
-        enabled = self._enabled_lobes(ctx)
-        if len(enabled) <= 1:  # nothing to choose: no estimate to trace
-            return [mi.Float(1.0 if lobe in enabled else 0.0) for lobe in self.lobes]
-        estimates = {}
-        for lobe in enabled:
-            estimate = lobe.weight.eval(si, active)
-            if lobe.polarizing:
-                estimate = estimate * fresnel_unpolarized(
-                    mi.Frame3f.cos_theta(si.wi), self.eta.eval(si, active),
-                    self.k.eval(si, active))
-            estimates[lobe.index] = dr.maximum(dr.mean(estimate, axis=0), 0.0)
-        total = mi.Float(0.0)
-        for e in estimates.values():
-            total = total + e
-        uniform = 1.0 / len(estimates)
-        return [dr.select(total > 0, estimates[lobe.index] / total, uniform)
-                if lobe.index in estimates else mi.Float(0.0) for lobe in self.lobes]
-
-    def _value(self, ctx, ev):
-        """The sum of the enabled lobes' weighted values (0 where inactive)."""
-        zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
-        value = zero
-        for lobe in self._enabled_lobes(ctx):
-            if lobe.delta:  # no value off its direction, none measurable on it
-                continue
-            value = value + self._weighted(lobe, ctx, ev.si, ev.wo, ev.half.h, lobe.value(ev),
-                                           ev.active)
-        return dr.select(ev.active, value, zero)
-
-    def _pdf(self, ctx, ev, probs=None):
-        """The mixture density of sampling ``ev.wo``, with the lobe
-        probabilities *probs* where ``sample`` has them already (the cosine
-        density where ``sampling`` is ``cosine``)."""
-        enabled = self._enabled_lobes(ctx)
-        pdf = mi.Float(0.0)
-        if self.sampling == "cosine":
-            if enabled:
-                pdf = mi.warp.square_to_cosine_hemisphere_pdf(ev.wo)
-        else:
-            if probs is None:
-                probs = self._lobe_probabilities(ctx, ev.si, ev.active)
+            # Pick a lobe with sample1, then draw a direction from it with sample2.
+            wo = mi.Vector3f(0.0, 0.0, 1.0)
+            component = mi.UInt32(0)
+            sampled_type = mi.UInt32(0)
+            cdf = mi.Float(0.0)
             for lobe in enabled:
-                if not lobe.delta:   # a delta has no density
-                    pdf = pdf + lobe.pdf(ev, probs[lobe.index])
-        return dr.select(ev.active & dr.isfinite(pdf), pdf, 0.0)
+                prob = probs[lobe.index]
+                chosen = active & (sample1 >= cdf) & (sample1 < cdf + prob)
+                if lobe is enabled[-1]:  # guard against rounding at the top of the cdf
+                    chosen = active & (sample1 >= cdf) & (prob > 0)
+                cdf = cdf + prob
+                wo = dr.select(chosen, lobe.sample_direction(si, sample2, chosen), wo)
+                component = dr.select(chosen, lobe.index, component)
+                sampled_type = dr.select(chosen, self._component_flags(lobe), sampled_type)
+
+            # One-sample MIS: the weight is the full value over the mixture pdf.
+            ev = Evaluation.of(si, wo, active)
+            pdf, value = self._pdf(ctx, ev, probs), self._value(ctx, ev)
+            delta = next((lobe for lobe in enabled if lobe.delta), None)
+            if delta is not None:
+                # A delta's sample is weighed alone (the other lobes have no mass
+                # on its direction): its selection probability, its value there.
+                on_delta = sampled_type == self._component_flags(delta)
+                pdf = dr.select(on_delta, probs[delta.index], pdf)
+                value = dr.select(on_delta, self._weighted(delta, ctx, si, wo, mi.Vector3f(0, 0, 1),
+                                                           1.0, ev.active), value)
+            return _sample_record(wo, pdf, component, sampled_type, ev.active, value)
+
+        # -------------------------------------------------------------- internals
+
+        def _enabled_lobes(self, ctx):
+            """The lobes that ``ctx`` selects (a Python-level choice: nothing else
+            is traced)."""
+            return [lobe for lobe in self.lobes if ctx.is_enabled(lobe.flags, lobe.index)]
+
+        def _component_flags(self, lobe):
+            """A sample's ``sampled_type``: the lobe's type on the front side."""
+            return int(lobe.flags | mi.BSDFFlags.FrontSide)
+
+        def _weighted(self, lobe, ctx, si, wo, h, value, active):
+            """The lobe's weight times its unweighted ``value`` (times cos_o): a
+            depolarizer, or for the polarizing lobe the facet's Fresnel
+            reflection (Mueller matrix in polarized variants)."""
+            weight = lobe.weight.eval(si, active) * value
+            if not lobe.polarizing:
+                return _depolarized(weight)
+            eta, k = self.eta.eval(si, active), self.k.eval(si, active)
+            if mi.is_polarized:
+                return specular_mueller(ctx, si, wo, h, eta, k, weight)
+            return weight * fresnel_unpolarized(dr.dot(si.wi, h), eta, k)
+
+        def _lobe_probabilities(self, ctx, si, active):
+            """Lobe selection probabilities (scalar per sample) by component
+            index, proportional to each enabled lobe's estimated albedo for
+            ``si.wi``: ks times the unpolarized Fresnel reflectance at the
+            incidence angle, kdd, kid, averaged over wavelengths."""
+            enabled = self._enabled_lobes(ctx)
+            if len(enabled) <= 1:  # nothing to choose: no estimate to trace
+                return [mi.Float(1.0 if lobe in enabled else 0.0) for lobe in self.lobes]
+            estimates = {}
+            for lobe in enabled:
+                estimate = lobe.weight.eval(si, active)
+                if lobe.polarizing:
+                    estimate = estimate * fresnel_unpolarized(
+                        mi.Frame3f.cos_theta(si.wi), self.eta.eval(si, active),
+                        self.k.eval(si, active))
+                estimates[lobe.index] = dr.maximum(dr.mean(estimate, axis=0), 0.0)
+            total = mi.Float(0.0)
+            for e in estimates.values():
+                total = total + e
+            uniform = 1.0 / len(estimates)
+            return [dr.select(total > 0, estimates[lobe.index] / total, uniform)
+                    if lobe.index in estimates else mi.Float(0.0) for lobe in self.lobes]
+
+        def _value(self, ctx, ev):
+            """The sum of the enabled lobes' weighted values (0 where inactive)."""
+            zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
+            value = zero
+            for lobe in self._enabled_lobes(ctx):
+                if lobe.delta:  # no value off its direction, none measurable on it
+                    continue
+                value = value + self._weighted(lobe, ctx, ev.si, ev.wo, ev.half.h, lobe.value(ev),
+                                               ev.active)
+            return dr.select(ev.active, value, zero)
+
+        def _pdf(self, ctx, ev, probs=None):
+            """The mixture density of sampling ``ev.wo``, with the lobe
+            probabilities *probs* where ``sample`` has them already (the cosine
+            density where ``sampling`` is ``cosine``)."""
+            enabled = self._enabled_lobes(ctx)
+            pdf = mi.Float(0.0)
+            if self.sampling == "cosine":
+                if enabled:
+                    pdf = mi.warp.square_to_cosine_hemisphere_pdf(ev.wo)
+            else:
+                if probs is None:
+                    probs = self._lobe_probabilities(ctx, ev.si, ev.active)
+                for lobe in enabled:
+                    if not lobe.delta:   # a delta has no density
+                        pdf = pdf + lobe.pdf(ev, probs[lobe.index])
+            return dr.select(ev.active & dr.isfinite(pdf), pdf, 0.0)
+
+    return PolarizedBRDF
 
 
 def _sample_record(wo, pdf, component, sampled_type, active, value):

@@ -10,11 +10,9 @@ Mueller matrix in polarized variants.
 ``frame_si`` is the perturbed frame P written in the unperturbed shading frame
 S (``si.wi``, ``wo`` are S-local); ``frame_world`` is P in world space (the
 nested BSDF's ``si.sh_frame``). Plain functions: ``mi.*`` is looked up when
-called, so this module serves every variant. (The wrappers' eval, pdf, eval_pdf
-and sample are one-line calls of these in each class: nanobind refuses a
-Python mix-in base beside ``mi.BSDF``, "invalid number of bases".) The
-wrappers' parameters (nested objects, booleans) are read here too, with
-one-line errors that name the plugin.
+called, so this module serves every variant. :func:`wrapper_base` gives
+both wrappers their eval, pdf, eval_pdf and sample as a base class built on
+the active variant's ``mi.BSDF`` (nanobind takes one base, no mix-in).
 """
 
 import drjit as dr
@@ -99,27 +97,46 @@ def sample(nested, ctx, si, sample1, sample2, active, frame_si, frame_world, sha
     return bs, dr.select(active, weight, _zero())
 
 
-# ------------------------------------------------------ reading parameters
+# ------------------------------------------------- the wrappers' base class
 
 
-def nested_objects(props, kinds):
-    """The objects of ``props`` that are instances of ``kinds``, by key."""
-    return {key: props[key] for key in props.keys()
-            if props.type(key) == mi.Properties.Type.Object and isinstance(props[key], kinds)}
+def to_world_frame(si, frame_si):
+    """The perturbed frame *frame_si* (in the shading frame of *si*) in world
+    space: the ``frame_world`` the steps above take."""
+    frame_world = dr.zeros(mi.Frame3f)
+    frame_world.n = si.to_world(frame_si.n)
+    frame_world.s = si.to_world(frame_si.s)
+    frame_world.t = si.to_world(frame_si.t)
+    return frame_world
 
 
-def single_nested_bsdf(props, name):
-    """The one nested BSDF of a wrapper ``name``; a one-line error otherwise."""
-    bsdfs = nested_objects(props, mi.BSDF)
-    if len(bsdfs) != 1:
-        raise ValueError(f"{name}: exactly one nested BSDF must be given, found {len(bsdfs)}")
-    return next(iter(bsdfs.values()))
+def wrapper_base(zero_pdf_on_wrong_side):
+    """The active variant's ``mi.BSDF`` with the steps both map wrappers share
+    (eval, pdf, eval_pdf, sample of ``nested_bsdf`` in the frame the subclass's
+    ``frame(si, active)`` gives, times the shadowing factor where
+    ``use_shadowing_function``). *zero_pdf_on_wrong_side*: Mitsuba's
+    ``normalmap`` zeroes the pdf of a sample whose direction changes side,
+    ``bumpmap`` does not."""
 
+    class PerturbedWrapper(mi.BSDF):
+        def eval(self, ctx, si, wo, active=True):
+            return eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
+                            self.use_shadowing_function, want_pdf=False)[0]
 
-def flag(props, name, key, default):
-    """A boolean parameter."""
-    if key not in props:
-        return default
-    if props.type(key) != mi.Properties.Type.Bool:
-        raise TypeError(f"{name}: parameter '{key}' must be a boolean")
-    return bool(props[key])
+        def pdf(self, ctx, si, wo, active=True):
+            return eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
+                            self.use_shadowing_function, want_value=False)[1]
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            return eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
+                            self.use_shadowing_function)
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            return sample(self.nested_bsdf, ctx, si, sample1, sample2, active,
+                          *self.frame(si, active), self.use_shadowing_function,
+                          zero_pdf_on_wrong_side=zero_pdf_on_wrong_side)
+
+        def eval_diffuse_reflectance(self, si, active=True):
+            return self.nested_bsdf.eval_diffuse_reflectance(si, active)
+
+    return PerturbedWrapper

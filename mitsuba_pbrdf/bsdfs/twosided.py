@@ -40,8 +40,8 @@ XML::
         </bsdf>
     </bsdf>
 
-This module defines the class for the Mitsuba variant active when it is
-imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+:func:`build_class` defines the class on the active variant's Mitsuba base
+class; :func:`mitsuba_pbrdf.registry.plugin_class` calls it once per variant.
 """
 
 from __future__ import annotations
@@ -50,10 +50,8 @@ import drjit as dr
 import mitsuba as mi
 
 from ..mueller import rotate_mueller, rotator_entries
-from .perturbed import nested_objects
+from .. import properties as read
 
-#: The Mitsuba variant this module's class was built for (registry.variant_module).
-VARIANT = mi.variant()
 
 _NAME = "polarized_twosided"
 
@@ -85,94 +83,98 @@ def to_back_bases(ctx, value, wo_m, wi_m, back):
     return dr.select(back, rotate_mueller(flipped, *sides), value)
 
 
-class PolarizedTwoSided(mi.BSDF):
-    """Mitsuba's ``twosided`` with the back side's Mueller matrix in the right
-    Stokes bases (module docstring)."""
+def build_class():
+    """``PolarizedTwoSided`` on the active variant's base class (registry.plugin_class)."""
+    class PolarizedTwoSided(mi.BSDF):
+        """Mitsuba's ``twosided`` with the back side's Mueller matrix in the right
+        Stokes bases (module docstring)."""
 
-    def __init__(self, props):
-        bsdfs = list(nested_objects(props, mi.BSDF).values())
-        if not 1 <= len(bsdfs) <= 2:
-            raise ValueError(f"{_NAME}: one or two nested BSDFs must be given, found "
-                             f"{len(bsdfs)}")
-        for b in bsdfs:
-            if b.flags() & mi.BSDFFlags.Transmission:
-                raise ValueError(f"{_NAME}: only BSDFs without a transmission component "
-                                 "can be nested")
-        super().__init__(props)
-        self.brdf = bsdfs if len(bsdfs) == 2 else bsdfs * 2
-        self.m_components = []
-        for side, (keep, drop) in enumerate(((mi.BSDFFlags.FrontSide, mi.BSDFFlags.BackSide),
-                                             (mi.BSDFFlags.BackSide, mi.BSDFFlags.FrontSide))):
-            for i in range(self.brdf[side].component_count()):
-                self.m_components.append((self.brdf[side].flags(i) & ~drop) | keep)
-        self.m_flags = mi.BSDFFlags.Empty
-        for flags in self.m_components:
-            self.m_flags = self.m_flags | flags
+        def __init__(self, props):
+            bsdfs = list(read.nested_objects(props, mi.BSDF).values())
+            if not 1 <= len(bsdfs) <= 2:
+                raise ValueError(f"{_NAME}: one or two nested BSDFs must be given, found "
+                                 f"{len(bsdfs)}")
+            for b in bsdfs:
+                if b.flags() & mi.BSDFFlags.Transmission:
+                    raise ValueError(f"{_NAME}: only BSDFs without a transmission component "
+                                     "can be nested")
+            super().__init__(props)
+            self.brdf = bsdfs if len(bsdfs) == 2 else bsdfs * 2
+            self.m_components = []
+            for side, (keep, drop) in enumerate(((mi.BSDFFlags.FrontSide, mi.BSDFFlags.BackSide),
+                                                 (mi.BSDFFlags.BackSide, mi.BSDFFlags.FrontSide))):
+                for i in range(self.brdf[side].component_count()):
+                    self.m_components.append((self.brdf[side].flags(i) & ~drop) | keep)
+            self.m_flags = mi.BSDFFlags.Empty
+            for flags in self.m_components:
+                self.m_flags = self.m_flags | flags
 
-    def _shared(self):
-        return self.brdf[0] is self.brdf[1]
+        def _shared(self):
+            return self.brdf[0] is self.brdf[1]
 
-    def _back_ctx(self, ctx):
-        if ctx.component == 0xFFFFFFFF or self._shared():
-            return ctx
-        back = mi.BSDFContext(ctx)
-        back.component = ctx.component - self.brdf[0].component_count()
-        return back
+        def _back_ctx(self, ctx):
+            if ctx.component == 0xFFFFFFFF or self._shared():
+                return ctx
+            back = mi.BSDFContext(ctx)
+            back.component = ctx.component - self.brdf[0].component_count()
+            return back
 
-    def _sides(self, ctx, si, wo, active, call):
-        """``call(bsdf, ctx, si, wo, mask)`` on the front, and on the back at
-        the mirrored directions (``wo`` None for sampling): (front result,
-        back result, back mask, mirrored si)."""
-        back = active & (mi.Frame3f.cos_theta(si.wi) < 0.0)
-        front = active & (mi.Frame3f.cos_theta(si.wi) > 0.0)
-        si_m = mi.SurfaceInteraction3f(si)
-        si_m.wi = _mirror(si.wi)
-        wo_m = None if wo is None else _mirror(wo)
-        if self._shared():
-            si_s = mi.SurfaceInteraction3f(si)
-            si_s.wi = dr.select(back, si_m.wi, si.wi)
-            wo_s = None if wo is None else dr.select(back, wo_m, wo)
-            result = call(self.brdf[0], ctx, si_s, wo_s, active)
-            return result, result, back, si_s
-        return (call(self.brdf[0], ctx, si, wo, front),
-                call(self.brdf[1], self._back_ctx(ctx), si_m, wo_m, back), back, si_m)
+        def _sides(self, ctx, si, wo, active, call):
+            """``call(bsdf, ctx, si, wo, mask)`` on the front, and on the back at
+            the mirrored directions (``wo`` None for sampling): (front result,
+            back result, back mask, mirrored si)."""
+            back = active & (mi.Frame3f.cos_theta(si.wi) < 0.0)
+            front = active & (mi.Frame3f.cos_theta(si.wi) > 0.0)
+            si_m = mi.SurfaceInteraction3f(si)
+            si_m.wi = _mirror(si.wi)
+            wo_m = None if wo is None else _mirror(wo)
+            if self._shared():
+                si_s = mi.SurfaceInteraction3f(si)
+                si_s.wi = dr.select(back, si_m.wi, si.wi)
+                wo_s = None if wo is None else dr.select(back, wo_m, wo)
+                result = call(self.brdf[0], ctx, si_s, wo_s, active)
+                return result, result, back, si_s
+            return (call(self.brdf[0], ctx, si, wo, front),
+                    call(self.brdf[1], self._back_ctx(ctx), si_m, wo_m, back), back, si_m)
 
-    def eval(self, ctx, si, wo, active=True):
-        front, value, back, si_m = self._sides(
-            ctx, si, wo, mi.Bool(active), lambda b, c, s, w, m: b.eval(c, s, w, m))
-        value = to_back_bases(ctx, value, _mirror(wo), si_m.wi, back)
-        return dr.select(back, value, front)
+        def eval(self, ctx, si, wo, active=True):
+            front, value, back, si_m = self._sides(
+                ctx, si, wo, mi.Bool(active), lambda b, c, s, w, m: b.eval(c, s, w, m))
+            value = to_back_bases(ctx, value, _mirror(wo), si_m.wi, back)
+            return dr.select(back, value, front)
 
-    def pdf(self, ctx, si, wo, active=True):
-        front, pdf, back, _ = self._sides(
-            ctx, si, wo, mi.Bool(active), lambda b, c, s, w, m: b.pdf(c, s, w, m))
-        return dr.select(back, pdf, front)
+        def pdf(self, ctx, si, wo, active=True):
+            front, pdf, back, _ = self._sides(
+                ctx, si, wo, mi.Bool(active), lambda b, c, s, w, m: b.pdf(c, s, w, m))
+            return dr.select(back, pdf, front)
 
-    def eval_pdf(self, ctx, si, wo, active=True):
-        (fv, fp), (bv, bp), back, si_m = self._sides(
-            ctx, si, wo, mi.Bool(active), lambda b, c, s, w, m: b.eval_pdf(c, s, w, m))
-        bv = to_back_bases(ctx, bv, _mirror(wo), si_m.wi, back)
-        return dr.select(back, bv, fv), dr.select(back, bp, fp)
+        def eval_pdf(self, ctx, si, wo, active=True):
+            (fv, fp), (bv, bp), back, si_m = self._sides(
+                ctx, si, wo, mi.Bool(active), lambda b, c, s, w, m: b.eval_pdf(c, s, w, m))
+            bv = to_back_bases(ctx, bv, _mirror(wo), si_m.wi, back)
+            return dr.select(back, bv, fv), dr.select(back, bp, fp)
 
-    def sample(self, ctx, si, sample1, sample2, active=True):
-        (fs, fw), (bs, bw), back, si_m = self._sides(
-            ctx, si, None, mi.Bool(active),
-            lambda b, c, s, w, m: b.sample(c, s, sample1, sample2, m))
-        wo_m = mi.Vector3f(bs.wo)       # a copy: the record's field is a view
-        bw = to_back_bases(ctx, bw, wo_m, si_m.wi, back)
-        bs.wo = dr.select(back, _mirror(wo_m), bs.wo)
-        return dr.select(back, bs, fs), dr.select(back, bw, fw)
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            (fs, fw), (bs, bw), back, si_m = self._sides(
+                ctx, si, None, mi.Bool(active),
+                lambda b, c, s, w, m: b.sample(c, s, sample1, sample2, m))
+            wo_m = mi.Vector3f(bs.wo)       # a copy: the record's field is a view
+            bw = to_back_bases(ctx, bw, wo_m, si_m.wi, back)
+            bs.wo = dr.select(back, _mirror(wo_m), bs.wo)
+            return dr.select(back, bs, fs), dr.select(back, bw, fw)
 
-    def eval_diffuse_reflectance(self, si, active=True):
-        back = mi.Frame3f.cos_theta(si.wi) < 0.0
-        si_m = mi.SurfaceInteraction3f(si)
-        si_m.wi = _mirror(si.wi)
-        return dr.select(back, self.brdf[1].eval_diffuse_reflectance(si_m, active),
-                         self.brdf[0].eval_diffuse_reflectance(si, active))
+        def eval_diffuse_reflectance(self, si, active=True):
+            back = mi.Frame3f.cos_theta(si.wi) < 0.0
+            si_m = mi.SurfaceInteraction3f(si)
+            si_m.wi = _mirror(si.wi)
+            return dr.select(back, self.brdf[1].eval_diffuse_reflectance(si_m, active),
+                             self.brdf[0].eval_diffuse_reflectance(si, active))
 
-    def traverse(self, callback):
-        callback.put("brdf_0", self.brdf[0], mi.ParamFlags.Differentiable)
-        callback.put("brdf_1", self.brdf[1], mi.ParamFlags.Differentiable)
+        def traverse(self, callback):
+            callback.put("brdf_0", self.brdf[0], mi.ParamFlags.Differentiable)
+            callback.put("brdf_1", self.brdf[1], mi.ParamFlags.Differentiable)
 
-    def to_string(self):
-        return f"PolarizedTwoSided[\n  brdf[0] = {self.brdf[0]},\n  brdf[1] = {self.brdf[1]}\n]"
+        def to_string(self):
+            return f"PolarizedTwoSided[\n  brdf[0] = {self.brdf[0]},\n  brdf[1] = {self.brdf[1]}\n]"
+
+    return PolarizedTwoSided

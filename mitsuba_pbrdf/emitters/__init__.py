@@ -10,12 +10,12 @@ vector (docs/polarized-light.md).
 * ``polarized_emitter`` (:mod:`.polarized_emitter`): any Mitsuba emitter seen
   through an ideal linear polarizer of a given angle and degree.
 
-Each plugin module defines its class at module level for the active variant;
-:func:`mitsuba_pbrdf.registry.variant_module` runs it once per variant and
+Each plugin module's ``build_class()`` defines its class for the active
+variant; :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant and
 :data:`mitsuba_pbrdf.registry.PLUGINS` registers it. :mod:`mitsuba_pbrdf.mueller`
 (emitted Stokes vectors as Mueller matrices, the Stokes basis of emitted
-light), :mod:`.sky_models` (the sky's polarization pattern), :mod:`.params`
-(reading and checking parameters) and :mod:`.wrapped` (the Emitter methods
+light), :mod:`.sky_models` (the sky's polarization pattern), :mod:`mitsuba_pbrdf.properties`
+(reading and checking every plugin's parameters) and :mod:`.wrapped` (the Emitter methods
 that hand the wrapped emitter's sampling on) are plain modules shared by the
 plugins.
 """

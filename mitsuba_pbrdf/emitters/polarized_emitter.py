@@ -85,8 +85,8 @@ XML::
         </emitter>
     </shape>
 
-This module defines the class for the Mitsuba variant active when it is
-imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+:func:`build_class` defines the class on the active variant's Mitsuba base
+class; :func:`mitsuba_pbrdf.registry.plugin_class` calls it once per variant.
 """
 
 from __future__ import annotations
@@ -96,11 +96,11 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from . import params as read, wrapped
+from . import wrapped
+from .. import properties as read
 from ..mueller import basis, linear_diattenuator, times
+from ..schema import setting
 
-#: The Mitsuba variant this module's class was built for (registry.variant_module).
-VARIANT = mi.variant()
 
 _NAME = "polarized_emitter"
 
@@ -112,9 +112,9 @@ def _configure(props):
         raise ValueError(f"{_NAME}: exactly one nested emitter (the lamp) must be given, "
                          f"found {len(nested)}")
     lamp = next(iter(nested.values()))
-    angle = math.radians(read.number(props, _NAME, "angle", 0.0))
-    degree = read.number(props, _NAME, "degree", 1.0, 0.0, 1.0)
-    transmittance = read.number(props, _NAME, "transmittance", 1.0, 0.0, 1.0)
+    angle = math.radians(read.declared(props, setting(_NAME, "angle")))
+    degree = read.declared(props, setting(_NAME, "degree"))
+    transmittance = read.declared(props, setting(_NAME, "transmittance"))
     m = read.transform(props, _NAME, "to_world")
     local = (math.cos(angle), math.sin(angle), 0.0)
     axis = read.unit_vector(_NAME, "to_world",
@@ -124,60 +124,64 @@ def _configure(props):
             "surface": surface, "angle_deg": math.degrees(angle)}
 
 
-class PolarizedEmitter(mi.Emitter):
-    """A lamp behind a linear polarizer (module docstring)."""
+def build_class():
+    """``PolarizedEmitter`` on the active variant's base class (registry.plugin_class)."""
+    class PolarizedEmitter(mi.Emitter):
+        """A lamp behind a linear polarizer (module docstring)."""
 
-    def __init__(self, props):
-        # checked before the base class registers the instance with Dr.Jit
-        config = _configure(props)
-        super().__init__(props)
-        for key, value in config.items():
-            setattr(self, key, value)
-        self.m_flags = self.inner.flags()
-        self.m_needs_sample_2 = self.inner.needs_sample_2()
-        self.m_needs_sample_3 = self.inner.needs_sample_3()
+        def __init__(self, props):
+            # checked before the base class registers the instance with Dr.Jit
+            config = _configure(props)
+            super().__init__(props)
+            for key, value in config.items():
+                setattr(self, key, value)
+            self.m_flags = self.inner.flags()
+            self.m_needs_sample_2 = self.inner.needs_sample_2()
+            self.m_needs_sample_3 = self.inner.needs_sample_3()
 
-    def light(self, value, w, wavelengths=None):
-        """The lamp's ``value`` for light propagating along ``w`` (world),
-        through the polarizer."""
-        if not mi.is_polarized:
-            return value * self.transmittance
-        x, y = basis(w)
-        a = mi.Vector3f(self.axis)
-        # the filter's Mueller matrix times the lamp's whole matrix: a lamp
-        # that is itself polarized (another polarized_emitter, a
-        # stokes_envmap...) is filtered as Malus's law says
-        return times(linear_diattenuator(dr.dot(a, x), dr.dot(a, y), self.degree,
-                                         self.transmittance), value)
+        def light(self, value, w, wavelengths=None):
+            """The lamp's ``value`` for light propagating along ``w`` (world),
+            through the polarizer."""
+            if not mi.is_polarized:
+                return value * self.transmittance
+            x, y = basis(w)
+            a = mi.Vector3f(self.axis)
+            # the filter's Mueller matrix times the lamp's whole matrix: a lamp
+            # that is itself polarized (another polarized_emitter, a
+            # stokes_envmap...) is filtered as Malus's law says
+            return times(linear_diattenuator(dr.dot(a, x), dr.dot(a, y), self.degree,
+                                             self.transmittance), value)
 
-    def eval(self, si, active=True):
-        w = si.to_world(si.wi) if self.surface else si.wi
-        return self.light(wrapped.nested(self).eval(si, active), w)
+        def eval(self, si, active=True):
+            w = si.to_world(si.wi) if self.surface else si.wi
+            return self.light(wrapped.nested(self).eval(si, active), w)
 
-    eval_direction = wrapped.eval_direction
-    sample_direction = wrapped.sample_direction
-    pdf_direction = wrapped.pdf_direction
-    sample_ray = wrapped.sample_ray
-    sample_position = wrapped.sample_position
-    bbox = wrapped.bbox
+        eval_direction = wrapped.eval_direction
+        sample_direction = wrapped.sample_direction
+        pdf_direction = wrapped.pdf_direction
+        sample_ray = wrapped.sample_ray
+        sample_position = wrapped.sample_position
+        bbox = wrapped.bbox
 
-    def pdf_position(self, ps, active=True):
-        return wrapped.nested(self).pdf_position(ps, active)
+        def pdf_position(self, ps, active=True):
+            return wrapped.nested(self).pdf_position(ps, active)
 
-    def sample_wavelengths(self, si, sample, active=True):
-        wavelengths, weight = wrapped.nested(self).sample_wavelengths(si, sample, active)
-        return wavelengths, weight * self.transmittance
+        def sample_wavelengths(self, si, sample, active=True):
+            wavelengths, weight = wrapped.nested(self).sample_wavelengths(si, sample, active)
+            return wavelengths, weight * self.transmittance
 
-    def set_shape(self, shape):
-        super().set_shape(shape)
-        self.inner.set_shape(shape)
+        def set_shape(self, shape):
+            super().set_shape(shape)
+            self.inner.set_shape(shape)
 
-    def is_environment(self):
-        return self.inner.is_environment()
+        def is_environment(self):
+            return self.inner.is_environment()
 
-    def traverse(self, callback):
-        callback.put("emitter", self.inner, mi.ParamFlags.Differentiable)
+        def traverse(self, callback):
+            callback.put("emitter", self.inner, mi.ParamFlags.Differentiable)
 
-    def to_string(self):
-        return (f"PolarizedEmitter[\n  angle = {self.angle_deg:g},\n  degree = {self.degree:g},\n"
-                f"  transmittance = {self.transmittance:g},\n  lamp = {self.inner.class_name()}\n]")
+        def to_string(self):
+            return (f"PolarizedEmitter[\n  angle = {self.angle_deg:g},\n  degree = {self.degree:g},\n"
+                    f"  transmittance = {self.transmittance:g},\n  lamp = {self.inner.class_name()}\n]")
+
+    return PolarizedEmitter

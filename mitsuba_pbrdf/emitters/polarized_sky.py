@@ -73,7 +73,7 @@
        towards +X / 2 pi, zenith angle from local +Z / pi), the lat-long
        layout of Mitsuba's ``envmap`` turned +Y to +Z
        (``<rotate x="1" angle="90"/>``). Refused at load time if negative,
-       NaN or infinite (``params.nonnegative_texels``).
+       NaN or infinite (``properties.nonnegative_texels``).
      - --
      - ``intensity.*`` (a spectrum), ``radiance.*`` (a texture)
    * - (nested emitter)
@@ -125,8 +125,8 @@ XML::
         <float name="timezone" value="2"/>
     </emitter>
 
-This module defines the class for the Mitsuba variant active when it is
-imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+:func:`build_class` defines the class on the active variant's Mitsuba base
+class; :func:`mitsuba_pbrdf.registry.plugin_class` calls it once per variant.
 """
 
 from __future__ import annotations
@@ -136,13 +136,12 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from . import params as read, wrapped
-from .sky_models import MODELS, berry, neutral_points, rayleigh
+from . import wrapped
+from .. import properties as read
+from ..schema import setting
+from .sky_models import berry, neutral_points, rayleigh
 from ..mueller import emitted, intensity
-from ..plugin_objects import create
 
-#: The Mitsuba variant this module's class was built for (registry.variant_module).
-VARIANT = mi.variant()
 
 _NAME = "polarized_sky"
 #: Parameters handed to the internal ``sunsky``, with their bounds.
@@ -228,9 +227,9 @@ def _intensity_emitter(props, up, sun, when):
     if "radiance" in props:
         texture, varying = _texture(props)
         if varying:   # unit radiance, uniform sampling; the texture scales it by direction
-            unit = create("constant", radiance=create("uniform", value=1.0))
+            unit = read.create("constant", radiance=read.create("uniform", value=1.0))
             return unit, "texture", None, texture, sun
-        return create("constant", radiance=texture), "constant", None, None, sun
+        return read.create("constant", radiance=texture), "constant", None, None, sun
 
     if not (mi.is_rgb or mi.is_spectral):
         raise ValueError(f"{_NAME}: the default sunsky intensity needs an RGB or spectral "
@@ -251,7 +250,7 @@ def _intensity_emitter(props, up, sun, when):
     if "to_world" in props:
         config["to_world"] = read.as_transform(read.rotation(props, _NAME, "to_world"))
     try:
-        emitter = create("sunsky", **config)
+        emitter = read.create("sunsky", **config)
     except RuntimeError as error:
         raise ValueError(f"{_NAME}: the sunsky intensity refused its parameters: "
                          f"{read.mitsuba_reason(error)}") from None
@@ -274,9 +273,9 @@ def _floats(value):
 
 def _configure(props):
     """The checked parameters of a ``polarized_sky``, as attributes."""
-    model = read.choice(props, _NAME, "model", MODELS, "rayleigh")
-    dolp_max = read.number(props, _NAME, "dolp_max", 0.8, 0.0, 1.0)
-    separation = read.number(props, _NAME, "neutral_point_separation", 35.0, 0.0, 90.0)
+    model = read.declared(props, setting(_NAME, "model"))
+    dolp_max = read.declared(props, setting(_NAME, "dolp_max"))
+    separation = read.declared(props, setting(_NAME, "neutral_point_separation"))
     if model != "berry" and "neutral_point_separation" in props:
         raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
                          "model 'berry' only")
@@ -301,140 +300,145 @@ def _configure(props):
             "sun_half_aperture": half_aperture, "texture": texture}
 
 
-class PolarizedSky(mi.Emitter):
-    """A sky whose light carries the polarization of :mod:`.sky_models`
-    (module docstring)."""
+def build_class():
+    """``PolarizedSky`` on the active variant's base class (registry.plugin_class)."""
+    class PolarizedSky(mi.Emitter):
+        """A sky whose light carries the polarization of :mod:`.sky_models`
+        (module docstring)."""
 
-    def __init__(self, props):
-        # Everything is read and checked before the base class registers the
-        # instance with Dr.Jit: a half-built emitter left registered after an
-        # error would break every later render of the session.
-        config = _configure(props)
-        super().__init__(props)
-        for key, value in config.items():
-            setattr(self, key, value)
-        self.sun_direction = mi.Vector3f(self.sun)
-        self._set_sun_disk()
-        self._set_pattern()
-        self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
-
-    def _set_sun_disk(self):
-        """Where the intensity's sun is (``self.sun``): its disk is unpolarized."""
-        self.sun_disk = mi.Vector3f(self.sun)
-        dr.make_opaque(self.sun_disk)
-
-    def _set_pattern(self):
-        """The pattern's sun and neutral points from ``sun_direction``, in
-        Dr.Jit: differentiable with respect to it."""
-        sun = dr.normalize(self.sun_direction)
-        self.pattern_sun = sun
-        if self.model == "berry":
-            self.babinet, self.brewster = neutral_points(
-                sun, mi.Vector3f(self.up), self.separation, mi.Vector3f(self.horizontal))
-            dr.make_opaque(self.babinet, self.brewster)
-        dr.make_opaque(self.pattern_sun)
-
-    # -------------------------------------------------------------- polarization
-
-    def _ratios(self, w):
-        """``(q, u)`` of the light propagating along ``w`` (world, unit)."""
-        if self.model == "rayleigh":
-            q, u = rayleigh(w, self.pattern_sun, self.dolp_max)
-        else:
-            q, u = berry(w, self.babinet, self.brewster, self.dolp_max)
-        if self.sun_half_aperture is not None:   # the sun disk is unpolarized
-            in_sun = -dr.dot(w, self.sun_disk) >= math.cos(self.sun_half_aperture)
-            q, u = dr.select(in_sun, 0.0, q), dr.select(in_sun, 0.0, u)
-        return q, u
-
-    def _mapped(self, w, wavelengths):
-        """The ``radiance`` texture seen along ``-w``: (u, v) = (azimuth from
-        local +Y towards +X / 2 pi, zenith angle from local +Z / pi)."""
-        d = mi.Vector3f(*(-dr.fma(r[0], w.x, dr.fma(r[1], w.y, r[2] * w.z)) for r in self.to_local))
-        d = dr.normalize(d)
-        u = dr.atan2(d.x, d.y) * (0.5 / math.pi)
-        si = dr.zeros(mi.SurfaceInteraction3f)
-        si.uv = mi.Point2f(u - dr.floor(u), dr.safe_acos(d.z) * (1.0 / math.pi))
-        si.wavelengths = wavelengths
-        return self.texture.eval(si)
-
-    def light(self, value, w, wavelengths):
-        """The intensity emitter's ``value`` for light propagating along ``w``
-        (times the ``radiance`` texture there), polarized in polarized variants."""
-        radiance = intensity(value)
-        if self.texture is not None:
-            radiance = radiance * self._mapped(w, wavelengths)
-        if not mi.is_polarized:
-            return radiance
-        q, u = self._ratios(w)
-        return emitted(radiance, q, u)
-
-    # -------------------------------------------------------------- Emitter API
-
-    eval = wrapped.eval
-    eval_direction = wrapped.eval_direction
-    sample_direction = wrapped.sample_direction
-    pdf_direction = wrapped.pdf_direction
-    sample_ray = wrapped.sample_ray
-    sample_position = wrapped.sample_position
-    bbox = wrapped.bbox
-
-    def sample_wavelengths(self, si, sample, active=True):
-        wavelengths, weight = self.inner.sample_wavelengths(si, sample, active)
-        return wavelengths, self.light(weight, si.wi, wavelengths)
-
-    def is_environment(self):
-        return True
-
-    # -------------------------------------------------------------- parameters
-
-    def traverse(self, callback):
-        differentiable = dr.is_diff_v(mi.Float)
-        if differentiable:   # scalar variants: plain floats
-            callback.put("dolp_max", self.dolp_max, mi.ParamFlags.Differentiable)
-        callback.put("sun_direction", self.sun_direction,
-                     mi.ParamFlags.ReadOnly if self.when else
-                     mi.ParamFlags.Differentiable if differentiable else
-                     mi.ParamFlags.NonDifferentiable)
-        callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)
-        if self.texture is not None:
-            callback.put("radiance", self.texture, mi.ParamFlags.Differentiable)
-
-    def parameters_changed(self, keys):
-        if not keys or "dolp_max" in keys:
-            value = _floats(self.dolp_max)
-            if len(value) != 1 or not (0.0 <= value[0] <= 1.0):
-                raise ValueError(f"{_NAME}: parameter 'dolp_max' must be in [0, 1], got "
-                                 f"{value if len(value) != 1 else value[0]}")
-        if not keys or "sun_direction" in keys:
-            # a new sun: checked, handed to the sunsky intensity without its
-            # gradient (the intensity is held; docs/polarized-light.md)
-            sun = read.unit_vector(_NAME, "sun_direction", _floats(self.sun_direction))
-            if self.kind == "sunsky":
-                if _elevation(sun, self.up) <= 0.0:
-                    raise ValueError(f"{_NAME}: parameter 'sun_direction' puts the sun "
-                                     f"{-_elevation(sun, self.up):.3g}° below the horizon, "
-                                     "where sunsky's sky is black")
-                if sun != self.sun:
-                    params = mi.traverse(self.inner)
-                    params["sun_direction"] = mi.Vector3f(sun)
-                    params.update()
-            self.sun = sun
+        def __init__(self, props):
+            # Everything is read and checked before the base class registers the
+            # instance with Dr.Jit: a half-built emitter left registered after an
+            # error would break every later render of the session.
+            config = _configure(props)
+            super().__init__(props)
+            for key, value in config.items():
+                setattr(self, key, value)
+            self.sun_direction = mi.Vector3f(self.sun)
             self._set_sun_disk()
-        elif self.kind == "sunsky" and any(k == "intensity" or k.startswith("intensity.")
-                                           for k in keys):
-            # the sunsky's own sun moved (its sun_direction, or its date and
-            # time): the pattern follows, in place (mi.traverse holds the vector)
-            self.sun = read.unit_vector(_NAME, "sun_direction", _floats(
-                mi.traverse(self.inner)["sun_direction"]))
-            for i in range(3):
-                self.sun_direction[i] = mi.Float(self.sun[i])
-            self._set_sun_disk()
-        self._set_pattern()
+            self._set_pattern()
+            self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
 
-    def to_string(self):
-        extra = (f",\n  neutral_point_separation = {self.separation}"
-                 if self.model == "berry" else "")
-        when = (f",\n  date, time and place = {self.when}" if self.when else "")
-        return (f"PolarizedSky[\n  model = {self.model!r},\n  sun_direction = {self.sun}{when},\n"
-                f"  dolp_max = {self.dolp_max}{extra},\n  intensity = {self.kind}\n]")
+        def _set_sun_disk(self):
+            """Where the intensity's sun is (``self.sun``): its disk is unpolarized."""
+            self.sun_disk = mi.Vector3f(self.sun)
+            dr.make_opaque(self.sun_disk)
+
+        def _set_pattern(self):
+            """The pattern's sun and neutral points from ``sun_direction``, in
+            Dr.Jit: differentiable with respect to it."""
+            sun = dr.normalize(self.sun_direction)
+            self.pattern_sun = sun
+            if self.model == "berry":
+                self.babinet, self.brewster = neutral_points(
+                    sun, mi.Vector3f(self.up), self.separation, mi.Vector3f(self.horizontal))
+                dr.make_opaque(self.babinet, self.brewster)
+            dr.make_opaque(self.pattern_sun)
+
+        # -------------------------------------------------------------- polarization
+
+        def _ratios(self, w):
+            """``(q, u)`` of the light propagating along ``w`` (world, unit)."""
+            if self.model == "rayleigh":
+                q, u = rayleigh(w, self.pattern_sun, self.dolp_max)
+            else:
+                q, u = berry(w, self.babinet, self.brewster, self.dolp_max)
+            if self.sun_half_aperture is not None:   # the sun disk is unpolarized
+                in_sun = -dr.dot(w, self.sun_disk) >= math.cos(self.sun_half_aperture)
+                q, u = dr.select(in_sun, 0.0, q), dr.select(in_sun, 0.0, u)
+            return q, u
+
+        def _mapped(self, w, wavelengths):
+            """The ``radiance`` texture seen along ``-w``: (u, v) = (azimuth from
+            local +Y towards +X / 2 pi, zenith angle from local +Z / pi)."""
+            d = mi.Vector3f(*(-dr.fma(r[0], w.x, dr.fma(r[1], w.y, r[2] * w.z)) for r in self.to_local))
+            d = dr.normalize(d)
+            u = dr.atan2(d.x, d.y) * (0.5 / math.pi)
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            si.uv = mi.Point2f(u - dr.floor(u), dr.safe_acos(d.z) * (1.0 / math.pi))
+            si.wavelengths = wavelengths
+            return self.texture.eval(si)
+
+        def light(self, value, w, wavelengths):
+            """The intensity emitter's ``value`` for light propagating along ``w``
+            (times the ``radiance`` texture there), polarized in polarized variants."""
+            radiance = intensity(value)
+            if self.texture is not None:
+                radiance = radiance * self._mapped(w, wavelengths)
+            if not mi.is_polarized:
+                return radiance
+            q, u = self._ratios(w)
+            return emitted(radiance, q, u)
+
+        # -------------------------------------------------------------- Emitter API
+
+        eval = wrapped.eval
+        eval_direction = wrapped.eval_direction
+        sample_direction = wrapped.sample_direction
+        pdf_direction = wrapped.pdf_direction
+        sample_ray = wrapped.sample_ray
+        sample_position = wrapped.sample_position
+        bbox = wrapped.bbox
+
+        def sample_wavelengths(self, si, sample, active=True):
+            wavelengths, weight = self.inner.sample_wavelengths(si, sample, active)
+            return wavelengths, self.light(weight, si.wi, wavelengths)
+
+        def is_environment(self):
+            return True
+
+        # -------------------------------------------------------------- parameters
+
+        def traverse(self, callback):
+            differentiable = dr.is_diff_v(mi.Float)
+            if differentiable:   # scalar variants: plain floats
+                callback.put("dolp_max", self.dolp_max, mi.ParamFlags.Differentiable)
+            callback.put("sun_direction", self.sun_direction,
+                         mi.ParamFlags.ReadOnly if self.when else
+                         mi.ParamFlags.Differentiable if differentiable else
+                         mi.ParamFlags.NonDifferentiable)
+            callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)
+            if self.texture is not None:
+                callback.put("radiance", self.texture, mi.ParamFlags.Differentiable)
+
+        def parameters_changed(self, keys):
+            if not keys or "dolp_max" in keys:
+                value, declared = _floats(self.dolp_max), setting(_NAME, "dolp_max")
+                if len(value) != 1 or not (declared.low <= value[0] <= declared.high):
+                    raise ValueError(f"{_NAME}: parameter 'dolp_max' must be "
+                                     f"{read.bounds(declared.low, declared.high)}, got "
+                                     f"{value if len(value) != 1 else value[0]}")
+            if not keys or "sun_direction" in keys:
+                # a new sun: checked, handed to the sunsky intensity without its
+                # gradient (the intensity is held; docs/polarized-light.md)
+                sun = read.unit_vector(_NAME, "sun_direction", _floats(self.sun_direction))
+                if self.kind == "sunsky":
+                    if _elevation(sun, self.up) <= 0.0:
+                        raise ValueError(f"{_NAME}: parameter 'sun_direction' puts the sun "
+                                         f"{-_elevation(sun, self.up):.3g}° below the horizon, "
+                                         "where sunsky's sky is black")
+                    if sun != self.sun:
+                        params = mi.traverse(self.inner)
+                        params["sun_direction"] = mi.Vector3f(sun)
+                        params.update()
+                self.sun = sun
+                self._set_sun_disk()
+            elif self.kind == "sunsky" and any(k == "intensity" or k.startswith("intensity.")
+                                               for k in keys):
+                # the sunsky's own sun moved (its sun_direction, or its date and
+                # time): the pattern follows, in place (mi.traverse holds the vector)
+                self.sun = read.unit_vector(_NAME, "sun_direction", _floats(
+                    mi.traverse(self.inner)["sun_direction"]))
+                for i in range(3):
+                    self.sun_direction[i] = mi.Float(self.sun[i])
+                self._set_sun_disk()
+            self._set_pattern()
+
+        def to_string(self):
+            extra = (f",\n  neutral_point_separation = {self.separation}"
+                     if self.model == "berry" else "")
+            when = (f",\n  date, time and place = {self.when}" if self.when else "")
+            return (f"PolarizedSky[\n  model = {self.model!r},\n  sun_direction = {self.sun}{when},\n"
+                    f"  dolp_max = {self.dolp_max}{extra},\n  intensity = {self.kind}\n]")
+
+    return PolarizedSky

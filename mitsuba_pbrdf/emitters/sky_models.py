@@ -52,9 +52,6 @@ import drjit as dr
 
 from ..mueller import basis
 
-#: The models of ``polarized_sky``'s ``model`` parameter.
-MODELS = ("rayleigh", "berry")
-
 
 def rayleigh(w, sun, dolp_max):
     """``(q, u)`` of single-scattering skylight propagating along ``w`` (unit),

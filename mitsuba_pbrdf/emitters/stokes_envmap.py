@@ -64,8 +64,8 @@ XML::
         <string name="filename" value="sky_stokes.exr"/>
     </emitter>
 
-This module defines the class for the Mitsuba variant active when it is
-imported; :func:`mitsuba_pbrdf.registry.variant_module` reloads it for another.
+:func:`build_class` defines the class on the active variant's Mitsuba base
+class; :func:`mitsuba_pbrdf.registry.plugin_class` calls it once per variant.
 """
 
 from __future__ import annotations
@@ -77,12 +77,11 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from . import params as read, wrapped
+from . import wrapped
+from .. import properties as read
 from ..mueller import basis, emitted, intensity
-from ..plugin_objects import create
+from ..schema import setting
 
-#: The Mitsuba variant this module's class was built for (registry.variant_module).
-VARIANT = mi.variant()
 
 _NAME = "stokes_envmap"
 
@@ -125,104 +124,108 @@ def _configure(props):
     path = str(mi.file_resolver().resolve(filename))
     if not os.path.isfile(path):
         raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
-    scale = read.number(props, _NAME, "scale", 1.0, low=0.0)
+    scale = read.declared(props, setting(_NAME, "scale"))
     m = np.array(read.rotation(props, _NAME, "to_world"), np.float64)
     s0, stokes = load_stokes_map(path)
     config = {"bitmap": mi.Bitmap(s0), "scale": scale}
     if "to_world" in props:
         config["to_world"] = read.as_transform(m)
-    return {"filename": filename, "inner": create("envmap", **config),
+    return {"filename": filename, "inner": read.create("envmap", **config),
             "to_local": [[float(c) for c in row] for row in m.T],
             "to_world_rows": [[float(c) for c in row] for row in m],
             "height": stokes.shape[0], "width": stokes.shape[1],
             "stokes": mi.Float(stokes.ravel())}
 
 
-class StokesEnvmap(mi.Emitter):
-    """An environment map of Stokes vectors (module docstring)."""
+def build_class():
+    """``StokesEnvmap`` on the active variant's base class (registry.plugin_class)."""
+    class StokesEnvmap(mi.Emitter):
+        """An environment map of Stokes vectors (module docstring)."""
 
-    def __init__(self, props):
-        # Read and checked before the base class registers the instance with
-        # Dr.Jit (a half-built emitter left registered breaks later renders).
-        config = _configure(props)
-        super().__init__(props)
-        for key, value in config.items():
-            setattr(self, key, value)
-        self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
+        def __init__(self, props):
+            # Read and checked before the base class registers the instance with
+            # Dr.Jit (a half-built emitter left registered breaks later renders).
+            config = _configure(props)
+            super().__init__(props)
+            for key, value in config.items():
+                setattr(self, key, value)
+            self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
 
-    # -------------------------------------------------------------- polarization
+        # -------------------------------------------------------------- polarization
 
-    @staticmethod
-    def _apply(rows, v):
-        return mi.Vector3f(*(dr.fma(r[0], v.x, dr.fma(r[1], v.y, r[2] * v.z)) for r in rows))
+        @staticmethod
+        def _apply(rows, v):
+            return mi.Vector3f(*(dr.fma(r[0], v.x, dr.fma(r[1], v.y, r[2] * v.z)) for r in rows))
 
-    def _lookup(self, d):
-        """The luminance Stokes vector (4 Floats) at local direction ``d``,
-        bilinear on envmap's grid (columns at (i + 0.5) / W, wrapping; rows
-        at j / (H - 1))."""
-        w, h = self.width, self.height
-        u = dr.atan2(d.x, -d.z) * (0.5 / math.pi)
-        v = dr.safe_acos(d.y) * (1.0 / math.pi)
-        x = dr.fma(u - dr.floor(u), w, -0.5)
-        x = dr.select(x < 0, x + w, x)
-        y = dr.clip(v * (h - 1), 0.0, h - 1.0)
-        i0 = mi.UInt32(dr.minimum(dr.floor(x), w - 1))
-        j0 = mi.UInt32(dr.minimum(dr.floor(y), h - 2))
-        fx, fy = x - mi.Float(i0), y - mi.Float(j0)
-        i1 = dr.select(i0 + 1 >= w, i0 + 1 - w, i0 + 1)
-        out = []
-        for c in range(4):
-            def texel(i, j, c=c):
-                return dr.gather(mi.Float, self.stokes, (j * w + i) * 4 + c)
-            top = dr.lerp(texel(i0, j0), texel(i1, j0), fx)
-            bottom = dr.lerp(texel(i0, j0 + 1), texel(i1, j0 + 1), fx)
-            out.append(dr.lerp(top, bottom, fy))
-        return out
+        def _lookup(self, d):
+            """The luminance Stokes vector (4 Floats) at local direction ``d``,
+            bilinear on envmap's grid (columns at (i + 0.5) / W, wrapping; rows
+            at j / (H - 1))."""
+            w, h = self.width, self.height
+            u = dr.atan2(d.x, -d.z) * (0.5 / math.pi)
+            v = dr.safe_acos(d.y) * (1.0 / math.pi)
+            x = dr.fma(u - dr.floor(u), w, -0.5)
+            x = dr.select(x < 0, x + w, x)
+            y = dr.clip(v * (h - 1), 0.0, h - 1.0)
+            i0 = mi.UInt32(dr.minimum(dr.floor(x), w - 1))
+            j0 = mi.UInt32(dr.minimum(dr.floor(y), h - 2))
+            fx, fy = x - mi.Float(i0), y - mi.Float(j0)
+            i1 = dr.select(i0 + 1 >= w, i0 + 1 - w, i0 + 1)
+            out = []
+            for c in range(4):
+                def texel(i, j, c=c):
+                    return dr.gather(mi.Float, self.stokes, (j * w + i) * 4 + c)
+                top = dr.lerp(texel(i0, j0), texel(i1, j0), fx)
+                bottom = dr.lerp(texel(i0, j0 + 1), texel(i1, j0 + 1), fx)
+                out.append(dr.lerp(top, bottom, fy))
+            return out
 
-    def _ratios(self, w):
-        """(q, u, v) of the light propagating along ``w`` (world), in
-        ``stokes_basis(w)``."""
-        d = self._apply(self.to_local, -w)
-        s0, s1, s2, s3 = self._lookup(d)
-        inv = dr.select(s0 > 0, dr.rcp(s0), 0.0)
-        q, u, v = s1 * inv, s2 * inv, s3 * inv
-        # the lat-long basis: x along increasing azimuth (local), into world
-        east = mi.Vector3f(-d.z, 0.0, d.x)
-        east = dr.select(dr.squared_norm(east) > 1e-12, east, mi.Vector3f(1.0, 0.0, 0.0))
-        east = dr.normalize(self._apply(self.to_world_rows, east))
-        x, y = basis(w)
-        c, s = dr.dot(east, x), dr.dot(east, y)     # east = c x + s y
-        cos2, sin2 = c * c - s * s, 2.0 * c * s
-        return cos2 * q - sin2 * u, sin2 * q + cos2 * u, v
+        def _ratios(self, w):
+            """(q, u, v) of the light propagating along ``w`` (world), in
+            ``stokes_basis(w)``."""
+            d = self._apply(self.to_local, -w)
+            s0, s1, s2, s3 = self._lookup(d)
+            inv = dr.select(s0 > 0, dr.rcp(s0), 0.0)
+            q, u, v = s1 * inv, s2 * inv, s3 * inv
+            # the lat-long basis: x along increasing azimuth (local), into world
+            east = mi.Vector3f(-d.z, 0.0, d.x)
+            east = dr.select(dr.squared_norm(east) > 1e-12, east, mi.Vector3f(1.0, 0.0, 0.0))
+            east = dr.normalize(self._apply(self.to_world_rows, east))
+            x, y = basis(w)
+            c, s = dr.dot(east, x), dr.dot(east, y)     # east = c x + s y
+            cos2, sin2 = c * c - s * s, 2.0 * c * s
+            return cos2 * q - sin2 * u, sin2 * q + cos2 * u, v
 
-    def light(self, value, w, wavelengths=None):
-        """The ``envmap``'s ``value`` for light propagating along ``w``,
-        polarized (unchanged in unpolarized variants)."""
-        if not mi.is_polarized:
-            return value
-        q, u, v = self._ratios(w)
-        return emitted(intensity(value), q, u, v)
+        def light(self, value, w, wavelengths=None):
+            """The ``envmap``'s ``value`` for light propagating along ``w``,
+            polarized (unchanged in unpolarized variants)."""
+            if not mi.is_polarized:
+                return value
+            q, u, v = self._ratios(w)
+            return emitted(intensity(value), q, u, v)
 
-    # -------------------------------------------------------------- Emitter API
+        # -------------------------------------------------------------- Emitter API
 
-    eval = wrapped.eval
-    eval_direction = wrapped.eval_direction
-    sample_direction = wrapped.sample_direction
-    pdf_direction = wrapped.pdf_direction
-    sample_ray = wrapped.sample_ray
-    sample_position = wrapped.sample_position
-    bbox = wrapped.bbox
+        eval = wrapped.eval
+        eval_direction = wrapped.eval_direction
+        sample_direction = wrapped.sample_direction
+        pdf_direction = wrapped.pdf_direction
+        sample_ray = wrapped.sample_ray
+        sample_position = wrapped.sample_position
+        bbox = wrapped.bbox
 
-    def sample_wavelengths(self, si, sample, active=True):
-        # envmap draws wavelengths from a texture coordinate, not a direction
-        return self.inner.sample_wavelengths(si, sample, active)
+        def sample_wavelengths(self, si, sample, active=True):
+            # envmap draws wavelengths from a texture coordinate, not a direction
+            return self.inner.sample_wavelengths(si, sample, active)
 
-    def is_environment(self):
-        return True
+        def is_environment(self):
+            return True
 
-    def traverse(self, callback):
-        callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)
+        def traverse(self, callback):
+            callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)
 
-    def to_string(self):
-        return (f"StokesEnvmap[\n  filename = {self.filename!r},\n"
-                f"  resolution = {self.width} x {self.height}\n]")
+        def to_string(self):
+            return (f"StokesEnvmap[\n  filename = {self.filename!r},\n"
+                    f"  resolution = {self.width} x {self.height}\n]")
+
+    return StokesEnvmap

@@ -65,85 +65,87 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..variant import require_variant
 from .film import develop_stokes, has_nonsmooth_bsdf, sensor_and_film
 from .support import MAX_DEPTH_LIMIT, STOKES_CHANNELS, usable_variant
 from .replay import VertexStore, replay, trace
 
-#: The Mitsuba variant whose base classes this module's class derives from;
-#: :func:`mitsuba_pbrdf.registry.variant_module` loads the module once per variant.
-VARIANT = require_variant().variant()
 
-from mitsuba.ad.integrators.common import ADIntegrator  # noqa: E402  (the variant's own)
+def build_class():
+    """``StokesPRBIntegrator`` on the active variant's base class (registry.plugin_class)."""
+    # mi.ad is the active variant's; ``from mitsuba.ad... import`` would give
+    # the ADIntegrator of the variant that first imported it.
+    ADIntegrator = mi.ad.integrators.common.ADIntegrator
+    variant = mi.variant()
 
+    class StokesPRBIntegrator(ADIntegrator):
+        __doc__ = __doc__
 
-class StokesPRBIntegrator(ADIntegrator):
-    __doc__ = __doc__
+        def __init__(self, props):
+            if not usable_variant(variant):
+                raise RuntimeError(
+                    f"stokes_prb needs a polarized JIT variant such as llvm_ad_spectral_polarized, "
+                    f"not {variant!r}")
+            max_depth = props.get("max_depth", 6)
+            if not 0 <= max_depth <= MAX_DEPTH_LIMIT:
+                raise ValueError(
+                    f"stokes_prb: max_depth must be between 0 and {MAX_DEPTH_LIMIT} (path replay "
+                    f"stores every vertex of a sample), got {max_depth}")
+            super().__init__(props)
 
-    def __init__(self, props):
-        if not usable_variant(VARIANT):
-            raise RuntimeError(
-                f"stokes_prb needs a polarized JIT variant such as llvm_ad_spectral_polarized, "
-                f"not {VARIANT!r}")
-        max_depth = props.get("max_depth", 6)
-        if not 0 <= max_depth <= MAX_DEPTH_LIMIT:
-            raise ValueError(
-                f"stokes_prb: max_depth must be between 0 and {MAX_DEPTH_LIMIT} (path replay "
-                f"stores every vertex of a sample), got {max_depth}")
-        super().__init__(props)
+        def aov_names(self):
+            return list(STOKES_CHANNELS)
 
-    def aov_names(self):
-        return list(STOKES_CHANNELS)
+        def to_string(self):
+            return (f"StokesPRBIntegrator[max_depth = {self.max_depth}, "
+                    f"rr_depth = {self.rr_depth}, hide_emitters = {self.hide_emitters}]")
 
-    def to_string(self):
-        return (f"StokesPRBIntegrator[max_depth = {self.max_depth}, "
-                f"rr_depth = {self.rr_depth}, hide_emitters = {self.hide_emitters}]")
+        # ---------------------------------------------------------- rendering
 
-    # ---------------------------------------------------------- rendering
+        def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
+            if not develop:
+                raise RuntimeError("stokes_prb: develop=True must be specified (as for "
+                                   "Mitsuba's AD integrators)")
+            sensor, film = sensor_and_film(scene, sensor)
+            with dr.suspend_grad():
+                sampler, spp = self.prepare(sensor, seed, spp, self.aov_names())
+                ray, weight, pos = self.sample_rays(scene, sensor, sampler)
+                stokes, valid, _ = trace(self, scene, sampler, ray)
+                return develop_stokes(film, sensor, spp, pos, ray, weight, stokes,
+                                alpha=dr.select(valid, 1.0, 0.0))
 
-    def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
-        if not develop:
-            raise RuntimeError("stokes_prb: develop=True must be specified (as for "
-                               "Mitsuba's AD integrators)")
-        sensor, film = sensor_and_film(scene, sensor)
-        with dr.suspend_grad():
-            sampler, spp = self.prepare(sensor, seed, spp, self.aov_names())
-            ray, weight, pos = self.sample_rays(scene, sensor, sampler)
-            stokes, valid, _ = trace(self, scene, sampler, ray)
-            return develop_stokes(film, sensor, spp, pos, ray, weight, stokes,
-                            alpha=dr.select(valid, 1.0, 0.0))
+        def render_forward(self, scene, params=None, sensor=0, seed=0, spp=0):
+            sensor, film = sensor_and_film(scene, sensor)
+            with dr.suspend_grad():
+                sampler, spp = self.prepare(sensor, seed, spp, self.aov_names())
+                ray, weight, pos = self.sample_rays(scene, sensor, sampler)
+                store = VertexStore(max(self.max_depth, 1), "forward")
+                _, valid, count = trace(self, scene, sampler, ray, store=store)
+                tangent = replay(self, scene, ray, store, count, valid,
+                                 differentiate_delta=has_nonsmooth_bsdf(scene))
+                return develop_stokes(film, sensor, spp, pos, ray, weight, tangent, alpha=0.0)
 
-    def render_forward(self, scene, params=None, sensor=0, seed=0, spp=0):
-        sensor, film = sensor_and_film(scene, sensor)
-        with dr.suspend_grad():
-            sampler, spp = self.prepare(sensor, seed, spp, self.aov_names())
-            ray, weight, pos = self.sample_rays(scene, sensor, sampler)
-            store = VertexStore(max(self.max_depth, 1), "forward")
-            _, valid, count = trace(self, scene, sampler, ray, store=store)
-            tangent = replay(self, scene, ray, store, count, valid,
-                             differentiate_delta=has_nonsmooth_bsdf(scene))
-            return develop_stokes(film, sensor, spp, pos, ray, weight, tangent, alpha=0.0)
+        def render_backward(self, scene, params, grad_in, sensor=0, seed=0, spp=0):
+            sensor, film = sensor_and_film(scene, sensor)
+            with dr.suspend_grad():
+                sampler, spp = self.prepare(sensor, seed, spp, self.aov_names())
+                ray, weight, pos = self.sample_rays(scene, sensor, sampler)
+                # Adjoint Stokes vector of each sample: the image gradient
+                # pulled back through the film (rotation to the camera frame,
+                # spectrum to RGB, splatting, division by the pixel weight).
+                with dr.resume_grad():
+                    stokes = dr.zeros(mi.SpectrumEntry, dr.width(ray))
+                    dr.enable_grad(stokes)
+                    image = develop_stokes(film, sensor, spp, pos, ray, weight, stokes, alpha=1.0)
+                    dr.set_grad(image, grad_in)
+                    dr.enqueue(dr.ADMode.Backward, image)
+                    dr.traverse(dr.ADMode.Backward)
+                    delta0 = dr.grad(stokes)
+                film.clear()
+                store = VertexStore(max(self.max_depth, 1), "reverse")
+                _, valid, count = trace(self, scene, sampler, ray, store=store, delta0=delta0)
+                replay(self, scene, ray, store, count, valid,
+                       differentiate_delta=has_nonsmooth_bsdf(scene))
+                del sampler, ray, weight, pos, stokes, delta0, store
+                dr.eval()
 
-    def render_backward(self, scene, params, grad_in, sensor=0, seed=0, spp=0):
-        sensor, film = sensor_and_film(scene, sensor)
-        with dr.suspend_grad():
-            sampler, spp = self.prepare(sensor, seed, spp, self.aov_names())
-            ray, weight, pos = self.sample_rays(scene, sensor, sampler)
-            # Adjoint Stokes vector of each sample: the image gradient
-            # pulled back through the film (rotation to the camera frame,
-            # spectrum to RGB, splatting, division by the pixel weight).
-            with dr.resume_grad():
-                stokes = dr.zeros(mi.SpectrumEntry, dr.width(ray))
-                dr.enable_grad(stokes)
-                image = develop_stokes(film, sensor, spp, pos, ray, weight, stokes, alpha=1.0)
-                dr.set_grad(image, grad_in)
-                dr.enqueue(dr.ADMode.Backward, image)
-                dr.traverse(dr.ADMode.Backward)
-                delta0 = dr.grad(stokes)
-            film.clear()
-            store = VertexStore(max(self.max_depth, 1), "reverse")
-            _, valid, count = trace(self, scene, sampler, ray, store=store, delta0=delta0)
-            replay(self, scene, ray, store, count, valid,
-                   differentiate_delta=has_nonsmooth_bsdf(scene))
-            del sampler, ray, weight, pos, stokes, delta0, store
-            dr.eval()
+    return StokesPRBIntegrator

@@ -28,9 +28,9 @@ def usable_variant(variant):
 
 def integrator_class():
     """The ``stokes_prb`` class of the active variant."""
-    from ..registry import variant_module
+    from ..registry import plugin_class
 
-    return variant_module("mitsuba_pbrdf.integrators.stokes_prb").StokesPRBIntegrator
+    return plugin_class("stokes_prb")
 
 
 def _is_stokes_prb(integrator):

@@ -1,5 +1,6 @@
-"""Reading and checking the emitters' parameters, with one-line errors that
-name the plugin and the parameter (``ValueError`` for a bad value,
+"""Reading and checking Mitsuba ``Properties``: the one reader of every
+plugin's parameters, with one-line errors that name the plugin and the
+parameter (``ValueError`` for a bad value,
 ``TypeError`` for a bad type), raised in the constructor so that a bad scene
 fails at load time. Plain functions: ``mi.*`` is looked up when called, so
 this module serves every variant without a reload.
@@ -31,10 +32,24 @@ def number(props, plugin, name, default=None, low=None, high=None, what=""):
     if not math.isfinite(value):
         raise ValueError(f"{plugin}: parameter '{name}' must be finite, got {value}")
     if (low is not None and value < low) or (high is not None and value > high):
-        bounds = (f"in [{low:g}, {high:g}]" if low is not None and high is not None
-                  else f">= {low:g}" if low is not None else f"<= {high:g}")
-        raise ValueError(f"{plugin}: parameter '{name}' must be {bounds}{what}, got {value:g}")
+        raise ValueError(f"{plugin}: parameter '{name}' must be {bounds(low, high)}{what}, "
+                         f"got {value:g}")
     return value
+
+
+def declared(props, setting):
+    """Setting *setting* (a :class:`mitsuba_pbrdf.schema.Setting`) read and
+    checked against its declaration: a choice or a bounded number."""
+    if setting.choices:
+        return choice(props, setting.plugin, setting.name, setting.choices, setting.default)
+    return number(props, setting.plugin, setting.name, setting.default, setting.low,
+                  setting.high)
+
+
+def bounds(low, high):
+    """``in [low, high]``, ``>= low`` or ``<= high``, as errors word a range."""
+    return (f"in [{low:g}, {high:g}]" if low is not None and high is not None
+            else f">= {low:g}" if low is not None else f"<= {high:g}")
 
 
 def direction(props, plugin, name):
@@ -86,11 +101,30 @@ def string(props, plugin, name, default=None):
     return props[name]
 
 
+def flag(props, plugin, name, default):
+    """A boolean parameter; ``default`` where absent."""
+    if name not in props:
+        return default
+    if props.type(name) != mi.Properties.Type.Bool:
+        raise TypeError(f"{plugin}: parameter '{name}' must be a boolean")
+    return bool(props[name])
+
+
 def nested_objects(props, kinds):
     """``{key: object}`` of the nested objects of ``props`` that are instances
     of ``kinds`` (read, so Mitsuba counts them as used)."""
     return {key: props[key] for key in props.keys()
             if props.type(key) == mi.Properties.Type.Object and isinstance(props[key], kinds)}
+
+
+def single_nested(props, plugin, kind):
+    """The one nested object of type *kind* (``mi.BSDF``); a one-line error
+    otherwise."""
+    found = nested_objects(props, kind)
+    if len(found) != 1:
+        raise ValueError(f"{plugin}: exactly one nested {kind.__name__} must be given, "
+                         f"found {len(found)}")
+    return next(iter(found.values()))
 
 
 #: A transform whose 3 x 3 part has |det| below this fraction of the product
@@ -267,3 +301,25 @@ def mitsuba_reason(error):
     text = re.sub(r"\[[\w./-]+:\d+\]\s*", "", text)
     text = re.sub(r"At dictionary node \"[^\"]*\": failed to instantiate [^:]*:\s*", "", text)
     return " ".join(text.split())
+
+
+def create(plugin_type: str, **params):
+    """A new instance of Mitsuba plugin *plugin_type* (``"irregular"``,
+    ``"sunsky"``, ...) of the active variant, with *params* as its properties,
+    for a plugin's constructor to nest. Values are set as given, so give them
+    the types the plugin reads: ``float``, ``int``, ``bool``, ``str``, Mitsuba
+    objects (a texture, a bitmap), ``mi.ScalarColor3f`` for a colour,
+    ``mi.ScalarVector3f`` for a vector, ``mi.ScalarTransform4f`` for a
+    transform. Raises Mitsuba's ``RuntimeError`` when the plugin refuses its
+    parameters.
+
+    Through Mitsuba's plugin manager, never its scene parser: ``mi.load_dict``
+    swaps the process-wide file resolver for a copy and frees the copy when
+    done, while a parallel scene load runs other constructors on other threads
+    that read it (``sunsky`` for its data files), so a ``load_dict`` inside a
+    constructor can free what another thread reads (tests/test_plugin_objects.py).
+    The plugin manager touches no resolver."""
+    props = mi.Properties(plugin_type)
+    for key, value in params.items():
+        props[key] = value
+    return mi.PluginManager.instance().create_object(props)

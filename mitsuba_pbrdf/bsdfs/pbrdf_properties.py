@@ -1,4 +1,5 @@
-"""Reading and checking the ``pbrdf`` plugin's parameters.
+"""Reading and checking the ``pbrdf`` plugin's textures and widths (the
+general readers are :mod:`mitsuba_pbrdf.properties`).
 
 Every check raises ``ValueError`` (bad value) or ``TypeError`` (bad type) whose
 message starts with ``pbrdf:`` and names the offending parameter, so a bad scene
@@ -19,19 +20,6 @@ _VALUE_KEYS = ("value", "values", "data", "color")
 
 _TEXTURE_TYPES = (mi.Properties.Type.Float, mi.Properties.Type.Integer, mi.Properties.Type.Color,
                   mi.Properties.Type.Spectrum, mi.Properties.Type.Object)
-
-
-def choice(props, name, options, default):
-    """A string parameter restricted to ``options`` (case-insensitive)."""
-    if name not in props:
-        return default
-    if props.type(name) != mi.Properties.Type.String:
-        raise TypeError(f"pbrdf: parameter '{name}' must be a string, one of {', '.join(options)}")
-    value = props[name].lower()
-    if value not in options:
-        raise ValueError(f"pbrdf: parameter '{name}' is {props[name]!r}; "
-                         f"valid values: {', '.join(options)}")
-    return value
 
 
 def declared(props, parameter, default=None):
