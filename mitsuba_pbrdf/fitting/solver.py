@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Callable, Dict, List, Optional
 
 import numpy as np
@@ -141,48 +141,48 @@ class FitResult:
             else:
                 yield p, p, None, float(e)
 
-    def as_dict(self):
-        """JSON-ready: an error that is not stated (undetermined, fixed, at a
-        bound) is ``None`` (null), its reason in ``error_reasons`` by label."""
-        def conv(v):
-            if isinstance(v, np.ndarray):
-                return [conv(float(a)) for a in v]
-            return None if isinstance(v, float) and not math.isfinite(v) else v
-        errors = {k: conv(v) for k, v in self.errors.items()}
+    def as_dict(self) -> Dict:
+        """JSON-ready, by :func:`dataclasses.asdict`: the fields but those of
+        :data:`_NOT_SAVED`, two renamed (:data:`_SAVED_AS`), the derived
+        ``reduced_chi2`` and ``start_note``; a number that is not finite is
+        ``None`` (null). An error that is not stated (undetermined, fixed, at a
+        bound) is null, its reason in ``error_reasons`` by label."""
+        out = {_SAVED_AS.get(k, k): _jsonable(v) for k, v in asdict(self).items()
+               if k not in _NOT_SAVED}
         reasons = {}
         for label, key, j, e in self._labelled_errors():
             reasons[label] = self.error_reason(label, e)
             if reasons[label] == "at a bound":
                 if j is None:
-                    errors[key] = None
+                    out["errors"][key] = None
                 else:
-                    errors[key][j] = None
-        return {"model": self.model, "backend": self.backend,
-                "wavelengths": self.wavelengths.tolist(),
-                "values": {k: conv(v) for k, v in self.values.items()},
-                "errors": errors,
-                "error_reasons": {k: v for k, v in reasons.items() if v},
-                "chi2": self.chi2, "dof": self.dof, "reduced_chi2": self.reduced_chi2,
-                "rms": {k: conv(v) for k, v in self.rms.items()},
-                "relative_rms": {k: conv(v) for k, v in self.relative_rms.items()},
-                "seconds": self.seconds,
-                "evaluations": self.evaluations, "success": self.success,
-                "message": self.message, "at_bound": self.at_bound,
-                "undetermined": self.undetermined, "correlated": self.correlated,
-                "fixed": self.fixed,
-                "shadowing": self.shadowing, "dd_distribution": self.dd_distribution,
-                "anisotropic": self.anisotropic, "distribution": self.distribution,
-                "anisotropy": {base: {"difference": d, "uncertainty": conv(float(sd))}
-                               for base, (d, sd) in self.anisotropy.items()},
-                "objective": self.objective, "objective_reason": self.objective_reason,
-                "objectives": self.objectives,
-                "log_floor": self.log_floor, "index_note": self.index_note,
-                "starts": self.starts, "rows": self.rows, "start_rows": self.start_rows,
-                "start_note": self.start_note, "formal_uncertainties": self.formal,
-                "reciprocity": self.reciprocity.as_dict() if self.reciprocity else None,
-                "regions": [r.as_dict() for r in self.regions], "warnings": self.warnings,
-                "distribution_choice": self.distribution_choice,
-                "rms_ln_m00": conv(self.rms_ln), "absent": self.absent, "notes": self.notes}
+                    out["errors"][key][j] = None
+        out["error_reasons"] = {k: v for k, v in reasons.items() if v}
+        out["reduced_chi2"], out["start_note"] = self.reduced_chi2, self.start_note
+        out["anisotropy"] = {base: {"difference": d, "uncertainty": _jsonable(float(sd))}
+                             for base, (d, sd) in self.anisotropy.items()}
+        out["reciprocity"] = self.reciprocity.as_dict() if self.reciprocity else None
+        out["regions"] = [r.as_dict() for r in self.regions]
+        return out
+
+
+#: :class:`FitResult` fields the JSON leaves out: the per-row residuals (the
+#: data's size), the free labels (``fixed`` and ``values`` tell them) and the
+#: assumed uncertainties (the command's options)
+_NOT_SAVED = ("residuals", "free", "rel_uncertainty", "abs_uncertainty")
+#: fields saved under a name that says more
+_SAVED_AS = {"formal": "formal_uncertainties", "rms_ln": "rms_ln_m00"}
+
+
+def _jsonable(v):
+    """*v* with arrays as lists and numbers that are not finite as None."""
+    if isinstance(v, np.ndarray):
+        return [_jsonable(float(a)) for a in v]
+    if isinstance(v, dict):
+        return {k: _jsonable(a) for k, a in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(a) for a in v]
+    return None if isinstance(v, float) and not math.isfinite(v) else v
 
 
 @dataclass
@@ -397,27 +397,29 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     final = LobeModel(data, list(data.observed), shadowing, dd_distribution,
                       distribution).observables(values)
     resid, rms, rel, rms_ln = _residual_summary(data, final)
-    result = FitResult(model, backend, wavelengths, values, errors, chi2, dof, resid, rms, rel,
-                       seconds, evaluations + evaluator.count, bool(best.success),
-                       str(best.message),
-                       [layout.label(n) for n in layout.free], at_bound, shadowing,
-                       dd_distribution, [layout.label(n) for n in undetermined],
-                       [[layout.label(n) for n in g] for g in groups],
-                       [layout.label(n) for n in _all_names(len(wavelengths), layout.shared)
-                        if n not in layout.free], bool(anisotropic), distribution, anisotropy)
-    result.rms_ln = rms_ln
-    result.objective, result.objective_reason = objective, objective_reason
-    result.objectives = {t.name: t.objective for t in terms}
-    result.log_floor = next((t.floor for t in terms if t.name == "m00"
-                             and t.objective in ("log", "relative")), None)
-    result.index_note, result.starts, result.formal = index_note, len(points), formal
-    result.rows, result.start_rows = len(data), None if subsample is None else len(subsample[0])
-    result.rel_uncertainty, result.abs_uncertainty = rel_uncertainty, abs_uncertainty
-    result.absent = {p: why for p, why in layout.absent.items()
-                     if p in PER_WAVELENGTH or p in layout.shared}
-    result.notes = notes
-    result.regions = regional_fit(data, final, terms)
-    result.reciprocity = reciprocity_of(data) if reciprocity is False else reciprocity
+    result = FitResult(
+        model=model, backend=backend, wavelengths=wavelengths, values=values, errors=errors,
+        chi2=chi2, dof=dof, residuals=resid, rms=rms, relative_rms=rel, seconds=seconds,
+        evaluations=evaluations + evaluator.count, success=bool(best.success),
+        message=str(best.message), free=[layout.label(n) for n in layout.free],
+        at_bound=at_bound, shadowing=shadowing, dd_distribution=dd_distribution,
+        undetermined=[layout.label(n) for n in undetermined],
+        correlated=[[layout.label(n) for n in g] for g in groups],
+        fixed=[layout.label(n) for n in _all_names(len(wavelengths), layout.shared)
+               if n not in layout.free],
+        anisotropic=bool(anisotropic), distribution=distribution, anisotropy=anisotropy,
+        objective=objective, objective_reason=objective_reason,
+        objectives={t.name: t.objective for t in terms},
+        log_floor=next((t.floor for t in terms if t.name == "m00"
+                        and t.objective in ("log", "relative")), None),
+        index_note=index_note, starts=len(points), formal=formal,
+        regions=regional_fit(data, final, terms), rms_ln=rms_ln,
+        rel_uncertainty=rel_uncertainty, abs_uncertainty=abs_uncertainty,
+        absent={p: why for p, why in layout.absent.items()
+                if p in PER_WAVELENGTH or p in layout.shared},
+        notes=notes, rows=len(data),
+        start_rows=None if subsample is None else len(subsample[0]),
+        reciprocity=reciprocity_of(data) if reciprocity is False else reciprocity)
     result.warnings = diagnose(result, data, material, result.reciprocity)
     return result
 
