@@ -8,7 +8,8 @@
     print(report(data, results))
     plot_fit(data, results, "fit.png")
 
-or ``pbrdf fit measurements.csv --material Al --plot fit.png``. Modules:
+or, any file in one call (CSV layouts, ``.pbsdf``), ``fit_file("measurements.csv",
+material="Al")`` (:mod:`.files`), or ``pbrdf fit measurements.csv --material Al --plot fit.png``. Modules:
 :mod:`.observables` (the model on the measurements' geometry; synthetic
 data), :mod:`.layout` (parameters, defaults, bounds), :mod:`.backends`
 (the model and its Jacobian from the reference, lobe by lobe
@@ -25,6 +26,8 @@ from .observables import model_observables, synthetic_measurements
 from .plots import plot_fit
 from .report import report
 from .solver import FitResult, fit_model, fit_models
+from .files import FileFit, fit_file
 
 __all__ = ["BOUNDS", "DEFAULTS", "MODELS", "SHARED", "model_observables",
-           "synthetic_measurements", "plot_fit", "report", "FitResult", "fit_model", "fit_models"]
+           "synthetic_measurements", "plot_fit", "report", "FitResult", "fit_model", "fit_models",
+           "FileFit", "fit_file"]
