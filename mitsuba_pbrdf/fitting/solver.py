@@ -47,7 +47,7 @@ from .diagnosis import diagnose, reciprocity as reciprocity_of, regional_fit
 from .identifiability import analyze
 from .layout import ANISOTROPIC, PER_WAVELENGTH, ParameterLayout, absent_parameters
 from .options import assignments_by_model, check_arguments, with_index
-from .objectives import LIKELIHOODS, choose_objective, make_terms
+from .objectives import OBJECTIVES, choose_objective, make_terms
 from .lobes import LobeModel
 from .starts import WidthOrder, default_starts, start_points
 from .subsample import START_ROWS, sample
@@ -348,21 +348,22 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     # assumed uncertainties (or a weighting objective): scaled up by the reduced
     # chi-square when the residuals are larger, never down (a fit to exact data
     # does not make the data exact)
-    formal = (objective not in LIKELIHOODS
+    likelihood = OBJECTIVES[objective].likelihood
+    formal = (not likelihood
               or any(t.name not in data.uncertainty for t in terms))
     chi2_scale = max(chi2 / max(dof, 1), 1.0) if formal else 1.0
     # a weighting objective's residuals are not in units of the noise: judge
     # the data with the linear ones (identifiability module)
-    noise = residuals if objective in LIKELIHOODS else _Residuals(
+    noise = residuals if likelihood else _Residuals(
         evaluator, make_terms(data, "linear", rel_uncertainty, abs_uncertainty), layout.free)
     r_noise = noise(x_best)
-    if objective not in LIKELIHOODS:
+    if not likelihood:
         chi2_scale = max(float(r_noise @ r_noise) / max(dof, 1), 1.0)
     sd, undetermined, groups, cov = analyze(
         noise.jacobian(x_best), layout.free, x_best, chi2_scale, with_covariance=True,
-        chi2=None if objective in LIKELIHOODS
+        chi2=None if likelihood
         else lambda z: float(np.sum(noise(np.clip(z, lo, hi)) ** 2)))
-    if objective not in LIKELIHOODS:
+    if not likelihood:
         # the weighting's own scatter (sandwich): never below the data's bound
         G = residuals.jacobian(x_best)
         m = evaluator.observables(x_best)
@@ -411,7 +412,7 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
         objective=objective, objective_reason=objective_reason,
         objectives={t.name: t.objective for t in terms},
         log_floor=next((t.floor for t in terms if t.name == "m00"
-                        and t.objective in ("log", "relative")), None),
+                        and OBJECTIVES[t.objective].floored), None),
         index_note=index_note, starts=len(points), formal=formal,
         regions=regional_fit(data, final, terms), rms_ln=rms_ln,
         rel_uncertainty=rel_uncertainty, abs_uncertainty=abs_uncertainty,
