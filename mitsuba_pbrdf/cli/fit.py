@@ -27,7 +27,7 @@ PLOT_FORMATS = ("png", "pdf", "svg")
 
 
 def _check_options(args):
-    from ..fitting.layout import parse_assignments
+    from ..fitting.vector import parse_assignments
 
     from ..fitting.objectives import OBJECTIVES
 

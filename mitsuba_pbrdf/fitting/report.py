@@ -8,7 +8,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from ..measured.measurements import Measurements
-from .layout import ANISOTROPIC, MODELS, SHARED, TWO_COMPONENT_FIXED
+from .vector import ANISOTROPIC, MODELS, SHARED, TWO_COMPONENT_FIXED
 from .objectives import OBJECTIVES
 from .solver import FitResult
 

@@ -45,7 +45,7 @@ from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from .backends import BACKENDS
 from .diagnosis import diagnose, reciprocity as reciprocity_of, regional_fit
 from .identifiability import analyze
-from .layout import ANISOTROPIC, PER_WAVELENGTH, ParameterLayout, absent_parameters
+from .vector import ANISOTROPIC, PER_WAVELENGTH, ParameterVector, absent_parameters
 from .options import assignments_by_model, check_arguments, with_index
 from .objectives import OBJECTIVES, choose_objective, make_terms
 from .lobes import LobeModel
@@ -304,7 +304,7 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     init, fix, index_note = with_index(data, init, fix, material, nk,
                                        absent_parameters(model, fix))
     wavelengths = data.wavelengths
-    layout = ParameterLayout(wavelengths, model, init, fix, anisotropic)
+    layout = ParameterVector(wavelengths, model, init, fix, anisotropic)
     n_obs = sum(len(t.y) for t in terms)
     if n_obs <= len(layout.free):
         raise ValueError(f"{n_obs} measured values cannot determine {len(layout.free)} "

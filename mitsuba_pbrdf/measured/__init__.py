@@ -10,7 +10,7 @@ what they read and name the file, line and column (or field) of anything
 wrong. NumPy only."""
 
 from .index_table import IndexTable, IndexTableError, read_index_table
-from .layouts import LAYOUTS, read_measurements
+from .formats import LAYOUTS, read_measurements
 from .measurements import (ANGLES, ELEMENTS, OBSERVABLES, MeasurementError, Measurements,
                            check_measurements, write_measurements)
 from .pbsdf import PbsdfError, PbsdfTable, check_renderable, read_pbsdf, write_pbsdf

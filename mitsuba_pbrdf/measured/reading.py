@@ -1,5 +1,5 @@
 """Any supported measurement file in one call: a CSV file in one of the
-:data:`~.layouts.LAYOUTS` (the project's goniometer layout, NIST's Mueller
+:data:`~.formats.LAYOUTS` (the project's goniometer layout, NIST's Mueller
 BRDF layout) or a ``.pbsdf`` table (its cells sampled by
 :mod:`.table_sampling`), told apart by its first bytes; then the wavelengths
 and quantities asked for selected (:mod:`.selection`)."""
@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import Optional, Sequence, Union
 
 from ..errors import ParameterError, one_line
-from .layouts import LAYOUTS, read_measurements
+from .formats import LAYOUTS, read_measurements
 from .measurements import MeasurementError, Measurements
 from .pbsdf import MAGIC, PbsdfTable, read_pbsdf
 from .selection import select_observables, select_wavelengths
@@ -76,7 +76,7 @@ def read(path: PathLike, layout: str = "auto", wavelengths: Optional[Sequence[fl
     path : str or os.PathLike
         A CSV file (``layout``) or a ``.pbsdf`` table (told by its first bytes).
     layout : str
-        CSV files: one of :data:`~.layouts.LAYOUTS`; ``"auto"`` tells them
+        CSV files: one of :data:`~.formats.LAYOUTS`; ``"auto"`` tells them
         apart by the header. A ``.pbsdf`` table takes ``"auto"`` only.
     wavelengths : sequence of float, optional
         Keep only these wavelengths, nm (within 0.5 nm).
