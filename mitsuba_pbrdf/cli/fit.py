@@ -1,7 +1,7 @@
 """``pbrdf fit``: fit the three- and two-component models to measurements in a
 CSV file (format: :mod:`mitsuba_pbrdf.measured.measurements`) or to a
 ``.pbsdf`` table (the KAIST database's format: :mod:`mitsuba_pbrdf.measured.pbsdf`;
-the entries used: :mod:`mitsuba_pbrdf.fitting.table_sampling`). The file's
+the entries used: :mod:`mitsuba_pbrdf.measured.table_sampling`). The file's
 kind is told by its first bytes. ``pbrdf-fit`` is the same command."""
 
 from __future__ import annotations
