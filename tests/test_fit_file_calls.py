@@ -69,3 +69,15 @@ def test_fit_commands_choices_are_the_records():
     choices = {a.dest: tuple(a.choices) for a in fit._actions if a.choices}
     assert choices["layout"] == measured.LAYOUTS
     assert choices["model"] == tuple(fitting.MODELS) + ("both",)
+
+
+def test_entry_points_examples_run():
+    """The Example sections of the fit's entry points (numpydoc) run as written."""
+    import doctest
+
+    from mitsuba_pbrdf.fitting import files, solver
+    from mitsuba_pbrdf.measured import reading
+
+    for module in (solver, files, reading):
+        failed, attempted = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
+        assert attempted and not failed, module.__name__

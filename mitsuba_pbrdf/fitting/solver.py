@@ -35,15 +35,16 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import asdict, dataclass, field
-from typing import Callable, Dict, List, Optional
+from typing import Callable, Dict, List, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
 from ..errors import ParameterError
+from ..measured import IndexTable
 from ..measured.measurements import Measurements
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from .backends import BACKENDS
-from .diagnosis import diagnose, reciprocity as reciprocity_of, regional_fit
+from .diagnosis import Reciprocity, diagnose, reciprocity as reciprocity_of, regional_fit
 from .identifiability import analyze
 from .vector import ANISOTROPIC, PER_WAVELENGTH, ParameterVector, absent_parameters
 from .options import assignments_by_model, check_arguments, with_index
@@ -53,6 +54,9 @@ from .starts import WidthOrder, default_starts, start_points
 from .subsample import START_ROWS, sample
 
 __all__ = ["FitResult", "FitProgress", "fit_model", "fit_models"]
+
+#: ``init`` / ``fix``: {name: value} or ``"name=value,..."``
+Assignments = Union[None, str, Mapping[str, float]]
 
 
 @dataclass
@@ -270,31 +274,74 @@ def _residual_summary(data, final):
     return resid, rms, rel, rms_ln
 
 
-def fit_model(data: Measurements, model="three", backend="reference", shadowing="vgroove",
-              dd_distribution="beckmann", material=None, init=None, fix=None, starts=None,
-              rel_uncertainty=0.05, abs_uncertainty=0.005, seed=0,
-              anisotropic=False, distribution="beckmann", objective="auto", log_floor=None,
-              nk=None, progress: Optional[Callable[[FitProgress], None]] = None,
-              start_rows: Optional[int] = START_ROWS, reciprocity=False) -> FitResult:
-    """Least-squares fit of one model (``"three"`` or ``"two"``) to ``data``.
+def fit_model(data: Measurements, model: str = "three", backend: str = "reference",
+              shadowing: str = "vgroove", dd_distribution: str = "beckmann",
+              material: Optional[str] = None, init: Assignments = None, fix: Assignments = None,
+              starts: Optional[int] = None, rel_uncertainty: float = 0.05,
+              abs_uncertainty: float = 0.005, seed: int = 0, anisotropic: bool = False,
+              distribution: str = "beckmann", objective: str = "auto",
+              log_floor: Optional[float] = None, nk: Union[None, str, IndexTable] = None,
+              progress: Optional[Callable[[FitProgress], None]] = None,
+              start_rows: Optional[int] = START_ROWS,
+              reciprocity: Union[bool, None, Reciprocity] = False) -> FitResult:
+    """Least-squares fit of one model to measurements.
 
-    ``init`` / ``fix``: {name: value} (``n``, ``k``, ``n@<nm>``, ``k@<nm>``,
-    ``sigma``, ``ks``, ``kdd``, ``sigma_dd``, ``kid``) or ``"name=value,..."``.
-    ``material`` (a name) or ``nk`` (an index table: a file, or an
-    :class:`~mitsuba_pbrdf.measured.IndexTable`): n, k at the data's
-    wavelengths, the start of a polarized fit and **fixed** in a fit of
-    unpolarized data (``m00`` alone cannot determine the index), unless
-    ``init`` or ``fix`` name them. ``objective``: the residual minimized
-    (:mod:`.objectives`; ``auto`` follows the data), ``log_floor`` its floor
-    (1/sr). ``starts``: the number of starting points (default: the initial
-    values and the roughness grid of :mod:`.starts`). ``anisotropic``: fit
-    ``sigma_u`` and ``sigma_v`` instead of ``sigma`` (:mod:`.layout`); the
-    result's ``anisotropy`` gives their difference and its uncertainty.
-    ``progress``: called with a :class:`FitProgress` as the fit goes.
-    ``start_rows``: where the data hold more rows, the starts run on this many
-    of them and the best is polished on all (:mod:`.subsample`; None: all rows).
-    ``reciprocity``: the data's :func:`.diagnosis.reciprocity` where the caller
-    has it (:func:`fit_models` computes it once for all its fits).
+    Parameters
+    ----------
+    data : Measurements
+        What to fit (:func:`mitsuba_pbrdf.measured.read`).
+    model : str
+        ``"three"`` or ``"two"`` (:data:`.vector.MODELS`).
+    backend : str
+        ``"reference"`` (NumPy float64) or ``"drjit"`` (the plugin).
+    shadowing, dd_distribution, distribution : str
+        The model's shadowing and its lobes' distributions (``beckmann``, ``ggx``).
+    material, nk : str or IndexTable, optional
+        n, k at the data's wavelengths from a tabulated conductor (a name) or
+        an index table (a file or an :class:`~mitsuba_pbrdf.measured.IndexTable`):
+        the start of a polarized fit and **fixed** in a fit of unpolarized
+        data (``m00`` alone cannot determine the index), unless ``init`` or
+        ``fix`` name them.
+    init, fix : dict or str, optional
+        Starting and fixed values, {name: value} (``n``, ``k``, ``n@<nm>``,
+        ``k@<nm>``, ``sigma``, ``ks``, ``kdd``, ``sigma_dd``, ``kid``) or
+        ``"name=value,..."``.
+    starts : int, optional
+        The number of starting points (default: the initial values and the
+        roughness grid of :mod:`.starts`); ``seed`` seeds the random ones.
+    rel_uncertainty, abs_uncertainty : float
+        The assumed uncertainties where the file gives none: ``rel |y| + abs max|y|``.
+    anisotropic : bool
+        Fit ``sigma_u`` and ``sigma_v`` instead of ``sigma`` (:mod:`.vector`);
+        the result's ``anisotropy`` gives their difference and its uncertainty.
+    objective : str
+        The residual minimized (:data:`.objectives.OBJECTIVES`; ``"auto"``
+        follows the data); ``log_floor`` its floor, 1/sr.
+    progress : callable, optional
+        Called with a :class:`FitProgress` as the fit goes.
+    start_rows : int, optional
+        Where the data hold more rows, the starts run on this many of them and
+        the best is polished on all (:mod:`.subsample`; None: all rows).
+    reciprocity : Reciprocity or None, optional
+        The data's :func:`.diagnosis.reciprocity` where the caller has it
+        (:func:`fit_models` computes it once for all its fits); False: compute it.
+
+    Returns
+    -------
+    FitResult
+
+    Raises
+    ------
+    ParameterError, ValueError
+        A bad option, or more free parameters than measured values, before any work.
+
+    Example
+    -------
+    >>> from mitsuba_pbrdf import fitting
+    >>> data = fitting.synthetic_measurements({"sigma": 0.1, "n": 1.2, "k": 7.0})
+    >>> r = fitting.fit_model(data, "two", material="Al", starts=1)
+    >>> round(r.values["sigma"], 2)
+    0.1
     """
     check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty,
                     start_rows)
@@ -429,15 +476,43 @@ def _all_names(W, shared):
     return [f"{p}@{j}" for p in ("n", "k") for j in range(W)] + list(shared)
 
 
-def fit_models(data: Measurements, models=("three", "two"), distribution="beckmann",
-               dd_distribution=None, **options) -> Dict[str, FitResult]:
+def fit_models(data: Measurements, models: Sequence[str] = ("three", "two"),
+               distribution: str = "beckmann", dd_distribution: Optional[str] = None,
+               **options) -> Dict[str, FitResult]:
     """:func:`fit_model` for each of ``models`` with the same options.
 
-    ``distribution="auto"`` fits each model with Beckmann and with GGX lobes and
-    keeps the lower cost (the same objective, data and parameter count); the
-    result's ``distribution_choice`` says what was compared.
-    ``dd_distribution``: the directional diffuse lobe's, by default the same as
-    the specular lobe's."""
+    Parameters
+    ----------
+    data : Measurements
+        What to fit.
+    models : sequence of str
+        ``"three"`` and/or ``"two"``.
+    distribution : str
+        The specular lobe's: ``beckmann``, ``ggx`` or ``auto``, which fits each
+        model with both and keeps the lower cost (the same objective, data and
+        parameter count); the result's ``distribution_choice`` says what was compared.
+    dd_distribution : str, optional
+        The directional diffuse lobe's, by default the same as the specular lobe's.
+    **options
+        :func:`fit_model`'s other options.
+
+    Returns
+    -------
+    dict
+        Model name -> :class:`FitResult`, in the order of ``models``.
+
+    Raises
+    ------
+    ParameterError, ValueError
+        A bad option, before any work.
+
+    Example
+    -------
+    >>> from mitsuba_pbrdf import fitting
+    >>> data = fitting.synthetic_measurements({"sigma": 0.1, "n": 1.2, "k": 7.0})
+    >>> sorted(fitting.fit_models(data, material="Al", starts=1))
+    ['three', 'two']
+    """
     candidates = DISTRIBUTIONS if distribution == "auto" else (distribution,)
     for d in candidates:
         if d not in DISTRIBUTIONS:
