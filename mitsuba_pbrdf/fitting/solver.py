@@ -274,6 +274,39 @@ def _residual_summary(data, final):
     return resid, rms, rel, rms_ln
 
 
+def _uncertainties(data, terms, objective, evaluator, residuals, free, x_best, chi2, dof,
+                   lo, hi, rel_uncertainty, abs_uncertainty):
+    """``(formal, standard uncertainties of free, undetermined, correlated
+    groups, covariance)`` at the optimum *x_best* (:mod:`.identifiability`)."""
+    # assumed uncertainties (or a weighting objective): scaled up by the reduced
+    # chi-square when the residuals are larger, never down (a fit to exact data
+    # does not make the data exact)
+    likelihood = OBJECTIVES[objective].likelihood
+    formal = (not likelihood
+              or any(t.name not in data.uncertainty for t in terms))
+    chi2_scale = max(chi2 / max(dof, 1), 1.0) if formal else 1.0
+    # a weighting objective's residuals are not in units of the noise: judge
+    # the data with the linear ones (identifiability module)
+    noise = residuals if likelihood else _Residuals(
+        evaluator, make_terms(data, "linear", rel_uncertainty, abs_uncertainty), free)
+    r_noise = noise(x_best)
+    if not likelihood:
+        chi2_scale = max(float(r_noise @ r_noise) / max(dof, 1), 1.0)
+    sd, undetermined, groups, cov = analyze(
+        noise.jacobian(x_best), free, x_best, chi2_scale, with_covariance=True,
+        chi2=None if likelihood
+        else lambda z: float(np.sum(noise(np.clip(z, lo, hi)) ** 2)))
+    if not likelihood:
+        # the weighting's own scatter (sandwich): never below the data's bound
+        G = residuals.jacobian(x_best)
+        m = evaluator.observables(x_best)
+        w = np.concatenate([np.abs(t.derivative(m[t.name][t.rows])) * t.u for t in terms])
+        A = np.linalg.pinv(G.T @ G, rcond=1e-12)
+        sand = A @ (G.T * w ** 2) @ G @ A * chi2_scale
+        sd = np.maximum(sd, np.sqrt(np.clip(np.diag(sand), 0.0, None)))
+    return formal, sd, undetermined, groups, cov
+
+
 def fit_model(data: Measurements, model: str = "three", backend: str = "reference",
               shadowing: str = "vgroove", dd_distribution: str = "beckmann",
               material: Optional[str] = None, init: Assignments = None, fix: Assignments = None,
@@ -392,32 +425,9 @@ def fit_model(data: Measurements, model: str = "three", backend: str = "referenc
     values = layout.unpack(x_best)
     chi2 = float(2 * best.cost)
     dof = n_obs - len(layout.free)
-    # assumed uncertainties (or a weighting objective): scaled up by the reduced
-    # chi-square when the residuals are larger, never down (a fit to exact data
-    # does not make the data exact)
-    likelihood = OBJECTIVES[objective].likelihood
-    formal = (not likelihood
-              or any(t.name not in data.uncertainty for t in terms))
-    chi2_scale = max(chi2 / max(dof, 1), 1.0) if formal else 1.0
-    # a weighting objective's residuals are not in units of the noise: judge
-    # the data with the linear ones (identifiability module)
-    noise = residuals if likelihood else _Residuals(
-        evaluator, make_terms(data, "linear", rel_uncertainty, abs_uncertainty), layout.free)
-    r_noise = noise(x_best)
-    if not likelihood:
-        chi2_scale = max(float(r_noise @ r_noise) / max(dof, 1), 1.0)
-    sd, undetermined, groups, cov = analyze(
-        noise.jacobian(x_best), layout.free, x_best, chi2_scale, with_covariance=True,
-        chi2=None if likelihood
-        else lambda z: float(np.sum(noise(np.clip(z, lo, hi)) ** 2)))
-    if not likelihood:
-        # the weighting's own scatter (sandwich): never below the data's bound
-        G = residuals.jacobian(x_best)
-        m = evaluator.observables(x_best)
-        w = np.concatenate([np.abs(t.derivative(m[t.name][t.rows])) * t.u for t in terms])
-        A = np.linalg.pinv(G.T @ G, rcond=1e-12)
-        sand = A @ (G.T * w ** 2) @ G @ A * chi2_scale
-        sd = np.maximum(sd, np.sqrt(np.clip(np.diag(sand), 0.0, None)))
+    formal, sd, undetermined, groups, cov = _uncertainties(
+        data, terms, objective, evaluator, residuals, layout.free, x_best, chi2, dof, lo, hi,
+        rel_uncertainty, abs_uncertainty)
     errors = {"n": np.full(len(wavelengths), np.nan), "k": np.full(len(wavelengths), np.nan)}
     errors.update({p: math.nan for p in layout.shared})
     for name, s in zip(layout.free, sd):
