@@ -24,7 +24,7 @@ import numpy as np
 from ..measured.measurements import Measurements
 from .objectives import OBJECTIVES, make_terms
 from .observables import model_observables
-from .solver import FitResult
+from .result import FitResult
 
 __all__ = ["plot_fit", "MAP_ROWS"]
 

@@ -10,7 +10,7 @@ import numpy as np
 from ..measured.measurements import Measurements
 from .vector import ANISOTROPIC, MODELS, SHARED, TWO_COMPONENT_FIXED
 from .objectives import OBJECTIVES
-from .solver import FitResult
+from .result import FitResult
 
 __all__ = ["report", "undetermined_warning", "anisotropy_line"]
 
