@@ -91,7 +91,8 @@ def run(args) -> int:
     fits = len(models) * (2 if args.distribution == "auto" else 1)
     try:
         with FitProgressDisplay(fits) as shown:
-            # release: read and checked, Ctrl-C from here on stops the fit (mitsuba_pbrdf.interrupts)
+            # on_read=release: read and checked, Ctrl-C from here on stops the
+            # fit (mitsuba_pbrdf.interrupts)
             fitted = fit_file(args.data, models, layout=args.layout, wavelengths=wavelengths,
                               observables=args.observables.split(",") if args.observables
                               else None, cells=args.cells, max_angle=args.max_angle,

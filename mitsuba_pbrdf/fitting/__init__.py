@@ -9,7 +9,8 @@
     plot_fit(data, results, "fit.png")
 
 or, any file in one call (CSV layouts, ``.pbsdf``), ``fit_file("measurements.csv",
-material="Al")`` (:mod:`.files`), or ``pbrdf fit measurements.csv --material Al --plot fit.png``. Modules:
+material="Al")`` (:mod:`.files`), or ``pbrdf fit measurements.csv --material Al
+--plot fit.png``. Modules:
 :mod:`.observables` (the model on the measurements' geometry; synthetic
 data), :mod:`.vector` (the parameter vector, defaults, bounds), :mod:`.backends`
 (the model and its Jacobian from the reference, lobe by lobe

@@ -167,8 +167,9 @@ def choose_objective(data, names, requested="auto"):
                              f"not {requested!r}")
         if all(objective_of(requested, q) != requested for q in names):
             raise ParameterError("objective", (
-                f"{requested} applies to {', '.join(OBJECTIVES[requested].applies_to)}, which this fit "
-                f"does not measure ({', '.join(names)}: linear residuals); give auto or linear"))
+                f"{requested} applies to {', '.join(OBJECTIVES[requested].applies_to)}, "
+                f"which this fit does not measure ({', '.join(names)}: linear residuals); "
+                f"give auto or linear"))
         return requested, "as requested"
     if "m00" not in names:
         return "linear", "no m00 is fitted (the other quantities are always linear)"
