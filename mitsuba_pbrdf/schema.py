@@ -12,7 +12,7 @@ model parameter reads it from here:
 * the model options of ``pbrdf plot``, ``pbrdf export`` and ``pbrdf fit``
   (:mod:`mitsuba_pbrdf.cli.model_options`);
 * the fitted parameters, their starting values and bounds
-  (:mod:`mitsuba_pbrdf.fitting.layout`);
+  (:mod:`mitsuba_pbrdf.fitting.vector`);
 * the parameter table of ``docs/plugin.md`` (:func:`markdown_table`; a test
   checks the two are the same).
 

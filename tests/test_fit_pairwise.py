@@ -203,14 +203,14 @@ def check_backend(data, models, row, options):
     two cores (11 rows: 11 min, every row passed); the backends' fits agree
     (tests/test_fit.py, test_fit_correctness.py)."""
     from mitsuba_pbrdf.fitting.backends import BACKENDS
-    from mitsuba_pbrdf.fitting.layout import ParameterLayout
+    from mitsuba_pbrdf.fitting.vector import ParameterVector
     from mitsuba_pbrdf.fitting.options import assignments_by_model
 
     shares = assignments_by_model(models, options["init"], options["fix"])
     lobes = ("beckmann", "ggx") if row["distribution"] == "auto" else (row["distribution"],)
     for m in models:
         init, fix, _ = shares[m]
-        layout = ParameterLayout(data.wavelengths, m, init, fix)
+        layout = ParameterVector(data.wavelengths, m, init, fix)
         x = layout.vector()
         for d in lobes:
             ref = BACKENDS["reference"](data, layout, "vgroove", d, d)

@@ -21,7 +21,7 @@ import pytest
 from mitsuba_pbrdf import fitting, reference
 from mitsuba_pbrdf.fitting import diagnosis, objectives
 from mitsuba_pbrdf.fitting.lobes import LobeModel
-from mitsuba_pbrdf.fitting.layout import ParameterLayout
+from mitsuba_pbrdf.fitting.vector import ParameterVector
 from mitsuba_pbrdf.measured import IndexTableError, Measurements, read_index_table, read_measurements
 
 ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
@@ -75,7 +75,7 @@ def test_lobe_model_and_its_jacobian_match_the_reference(names):
     data = fitting.synthetic_measurements(dict(n=1.2, k=7.0, sigma=0.12, ks=0.9, kdd=0.15,
                                                sigma_dd=0.45, kid=0.02),
                                           quantities=names, wavelengths=(450.0, 633.0))
-    layout = ParameterLayout(data.wavelengths, "three", dict(n=1.1, k=6.5, sigma=0.1), {})
+    layout = ParameterVector(data.wavelengths, "three", dict(n=1.1, k=6.5, sigma=0.1), {})
     values = layout.unpack(layout.vector())
     lobes = LobeModel(data, names)
     direct = fitting.model_observables(data, values, names=names)

@@ -1,4 +1,4 @@
-"""Fitting ``.pbsdf`` tables (mitsuba_pbrdf.fitting.table_sampling, ``pbrdf fit
+"""Fitting ``.pbsdf`` tables (mitsuba_pbrdf.measured.table_sampling, ``pbrdf fit
 FILE.pbsdf``), undetermined parameters reported honestly
 (mitsuba_pbrdf.fitting.identifiability), and the fit command's input checks
 (CSV line numbers, truncated files, invalid options)."""
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from mitsuba_pbrdf import fitting, reference
-from mitsuba_pbrdf.fitting.table_sampling import sample_table, table_cells
+from mitsuba_pbrdf.measured.table_sampling import sample_table, table_cells
 from mitsuba_pbrdf.measured import MeasurementError, export, pbsdf, read_measurements
 from mitsuba_pbrdf.reference.params import PBRDFParams
 

@@ -70,7 +70,7 @@ WORK = [("mitsuba_pbrdf.rendering.render", "render_request"),
         ("mitsuba_pbrdf.camera.polcam", "write_polcam_files"),
         ("mitsuba_pbrdf.visualization.pbrdf_plots", "save_pbrdf_plot"),
         ("mitsuba_pbrdf.visualization.gallery", "run_gallery"),
-        ("mitsuba_pbrdf.fitting", "fit_models"),
+        ("mitsuba_pbrdf.fitting.files", "fit_models"),   # after fit_file has read the file
         ("mitsuba_pbrdf.measured.export", "export_pbsdf"),
         ("mitsuba_pbrdf.batch.runner", "run_sweep"),
         ("mitsuba_pbrdf.inverse.normals.recover", "recover_normals"),

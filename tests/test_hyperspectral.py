@@ -11,7 +11,7 @@ import pytest
 
 from mitsuba_pbrdf import fitting
 from mitsuba_pbrdf.errors import ParameterError
-from mitsuba_pbrdf.fitting.table_sampling import sample_table
+from mitsuba_pbrdf.measured.table_sampling import sample_table
 from mitsuba_pbrdf.measured import export, pbsdf
 from mitsuba_pbrdf.reference.params import PBRDFParams
 

@@ -223,7 +223,7 @@ def test_write_is_atomic(tmp_path, monkeypatch):
 def test_large_sparse_file_is_mapped_not_loaded(tmp_path):
     """A KAIST-size table of 0.96 GB (a sparse file: the data region is a hole) is opened and
     sampled with a few MiB allocated: M stays on disk."""
-    from mitsuba_pbrdf.fitting.table_sampling import table_cells
+    from mitsuba_pbrdf.measured.table_sampling import table_cells
 
     shape = (361, 91, 91, 5, 4, 4)
     axes = export.KAIST_GRID.axes()

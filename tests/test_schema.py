@@ -159,7 +159,7 @@ def test_command_options_are_the_schemas():
 
 
 def test_fit_layout_is_the_schemas():
-    from mitsuba_pbrdf.fitting import layout
+    from mitsuba_pbrdf.fitting import vector as layout
 
     fitted = [p for p in schema.PARAMETERS if p.fit is not None]
     assert set(layout.SHARED + layout.PER_WAVELENGTH) == {p.fit.name or p.name for p in fitted}

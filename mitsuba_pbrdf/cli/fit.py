@@ -1,7 +1,7 @@
 """``pbrdf fit``: fit the three- and two-component models to measurements in a
 CSV file (format: :mod:`mitsuba_pbrdf.measured.measurements`) or to a
 ``.pbsdf`` table (the KAIST database's format: :mod:`mitsuba_pbrdf.measured.pbsdf`;
-the entries used: :mod:`mitsuba_pbrdf.fitting.table_sampling`). The file's
+the entries used: :mod:`mitsuba_pbrdf.measured.table_sampling`). The file's
 kind is told by its first bytes. ``pbrdf-fit`` is the same command."""
 
 from __future__ import annotations
@@ -26,20 +26,8 @@ from .model_options import add_model_arguments
 PLOT_FORMATS = ("png", "pdf", "svg")
 
 
-def is_pbsdf(path) -> bool:
-    """Whether *path* is a tensor_file (``.pbsdf``) by its first bytes, or by its
-    extension when it cannot be read."""
-    from ..measured.pbsdf import MAGIC
-
-    try:
-        with open(path, "rb") as f:
-            return f.read(len(MAGIC)) == MAGIC or path.lower().endswith(".pbsdf")
-    except OSError:
-        return path.lower().endswith(".pbsdf")
-
-
 def _check_options(args):
-    from ..fitting.layout import parse_assignments
+    from ..fitting.vector import parse_assignments
 
     from ..fitting.objectives import OBJECTIVES
 
@@ -82,61 +70,43 @@ def _index_table(args):
         raise CliError(f"--nk: {one_line(e)}") from e
 
 
-def _read(args):
-    from ..fitting.table_sampling import sample_table
-    from ..measured import MeasurementError, read_measurements
-    from ..measured.pbsdf import PbsdfError, read_pbsdf
-    from ..measured.selection import select_observables, select_wavelengths
-
-    path = args.data
-    require_file(path, "measurement file")
+def _wavelengths(args):
     wavelengths = float_list(args.wavelength, "--wavelength") if args.wavelength else None
     if wavelengths and not all(math.isfinite(w) and w > 0 for w in wavelengths):
         raise CliError(f"--wavelength takes wavelengths in nm, > 0, got {args.wavelength!r}")
-    try:
-        if is_pbsdf(path):
-            if args.layout != "auto":
-                raise CliError("--layout applies to CSV files (a .pbsdf table has one layout)")
-            table = read_pbsdf(path)
-            quantities = args.observables.split(",") if args.observables else None
-            data = sample_table(table, args.cells, args.max_angle, args.seed, quantities)
-            return table, select_wavelengths(data, wavelengths) if wavelengths else data
-        data = read_measurements(path, layout=args.layout)
-        if wavelengths:
-            data = select_wavelengths(data, wavelengths)
-        if args.observables:
-            try:
-                data = select_observables(data, args.observables.split(","))
-            except MeasurementError as e:
-                raise CliError(f"--observables: {one_line(e)}") from e
-        return None, data
-    except (MeasurementError, PbsdfError, ValueError) as e:
-        raise CliError(one_line(e)) from e
+    return wavelengths
 
 
 def run(args) -> int:
     """``pbrdf fit``."""
-    from ..fitting import fit_models, report
+    from ..fitting import fit_file, report
+    from ..measured import MeasurementError, PbsdfError
     from ..fitting.report import undetermined_warning
 
     init, fix = _check_options(args)
     nk = _index_table(args)
-    table, data = _read(args)
+    require_file(args.data, "measurement file")
+    wavelengths = _wavelengths(args)
     models = ("three", "two") if args.model == "both" else (args.model,)
     fits = len(models) * (2 if args.distribution == "auto" else 1)
-    release()  # read and checked: Ctrl-C from here on stops the fit (mitsuba_pbrdf.interrupts)
     try:
         with FitProgressDisplay(fits) as shown:
-            results = fit_models(data, models, backend=args.backend, shadowing=args.shadowing,
-                                 dd_distribution=args.dd_distribution, material=args.material,
-                                 nk=nk, distribution=args.distribution,
-                                 init=init, fix=fix, starts=args.starts,
-                                 rel_uncertainty=args.rel_uncertainty,
-                                 abs_uncertainty=args.abs_uncertainty,
-                                 anisotropic=args.anisotropic, objective=args.objective,
-                                 log_floor=args.log_floor, progress=shown)
-    except ValueError as e:
+            # on_read=release: read and checked, Ctrl-C from here on stops the
+            # fit (mitsuba_pbrdf.interrupts)
+            fitted = fit_file(args.data, models, layout=args.layout, wavelengths=wavelengths,
+                              observables=args.observables.split(",") if args.observables
+                              else None, cells=args.cells, max_angle=args.max_angle,
+                              seed=args.seed, on_read=release, backend=args.backend,
+                              shadowing=args.shadowing, dd_distribution=args.dd_distribution,
+                              material=args.material, nk=nk, distribution=args.distribution,
+                              init=init, fix=fix, starts=args.starts,
+                              rel_uncertainty=args.rel_uncertainty,
+                              abs_uncertainty=args.abs_uncertainty,
+                              anisotropic=args.anisotropic, objective=args.objective,
+                              log_floor=args.log_floor, progress=shown)
+    except (MeasurementError, PbsdfError, ValueError) as e:
         raise CliError(option_message(e, args)) from e
+    table, data, results = fitted.table, fitted.data, fitted.results
     if table is not None:
         print(f"table: {table.describe()}; fitted {len(data)} cell-wavelength entries "
               f"({len(data) // max(data.wavelengths.size, 1)} cells at "

@@ -1,6 +1,6 @@
 """``pbrdf fit``'s progress: a bar on a terminal, one line per finished start
 in a log (standard error either way), from the fit's
-:class:`~mitsuba_pbrdf.fitting.solver.FitProgress` reports."""
+:class:`~mitsuba_pbrdf.fitting.result.FitProgress` reports."""
 
 from __future__ import annotations
 

@@ -8,9 +8,11 @@
     print(report(data, results))
     plot_fit(data, results, "fit.png")
 
-or ``pbrdf fit measurements.csv --material Al --plot fit.png``. Modules:
+or, any file in one call (CSV layouts, ``.pbsdf``), ``fit_file("measurements.csv",
+material="Al")`` (:mod:`.files`), or ``pbrdf fit measurements.csv --material Al
+--plot fit.png``. Modules:
 :mod:`.observables` (the model on the measurements' geometry; synthetic
-data), :mod:`.layout` (parameters, defaults, bounds), :mod:`.backends`
+data), :mod:`.vector` (the parameter vector, defaults, bounds), :mod:`.backends`
 (the model and its Jacobian from the reference, lobe by lobe
 (:mod:`.lobes`), or the plugin), :mod:`.objectives` (the residuals minimized),
 :mod:`.starts` (starting points, the lobes' order), :mod:`.solver` (the fit and
@@ -20,11 +22,13 @@ as a scene). The CSV format is
 in :mod:`mitsuba_pbrdf.measured.measurements`.
 """
 
-from .layout import BOUNDS, DEFAULTS, MODELS, SHARED
+from .vector import BOUNDS, DEFAULTS, MODELS, SHARED
 from .observables import model_observables, synthetic_measurements
 from .plots import plot_fit
 from .report import report
 from .solver import FitResult, fit_model, fit_models
+from .files import FileFit, fit_file
 
 __all__ = ["BOUNDS", "DEFAULTS", "MODELS", "SHARED", "model_observables",
-           "synthetic_measurements", "plot_fit", "report", "FitResult", "fit_model", "fit_models"]
+           "synthetic_measurements", "plot_fit", "report", "FitResult", "fit_model", "fit_models",
+           "FileFit", "fit_file"]

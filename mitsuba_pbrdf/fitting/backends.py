@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .layout import DEFAULTS, PER_WAVELENGTH, PLUGIN_NAMES
+from .vector import DEFAULTS, PER_WAVELENGTH, PLUGIN_NAMES
 from .lobes import LobeModel
 
 __all__ = ["weights", "ReferenceResiduals", "DrJitResiduals", "BACKENDS"]

@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import schema
-from .layout import SCALE_FLOORS
+from .vector import SCALE_FLOORS
 
 #: The lobe weights (ks, kdd, kid): measured against each other.
 LOBE_WEIGHTS = tuple(weight for weight, _ in schema.LOBES.values())

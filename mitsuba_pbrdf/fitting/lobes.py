@@ -23,7 +23,7 @@ from typing import Dict, Sequence
 import numpy as np
 
 from .. import reference as ref
-from .layout import SCALE_FLOORS
+from .vector import SCALE_FLOORS
 from .observables import linear_ratios, observables_from_mueller
 
 __all__ = ["LobeModel", "observable_derivatives"]
@@ -146,7 +146,7 @@ class LobeModel:
 
     def jacobian(self, values, free, bounds) -> Dict[str, Dict[str, np.ndarray]]:
         """{free parameter: {observable: derivative at every measurement}}.
-        ``free``: names as :class:`~.layout.ParameterLayout` gives them
+        ``free``: names as :class:`~.vector.ParameterVector` gives them
         (``n@0``, ``sigma``, ...); ``bounds``: (lower, upper) arrays in that order."""
         M = self.mueller(values)
         columns = {}

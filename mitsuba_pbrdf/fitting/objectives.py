@@ -42,35 +42,73 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional
+from typing import Callable, Optional, Tuple
 
 import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["OBJECTIVES", "APPLIES_TO", "LIKELIHOODS", "Term", "make_terms", "choose_objective",
+__all__ = ["Objective", "OBJECTIVES", "Term", "make_terms", "choose_objective",
            "objective_of", "log_floor", "noise_crossover", "decades"]
 
-#: Objective -> one line of what it is, for reports and ``--help``.
-OBJECTIVES = {
-    "linear": "(model - data) / uncertainty",
-    "log": "ln((model + f) / (data + f)) / relative uncertainty",
-    "relative": "(model - data) / (relative uncertainty x data)",
-    "cosine": "(model - data) cos(theta_i), uniform weights (Ngan et al. 2005)",
-    "log-cosine": "ln(1 + model cos(theta_i)) - ln(1 + data cos(theta_i)) (Löw et al. 2012)",
-}
-#: Objective -> the observables whose residuals it shapes (None: all); the
-#: others keep linear residuals (:func:`objective_of`).
-APPLIES_TO = {"linear": None, "log": ("m00",), "relative": ("m00",), "cosine": ("m00",),
-              "log-cosine": ("m00",)}
-#: Objectives that are a noise model's likelihood (the others weight).
-LIKELIHOODS = ("linear", "log", "relative")
+
+@dataclass(frozen=True)
+class Objective:
+    """One objective of the module docstring: its *name* (``--objective``), a
+    one-line *summary* for reports and ``--help``, the observables it shapes
+    (*applies_to*; None: all, the others keep linear residuals), whether it is
+    a noise model's *likelihood* (else a weighting, whose parameter
+    uncertainties are formal), whether its residuals are *relative* (scaled
+    by ``s``: a relative uncertainty is needed, and the plot's band is
+    ``y exp(+-s)``), whether the fit reports its *floor*, and its
+    *residual* and *derivative* (d residual / d model) of a :class:`Term` at
+    model values ``m``."""
+    name: str
+    summary: str
+    applies_to: Optional[Tuple[str, ...]]
+    likelihood: bool
+    relative: bool
+    floored: bool
+    residual: Callable[["Term", np.ndarray], np.ndarray]
+    derivative: Callable[["Term", np.ndarray], np.ndarray]
+
+
+def _positive(m):
+    return np.maximum(m, 0.0)
+
+
+#: Objective name -> :class:`Objective`, in the order ``--help`` lists them.
+OBJECTIVES = {o.name: o for o in (
+    Objective("linear", "(model - data) / uncertainty", None, True, False, False,
+              lambda t, m: (m - t.y) / t.u,
+              lambda t, m: 1.0 / t.u),
+    Objective("log", "ln((model + f) / (data + f)) / relative uncertainty", ("m00",),
+              True, True, True,
+              lambda t, m: np.log((_positive(m) + t.floor) / (_positive(t.y) + t.floor)) / t.s,
+              lambda t, m: np.where(m > 0, 1.0 / (_positive(m) + t.floor), 0.0) / t.s),
+    Objective("relative", "(model - data) / (relative uncertainty x data)", ("m00",),
+              True, True, True,
+              lambda t, m: (m - t.y) / (t.s * np.maximum(t.y, t.floor)),
+              lambda t, m: 1.0 / (t.s * np.maximum(t.y, t.floor))),
+    Objective("cosine", "(model - data) cos(theta_i), uniform weights (Ngan et al. 2005)",
+              ("m00",), False, False, False,
+              lambda t, m: (m - t.y) * t.cos_i / t.scale,
+              lambda t, m: t.cos_i / t.scale),
+    Objective("log-cosine",
+              "ln(1 + model cos(theta_i)) - ln(1 + data cos(theta_i)) (Löw et al. 2012)",
+              ("m00",), False, True, False,
+              lambda t, m: (np.log1p(_positive(m) * t.cos_i)
+                            - np.log1p(_positive(t.y) * t.cos_i)) / t.s,
+              lambda t, m: np.where(m > 0, t.cos_i / (1.0 + _positive(m) * t.cos_i), 0.0) / t.s),
+)}
 
 
 def objective_of(objective, quantity) -> str:
     """The objective that the residuals of *quantity* follow under *objective*."""
-    applies = APPLIES_TO[objective]
+    applies = OBJECTIVES[objective].applies_to
     return objective if applies is None or quantity in applies else "linear"
+
+
 #: m00 spanning more decades than this gets the ``log`` objective under ``auto``.
 AUTO_DECADES = 2.0
 
@@ -129,8 +167,9 @@ def choose_objective(data, names, requested="auto"):
                              f"not {requested!r}")
         if all(objective_of(requested, q) != requested for q in names):
             raise ParameterError("objective", (
-                f"{requested} applies to {', '.join(APPLIES_TO[requested])}, which this fit "
-                f"does not measure ({', '.join(names)}: linear residuals); give auto or linear"))
+                f"{requested} applies to {', '.join(OBJECTIVES[requested].applies_to)}, "
+                f"which this fit does not measure ({', '.join(names)}: linear residuals); "
+                f"give auto or linear"))
         return requested, "as requested"
     if "m00" not in names:
         return "linear", "no m00 is fitted (the other quantities are always linear)"
@@ -161,30 +200,11 @@ class Term:
     scale: float = 1.0        # cosine: abs x max(y cos theta_i)
 
     def residuals(self, m):
-        y, s, f = self.y, self.s, self.floor
-        if self.objective == "linear":
-            return (m - y) / self.u
-        if self.objective == "log":
-            return np.log((np.maximum(m, 0.0) + f) / (np.maximum(y, 0.0) + f)) / s
-        if self.objective == "relative":
-            return (m - y) / (s * np.maximum(y, f))
-        if self.objective == "cosine":
-            return (m - y) * self.cos_i / self.scale
-        return (np.log1p(np.maximum(m, 0.0) * self.cos_i)               # log-cosine
-                - np.log1p(np.maximum(y, 0.0) * self.cos_i)) / s
+        return OBJECTIVES[self.objective].residual(self, m)
 
     def derivative(self, m):
         """d residual / d model value, per value."""
-        s, f = self.s, self.floor
-        if self.objective == "linear":
-            return 1.0 / self.u
-        if self.objective == "log":
-            return np.where(m > 0, 1.0 / (np.maximum(m, 0.0) + f), 0.0) / s
-        if self.objective == "relative":
-            return 1.0 / (s * np.maximum(self.y, f))
-        if self.objective == "cosine":
-            return self.cos_i / self.scale
-        return np.where(m > 0, self.cos_i / (1.0 + np.maximum(m, 0.0) * self.cos_i), 0.0) / s
+        return OBJECTIVES[self.objective].derivative(self, m)
 
 
 def make_terms(data, objective, rel, abs_, floor=None):
@@ -208,7 +228,7 @@ def make_terms(data, objective, rel, abs_, floor=None):
             s = (u / (np.abs(y) + f) if kind == "log"
                  else u / np.maximum(np.abs(y), max(f, 1e-300)))
         else:
-            if kind in ("log", "relative", "log-cosine") and not rel > 0:
+            if OBJECTIVES[kind].relative and not rel > 0:
                 raise ValueError(f"the {kind} objective needs a relative uncertainty > 0 "
                                  f"(rel_uncertainty, --rel-uncertainty) where the file gives none")
             s = np.full(len(y), float(rel))

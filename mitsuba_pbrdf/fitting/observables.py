@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import reference as ref
 from ..measured.measurements import Measurements
-from .layout import SHARED
+from .vector import SHARED
 
 __all__ = ["model_observables", "observables_from_mueller", "linear_ratios", "synthetic_measurements"]
 

@@ -17,7 +17,7 @@ from .. import reference as ref
 from ..errors import ParameterError
 from ..measured.index_table import IndexTable, read_index_table
 from .backends import BACKENDS
-from .layout import MODELS, absent_parameters, parse_assignments
+from .vector import MODELS, absent_parameters, parse_assignments
 
 __all__ = ["check_arguments", "check_data", "assignments_by_model", "index_from", "with_index"]
 

@@ -22,9 +22,9 @@ from typing import Dict
 import numpy as np
 
 from ..measured.measurements import Measurements
-from .objectives import make_terms
+from .objectives import OBJECTIVES, make_terms
 from .observables import model_observables
-from .solver import FitResult
+from .result import FitResult
 
 __all__ = ["plot_fit", "MAP_ROWS"]
 
@@ -157,7 +157,7 @@ def plot_fit(data: Measurements, results: Dict[str, FitResult], path, title=None
     for t in make_terms(data, first.objective, first.rel_uncertainty, first.abs_uncertainty,
                         first.log_floor):
         low, high = np.full(len(data), np.nan), np.full(len(data), np.nan)
-        if t.objective in ("log", "relative", "log-cosine"):
+        if OBJECTIVES[t.objective].relative:
             low[t.rows], high[t.rows] = t.y * np.exp(-t.s), t.y * np.exp(t.s)
         else:
             low[t.rows], high[t.rows] = t.y - t.u, t.y + t.u

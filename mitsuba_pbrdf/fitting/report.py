@@ -8,9 +8,9 @@ from typing import Dict, Optional
 import numpy as np
 
 from ..measured.measurements import Measurements
-from .layout import ANISOTROPIC, MODELS, SHARED, TWO_COMPONENT_FIXED
+from .vector import ANISOTROPIC, MODELS, SHARED, TWO_COMPONENT_FIXED
 from .objectives import OBJECTIVES
-from .solver import FitResult
+from .result import FitResult
 
 __all__ = ["report", "undetermined_warning", "anisotropy_line"]
 
@@ -58,7 +58,7 @@ def report(data: Measurements, results: Dict[str, FitResult], truth: Optional[Di
                   f"{r.dd_distribution}; {r.start_note}; {r.evaluations} model evaluations, "
                   f"{r.seconds:.2f} s; {'converged' if r.success else 'NOT converged'} "
                   f"({r.message})",
-                  f"objective: {r.objective}{floor}, {OBJECTIVES[r.objective]}: "
+                  f"objective: {r.objective}{floor}, {OBJECTIVES[r.objective].summary}: "
                   f"{r.objective_reason}; per observable: "
                   + ", ".join(f"{q} {o}" for q, o in r.objectives.items())]
         if r.distribution_choice:

@@ -1,6 +1,7 @@
-"""A fit as a scene: the fitted parameters written as a ``pbrdf`` BSDF on a
-sphere, lit as the project's default scene (two soft boxes and a dim sky over
-a matte floor), ready to render in a polarized variant
+"""A fit as a scene: the fitted parameters written as a ``pbrdf`` BSDF into
+the shipped ``scenes/_fitted.xml``: a sphere lit as the project's default
+scene (two soft boxes and a dim sky over a matte floor), ready to render in a
+polarized variant
 (``pbrdf fit ... --scene-out fitted.xml``, then ``pbrdf render fitted.xml``).
 
 A fit of unpolarized data thus gives a polarized material: the index it held
@@ -17,83 +18,21 @@ file through :func:`mitsuba_pbrdf.outputs.escape_text`.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from ..outputs import atomic_path, escape_text
 from ..rendering.narrowband import CIE_RANGE
+from ..rendering.scene_files import scenes_dir
 
 __all__ = ["bsdf_xml", "write_fitted_scene"]
 
-_SCENE = """<scene version="3.0.0">
-    <!-- {comment} -->
-    <default name="spp" value="64"/>
-    <default name="width" value="320"/>
-    <default name="height" value="240"/>
-    <default name="max_depth" value="6"/>
-
-    <integrator type="stokes">
-        <integrator type="path">
-            <integer name="max_depth" value="$max_depth"/>
-        </integrator>
-    </integrator>
-
-    <sensor type="perspective">
-        <float name="fov" value="30"/>
-        <transform name="to_world">
-            <lookat origin="0, 3.2, 7.5" target="0, 1.0, 0" up="0, 1, 0"/>
-        </transform>
-        <sampler type="independent">
-            <integer name="sample_count" value="$spp"/>
-        </sampler>
-        <film type="hdrfilm">
-            <integer name="width" value="$width"/>
-            <integer name="height" value="$height"/>
-            <string name="pixel_format" value="rgb"/>
-        </film>
-    </sensor>
-
-{bsdf}
-    <shape type="sphere">
-        <point name="center" value="0, 1.0, 0"/>
-        <float name="radius" value="1.0"/>
-        <ref id="fitted"/>
-    </shape>
-
-    <shape type="rectangle">
-        <transform name="to_world">
-            <scale value="30"/>
-            <rotate x="1" angle="-90"/>
-        </transform>
-        <bsdf type="diffuse">
-            <rgb name="reflectance" value="0.18, 0.18, 0.19"/>
-        </bsdf>
-    </shape>
-
-    <shape type="rectangle">
-        <transform name="to_world">
-            <scale x="4.5" y="3.0"/>
-            <lookat origin="-5.0, 6.0, 4.0" target="-0.5, 1.0, 0" up="0, 1, 0"/>
-        </transform>
-        <emitter type="area">
-            <rgb name="radiance" value="0.89, 0.84, 0.78"/>
-        </emitter>
-    </shape>
-
-    <shape type="rectangle">
-        <transform name="to_world">
-            <scale x="6.0" y="3.0"/>
-            <lookat origin="5.0, 5.5, -5.0" target="0.5, 1.0, 0" up="0, 1, 0"/>
-        </transform>
-        <emitter type="area">
-            <rgb name="radiance" value="0.89, 0.89, 0.94"/>
-        </emitter>
-    </shape>
-
-    <emitter type="constant">
-        <rgb name="radiance" value="0.08, 0.09, 0.11"/>
-    </emitter>
-</scene>
-"""
+#: The shipped scene the fit is written into (``scenes/_fitted.xml``): its
+#: first comment and its placeholder BSDF are replaced.
+TEMPLATE = "_fitted.xml"
+_PLACEHOLDER = re.compile(r'^ *<bsdf type="pbrdf" id="fitted"/>$', re.M)
+_COMMENT = re.compile(r"^( *)<!--.*?-->$", re.M)
 
 
 def _spectrum(wavelengths, values):
@@ -157,8 +96,10 @@ def write_fitted_scene(result, path, material=None, source=None):
                f"objective, reduced chi2 {result.reduced_chi2:.3g}. Render with "
                f"pbrdf render {path} (a polarized variant; in an unpolarized one, render the "
                f"path integrator nested in stokes alone)")
-    text = _SCENE.format(comment=escape_text(comment, "xml-comment"),
-                         bsdf=bsdf_xml(result, material))
+    text = (scenes_dir() / TEMPLATE).read_text(encoding="utf-8")
+    note = escape_text(comment, "xml-comment")
+    text = _COMMENT.sub(lambda m: f"{m.group(1)}<!-- {note} -->", text, count=1)
+    text = _PLACEHOLDER.sub(lambda m: bsdf_xml(result, material), text, count=1)
     with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="utf-8") as f:
             f.write(text)

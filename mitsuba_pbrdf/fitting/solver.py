@@ -34,171 +34,29 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional
+from typing import Callable, Dict, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
 from ..errors import ParameterError
+from ..measured import IndexTable
 from ..measured.measurements import Measurements
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from .backends import BACKENDS
-from .diagnosis import diagnose, reciprocity as reciprocity_of, regional_fit
+from .diagnosis import Reciprocity, diagnose, reciprocity as reciprocity_of, regional_fit
 from .identifiability import analyze
-from .layout import ANISOTROPIC, PER_WAVELENGTH, ParameterLayout, absent_parameters
+from .vector import ANISOTROPIC, PER_WAVELENGTH, ParameterVector, absent_parameters
 from .options import assignments_by_model, check_arguments, with_index
-from .objectives import LIKELIHOODS, choose_objective, make_terms
+from .objectives import OBJECTIVES, choose_objective, make_terms
 from .lobes import LobeModel
+from .result import FitProgress, FitResult
 from .starts import WidthOrder, default_starts, start_points
 from .subsample import START_ROWS, sample
 
 __all__ = ["FitResult", "FitProgress", "fit_model", "fit_models"]
 
-
-@dataclass
-class FitResult:
-    """Outcome of :func:`fit_model`. ``values`` / ``errors``: ``n``, ``k``
-    (arrays over ``wavelengths``) and the shared parameters; ``errors`` is NaN
-    for fixed parameters and ``inf`` for parameters the data leave
-    undetermined (:mod:`.identifiability`; listed in ``undetermined``, with
-    the groups that move together in ``correlated``); ``at_bound`` lists
-    parameters stopped at a bound."""
-    model: str
-    backend: str
-    wavelengths: np.ndarray
-    values: Dict
-    errors: Dict
-    chi2: float
-    dof: int
-    residuals: Dict[str, np.ndarray]      # model - data, NaN where not measured
-    rms: Dict[str, float]                 # RMS of model - data per quantity
-    relative_rms: Dict[str, float]        # RMS of (model - data) / data where |data| >= 1 % of max
-    seconds: float
-    evaluations: int
-    success: bool
-    message: str
-    free: List[str] = field(default_factory=list)
-    at_bound: List[str] = field(default_factory=list)
-    shadowing: str = "vgroove"
-    dd_distribution: str = "beckmann"
-    undetermined: List[str] = field(default_factory=list)   # labels, e.g. "n(633 nm)"
-    correlated: List[List[str]] = field(default_factory=list)  # groups moving together
-    fixed: List[str] = field(default_factory=list)
-    anisotropic: bool = False
-    distribution: str = "beckmann"        # the specular lobe's
-    #: anisotropic fits: refined parameter -> (difference of its refinements,
-    #: its standard uncertainty; inf where the data leave it undetermined)
-    anisotropy: Dict = field(default_factory=dict)
-    objective: str = "linear"
-    objective_reason: str = ""
-    objectives: Dict[str, str] = field(default_factory=dict)   # quantity -> its residuals' objective
-    log_floor: Optional[float] = None     # 1/sr, the log and relative objectives' floor
-    index_note: str = ""                  # why n, k are fixed, where they are
-    starts: int = 1
-    formal: bool = True                   # uncertainties scaled by the reduced chi-square
-    regions: List = field(default_factory=list)     # :class:`.diagnosis.Region` rows
-    warnings: List[str] = field(default_factory=list)
-    distribution_choice: str = ""          # distribution="auto": what was compared
-    rms_ln: float = math.nan              # RMS of ln(model / data) of m00 where both > 0
-    rel_uncertainty: float = 0.05         # the assumed uncertainties (where the file gives none)
-    abs_uncertainty: float = 0.005
-    #: parameters the model lacks -> why (:func:`.layout.absent_parameters`): not reported
-    absent: Dict[str, str] = field(default_factory=dict)
-    notes: List[str] = field(default_factory=list)      # init/fix values not used, and why
-    rows: int = 0                         # rows of the data
-    start_rows: Optional[int] = None      # rows the starts ran on (:mod:`.subsample`); None: all
-    reciprocity: Optional[object] = None  # the data's :class:`.diagnosis.Reciprocity`, if pairs
-
-    @property
-    def start_note(self) -> str:
-        """Where the starts ran, e.g. "7 starts on 20,000 of 200,000 rows, the best polished on all"."""
-        if self.start_rows is None:
-            return f"{self.starts} starts on all {self.rows:,} rows"
-        return (f"{self.starts} starts on {self.start_rows:,} of {self.rows:,} rows, "
-                f"the best polished on all")
-
-    @property
-    def reduced_chi2(self):
-        return self.chi2 / max(self.dof, 1)
-
-    def error_reason(self, label, error) -> str:
-        """Why the parameter *label* (``kid``, ``n(633 nm)``) has no uncertainty
-        to state ("fixed", "undetermined", "at a bound"), or "" where it has one.
-        At a bound the curvature's +/- is not meaningful: the optimum is a
-        corner, not a minimum (the lobes' order at its bound, sigma_dd = sigma,
-        puts sigma_dd there)."""
-        if not np.isfinite(error):
-            return "undetermined" if np.isinf(error) else "fixed"
-        order = label == "sigma_dd" and any(b.startswith("sigma_dd = sigma") for b in self.at_bound)
-        return "at a bound" if label in self.at_bound or order else ""
-
-    def _labelled_errors(self):
-        """(label, key, index or None, error) of every parameter."""
-        for p, e in self.errors.items():
-            if isinstance(e, np.ndarray):
-                for j, w in enumerate(self.wavelengths):
-                    yield f"{p}({w:g} nm)", p, j, float(e[j])
-            else:
-                yield p, p, None, float(e)
-
-    def as_dict(self):
-        """JSON-ready: an error that is not stated (undetermined, fixed, at a
-        bound) is ``None`` (null), its reason in ``error_reasons`` by label."""
-        def conv(v):
-            if isinstance(v, np.ndarray):
-                return [conv(float(a)) for a in v]
-            return None if isinstance(v, float) and not math.isfinite(v) else v
-        errors = {k: conv(v) for k, v in self.errors.items()}
-        reasons = {}
-        for label, key, j, e in self._labelled_errors():
-            reasons[label] = self.error_reason(label, e)
-            if reasons[label] == "at a bound":
-                if j is None:
-                    errors[key] = None
-                else:
-                    errors[key][j] = None
-        return {"model": self.model, "backend": self.backend,
-                "wavelengths": self.wavelengths.tolist(),
-                "values": {k: conv(v) for k, v in self.values.items()},
-                "errors": errors,
-                "error_reasons": {k: v for k, v in reasons.items() if v},
-                "chi2": self.chi2, "dof": self.dof, "reduced_chi2": self.reduced_chi2,
-                "rms": {k: conv(v) for k, v in self.rms.items()},
-                "relative_rms": {k: conv(v) for k, v in self.relative_rms.items()},
-                "seconds": self.seconds,
-                "evaluations": self.evaluations, "success": self.success,
-                "message": self.message, "at_bound": self.at_bound,
-                "undetermined": self.undetermined, "correlated": self.correlated,
-                "fixed": self.fixed,
-                "shadowing": self.shadowing, "dd_distribution": self.dd_distribution,
-                "anisotropic": self.anisotropic, "distribution": self.distribution,
-                "anisotropy": {base: {"difference": d, "uncertainty": conv(float(sd))}
-                               for base, (d, sd) in self.anisotropy.items()},
-                "objective": self.objective, "objective_reason": self.objective_reason,
-                "objectives": self.objectives,
-                "log_floor": self.log_floor, "index_note": self.index_note,
-                "starts": self.starts, "rows": self.rows, "start_rows": self.start_rows,
-                "start_note": self.start_note, "formal_uncertainties": self.formal,
-                "reciprocity": self.reciprocity.as_dict() if self.reciprocity else None,
-                "regions": [r.as_dict() for r in self.regions], "warnings": self.warnings,
-                "distribution_choice": self.distribution_choice,
-                "rms_ln_m00": conv(self.rms_ln), "absent": self.absent, "notes": self.notes}
-
-
-@dataclass
-class FitProgress:
-    """What :func:`fit_model` reports to its ``progress`` callback: after each
-    start (``finished`` True) and every :data:`PROGRESS_EVERY` residual
-    evaluations within one. ``cost`` is half the sum of squared residuals."""
-    model: str
-    distribution: str
-    start: int            # 1-based
-    starts: int
-    evaluations: int      # residual evaluations of this start
-    cost: float
-    best: float           # lowest cost of the finished starts (inf before the first)
-    finished: bool
-    polish: bool = False  # the best start's polish on all rows (:mod:`.subsample`)
+#: ``init`` / ``fix``: {name: value} or ``"name=value,..."``
+Assignments = Union[None, str, Mapping[str, float]]
 
 
 #: Residual evaluations between two progress reports within a start.
@@ -270,31 +128,134 @@ def _residual_summary(data, final):
     return resid, rms, rel, rms_ln
 
 
-def fit_model(data: Measurements, model="three", backend="reference", shadowing="vgroove",
-              dd_distribution="beckmann", material=None, init=None, fix=None, starts=None,
-              rel_uncertainty=0.05, abs_uncertainty=0.005, seed=0,
-              anisotropic=False, distribution="beckmann", objective="auto", log_floor=None,
-              nk=None, progress: Optional[Callable[[FitProgress], None]] = None,
-              start_rows: Optional[int] = START_ROWS, reciprocity=False) -> FitResult:
-    """Least-squares fit of one model (``"three"`` or ``"two"``) to ``data``.
+def _uncertainties(data, terms, objective, evaluator, residuals, free, x_best, chi2, dof,
+                   lo, hi, rel_uncertainty, abs_uncertainty):
+    """``(formal, standard uncertainties of free, undetermined, correlated
+    groups, covariance)`` at the optimum *x_best* (:mod:`.identifiability`)."""
+    # assumed uncertainties (or a weighting objective): scaled up by the reduced
+    # chi-square when the residuals are larger, never down (a fit to exact data
+    # does not make the data exact)
+    likelihood = OBJECTIVES[objective].likelihood
+    formal = (not likelihood
+              or any(t.name not in data.uncertainty for t in terms))
+    chi2_scale = max(chi2 / max(dof, 1), 1.0) if formal else 1.0
+    # a weighting objective's residuals are not in units of the noise: judge
+    # the data with the linear ones (identifiability module)
+    noise = residuals if likelihood else _Residuals(
+        evaluator, make_terms(data, "linear", rel_uncertainty, abs_uncertainty), free)
+    r_noise = noise(x_best)
+    if not likelihood:
+        chi2_scale = max(float(r_noise @ r_noise) / max(dof, 1), 1.0)
+    sd, undetermined, groups, cov = analyze(
+        noise.jacobian(x_best), free, x_best, chi2_scale, with_covariance=True,
+        chi2=None if likelihood
+        else lambda z: float(np.sum(noise(np.clip(z, lo, hi)) ** 2)))
+    if not likelihood:
+        # the weighting's own scatter (sandwich): never below the data's bound
+        G = residuals.jacobian(x_best)
+        m = evaluator.observables(x_best)
+        w = np.concatenate([np.abs(t.derivative(m[t.name][t.rows])) * t.u for t in terms])
+        A = np.linalg.pinv(G.T @ G, rcond=1e-12)
+        sand = A @ (G.T * w ** 2) @ G @ A * chi2_scale
+        sd = np.maximum(sd, np.sqrt(np.clip(np.diag(sand), 0.0, None)))
+    return formal, sd, undetermined, groups, cov
 
-    ``init`` / ``fix``: {name: value} (``n``, ``k``, ``n@<nm>``, ``k@<nm>``,
-    ``sigma``, ``ks``, ``kdd``, ``sigma_dd``, ``kid``) or ``"name=value,..."``.
-    ``material`` (a name) or ``nk`` (an index table: a file, or an
-    :class:`~mitsuba_pbrdf.measured.IndexTable`): n, k at the data's
-    wavelengths, the start of a polarized fit and **fixed** in a fit of
-    unpolarized data (``m00`` alone cannot determine the index), unless
-    ``init`` or ``fix`` name them. ``objective``: the residual minimized
-    (:mod:`.objectives`; ``auto`` follows the data), ``log_floor`` its floor
-    (1/sr). ``starts``: the number of starting points (default: the initial
-    values and the roughness grid of :mod:`.starts`). ``anisotropic``: fit
-    ``sigma_u`` and ``sigma_v`` instead of ``sigma`` (:mod:`.layout`); the
-    result's ``anisotropy`` gives their difference and its uncertainty.
-    ``progress``: called with a :class:`FitProgress` as the fit goes.
-    ``start_rows``: where the data hold more rows, the starts run on this many
-    of them and the best is polished on all (:mod:`.subsample`; None: all rows).
-    ``reciprocity``: the data's :func:`.diagnosis.reciprocity` where the caller
-    has it (:func:`fit_models` computes it once for all its fits).
+
+def _stated(layout, order, z_best, x_best, values, sd, undetermined, cov, lo, hi, anisotropic):
+    """``(errors, at_bound, anisotropy)`` of :class:`FitResult` from the
+    standard uncertainties *sd* of the free parameters."""
+    W = len(layout.wavelengths)
+    errors = {"n": np.full(W, np.nan), "k": np.full(W, np.nan)}
+    errors.update({p: math.nan for p in layout.shared})
+    for name, s in zip(layout.free, sd):
+        p, _, j = name.partition("@")
+        if j:
+            errors[p][int(j)] = s
+        else:
+            errors[p] = float(s)
+    at_bound = [layout.label(n) for n, x, a, b in zip(layout.free, x_best, lo, hi)
+                if x <= a * (1 + 1e-6) + 1e-12 or x >= b * (1 - 1e-6)]
+    if order.at_bound(z_best):
+        at_bound.append("sigma_dd = sigma (the lobes' order)")
+    anisotropy = {}
+    for base, (u, v) in ANISOTROPIC.items():
+        if anisotropic and u in layout.free and v in layout.free:
+            i, j = layout.free.index(u), layout.free.index(v)
+            var = cov[i, i] + cov[j, j] - 2 * cov[i, j]
+            split = (math.inf if u in undetermined or v in undetermined
+                     else math.sqrt(max(float(var), 0.0)))
+            anisotropy[base] = (values[u] - values[v], split)
+    return errors, at_bound, anisotropy
+
+
+def fit_model(data: Measurements, model: str = "three", backend: str = "reference",
+              shadowing: str = "vgroove", dd_distribution: str = "beckmann",
+              material: Optional[str] = None, init: Assignments = None, fix: Assignments = None,
+              starts: Optional[int] = None, rel_uncertainty: float = 0.05,
+              abs_uncertainty: float = 0.005, seed: int = 0, anisotropic: bool = False,
+              distribution: str = "beckmann", objective: str = "auto",
+              log_floor: Optional[float] = None, nk: Union[None, str, IndexTable] = None,
+              progress: Optional[Callable[[FitProgress], None]] = None,
+              start_rows: Optional[int] = START_ROWS,
+              reciprocity: Union[bool, None, Reciprocity] = False) -> FitResult:
+    """Least-squares fit of one model to measurements.
+
+    Parameters
+    ----------
+    data : Measurements
+        What to fit (:func:`mitsuba_pbrdf.measured.read`).
+    model : str
+        ``"three"`` or ``"two"`` (:data:`.vector.MODELS`).
+    backend : str
+        ``"reference"`` (NumPy float64) or ``"drjit"`` (the plugin).
+    shadowing, dd_distribution, distribution : str
+        The model's shadowing and its lobes' distributions (``beckmann``, ``ggx``).
+    material, nk : str or IndexTable, optional
+        n, k at the data's wavelengths from a tabulated conductor (a name) or
+        an index table (a file or an :class:`~mitsuba_pbrdf.measured.IndexTable`):
+        the start of a polarized fit and **fixed** in a fit of unpolarized
+        data (``m00`` alone cannot determine the index), unless ``init`` or
+        ``fix`` name them.
+    init, fix : dict or str, optional
+        Starting and fixed values, {name: value} (``n``, ``k``, ``n@<nm>``,
+        ``k@<nm>``, ``sigma``, ``ks``, ``kdd``, ``sigma_dd``, ``kid``) or
+        ``"name=value,..."``.
+    starts : int, optional
+        The number of starting points (default: the initial values and the
+        roughness grid of :mod:`.starts`); ``seed`` seeds the random ones.
+    rel_uncertainty, abs_uncertainty : float
+        The assumed uncertainties where the file gives none: ``rel |y| + abs max|y|``.
+    anisotropic : bool
+        Fit ``sigma_u`` and ``sigma_v`` instead of ``sigma`` (:mod:`.vector`);
+        the result's ``anisotropy`` gives their difference and its uncertainty.
+    objective : str
+        The residual minimized (:data:`.objectives.OBJECTIVES`; ``"auto"``
+        follows the data); ``log_floor`` its floor, 1/sr.
+    progress : callable, optional
+        Called with a :class:`FitProgress` as the fit goes.
+    start_rows : int, optional
+        Where the data hold more rows, the starts run on this many of them and
+        the best is polished on all (:mod:`.subsample`; None: all rows).
+    reciprocity : Reciprocity or None, optional
+        The data's :func:`.diagnosis.reciprocity` where the caller has it
+        (:func:`fit_models` computes it once for all its fits); False: compute it.
+
+    Returns
+    -------
+    FitResult
+
+    Raises
+    ------
+    ParameterError, ValueError
+        A bad option, or more free parameters than measured values, before any work.
+
+    Example
+    -------
+    >>> from mitsuba_pbrdf import fitting
+    >>> data = fitting.synthetic_measurements({"sigma": 0.1, "n": 1.2, "k": 7.0})
+    >>> r = fitting.fit_model(data, "two", material="Al", starts=1)
+    >>> round(r.values["sigma"], 2)
+    0.1
     """
     check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty,
                     start_rows)
@@ -304,7 +265,7 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     init, fix, index_note = with_index(data, init, fix, material, nk,
                                        absent_parameters(model, fix))
     wavelengths = data.wavelengths
-    layout = ParameterLayout(wavelengths, model, init, fix, anisotropic)
+    layout = ParameterVector(wavelengths, model, init, fix, anisotropic)
     n_obs = sum(len(t.y) for t in terms)
     if n_obs <= len(layout.free):
         raise ValueError(f"{n_obs} measured values cannot determine {len(layout.free)} "
@@ -345,79 +306,40 @@ def fit_model(data: Measurements, model="three", backend="reference", shadowing=
     values = layout.unpack(x_best)
     chi2 = float(2 * best.cost)
     dof = n_obs - len(layout.free)
-    # assumed uncertainties (or a weighting objective): scaled up by the reduced
-    # chi-square when the residuals are larger, never down (a fit to exact data
-    # does not make the data exact)
-    formal = (objective not in LIKELIHOODS
-              or any(t.name not in data.uncertainty for t in terms))
-    chi2_scale = max(chi2 / max(dof, 1), 1.0) if formal else 1.0
-    # a weighting objective's residuals are not in units of the noise: judge
-    # the data with the linear ones (identifiability module)
-    noise = residuals if objective in LIKELIHOODS else _Residuals(
-        evaluator, make_terms(data, "linear", rel_uncertainty, abs_uncertainty), layout.free)
-    r_noise = noise(x_best)
-    if objective not in LIKELIHOODS:
-        chi2_scale = max(float(r_noise @ r_noise) / max(dof, 1), 1.0)
-    sd, undetermined, groups, cov = analyze(
-        noise.jacobian(x_best), layout.free, x_best, chi2_scale, with_covariance=True,
-        chi2=None if objective in LIKELIHOODS
-        else lambda z: float(np.sum(noise(np.clip(z, lo, hi)) ** 2)))
-    if objective not in LIKELIHOODS:
-        # the weighting's own scatter (sandwich): never below the data's bound
-        G = residuals.jacobian(x_best)
-        m = evaluator.observables(x_best)
-        w = np.concatenate([np.abs(t.derivative(m[t.name][t.rows])) * t.u for t in terms])
-        A = np.linalg.pinv(G.T @ G, rcond=1e-12)
-        sand = A @ (G.T * w ** 2) @ G @ A * chi2_scale
-        sd = np.maximum(sd, np.sqrt(np.clip(np.diag(sand), 0.0, None)))
-    errors = {"n": np.full(len(wavelengths), np.nan), "k": np.full(len(wavelengths), np.nan)}
-    errors.update({p: math.nan for p in layout.shared})
-    for name, s in zip(layout.free, sd):
-        p, _, j = name.partition("@")
-        if j:
-            errors[p][int(j)] = s
-        else:
-            errors[p] = float(s)
-    at_bound = [layout.label(n) for n, x, a, b in zip(layout.free, x_best, lo, hi)
-                if x <= a * (1 + 1e-6) + 1e-12 or x >= b * (1 - 1e-6)]
-    if order.at_bound(best.x):
-        at_bound.append("sigma_dd = sigma (the lobes' order)")
-
-    anisotropy = {}
-    for base, (u, v) in ANISOTROPIC.items():
-        if anisotropic and u in layout.free and v in layout.free:
-            i, j = layout.free.index(u), layout.free.index(v)
-            var = cov[i, i] + cov[j, j] - 2 * cov[i, j]
-            split = (math.inf if u in undetermined or v in undetermined
-                     else math.sqrt(max(float(var), 0.0)))
-            anisotropy[base] = (values[u] - values[v], split)
+    formal, sd, undetermined, groups, cov = _uncertainties(
+        data, terms, objective, evaluator, residuals, layout.free, x_best, chi2, dof, lo, hi,
+        rel_uncertainty, abs_uncertainty)
+    errors, at_bound, anisotropy = _stated(layout, order, best.x, x_best, values, sd,
+                                           undetermined, cov, lo, hi, anisotropic)
 
     # the float64 lobes whatever the backend; for unpolarized data element 00
     # alone (the full Mueller form of 10^6 rows would take gigabytes)
     final = LobeModel(data, list(data.observed), shadowing, dd_distribution,
                       distribution).observables(values)
     resid, rms, rel, rms_ln = _residual_summary(data, final)
-    result = FitResult(model, backend, wavelengths, values, errors, chi2, dof, resid, rms, rel,
-                       seconds, evaluations + evaluator.count, bool(best.success),
-                       str(best.message),
-                       [layout.label(n) for n in layout.free], at_bound, shadowing,
-                       dd_distribution, [layout.label(n) for n in undetermined],
-                       [[layout.label(n) for n in g] for g in groups],
-                       [layout.label(n) for n in _all_names(len(wavelengths), layout.shared)
-                        if n not in layout.free], bool(anisotropic), distribution, anisotropy)
-    result.rms_ln = rms_ln
-    result.objective, result.objective_reason = objective, objective_reason
-    result.objectives = {t.name: t.objective for t in terms}
-    result.log_floor = next((t.floor for t in terms if t.name == "m00"
-                             and t.objective in ("log", "relative")), None)
-    result.index_note, result.starts, result.formal = index_note, len(points), formal
-    result.rows, result.start_rows = len(data), None if subsample is None else len(subsample[0])
-    result.rel_uncertainty, result.abs_uncertainty = rel_uncertainty, abs_uncertainty
-    result.absent = {p: why for p, why in layout.absent.items()
-                     if p in PER_WAVELENGTH or p in layout.shared}
-    result.notes = notes
-    result.regions = regional_fit(data, final, terms)
-    result.reciprocity = reciprocity_of(data) if reciprocity is False else reciprocity
+    result = FitResult(
+        model=model, backend=backend, wavelengths=wavelengths, values=values, errors=errors,
+        chi2=chi2, dof=dof, residuals=resid, rms=rms, relative_rms=rel, seconds=seconds,
+        evaluations=evaluations + evaluator.count, success=bool(best.success),
+        message=str(best.message), free=[layout.label(n) for n in layout.free],
+        at_bound=at_bound, shadowing=shadowing, dd_distribution=dd_distribution,
+        undetermined=[layout.label(n) for n in undetermined],
+        correlated=[[layout.label(n) for n in g] for g in groups],
+        fixed=[layout.label(n) for n in _all_names(len(wavelengths), layout.shared)
+               if n not in layout.free],
+        anisotropic=bool(anisotropic), distribution=distribution, anisotropy=anisotropy,
+        objective=objective, objective_reason=objective_reason,
+        objectives={t.name: t.objective for t in terms},
+        log_floor=next((t.floor for t in terms if t.name == "m00"
+                        and OBJECTIVES[t.objective].floored), None),
+        index_note=index_note, starts=len(points), formal=formal,
+        regions=regional_fit(data, final, terms), rms_ln=rms_ln,
+        rel_uncertainty=rel_uncertainty, abs_uncertainty=abs_uncertainty,
+        absent={p: why for p, why in layout.absent.items()
+                if p in PER_WAVELENGTH or p in layout.shared},
+        notes=notes, rows=len(data),
+        start_rows=None if subsample is None else len(subsample[0]),
+        reciprocity=reciprocity_of(data) if reciprocity is False else reciprocity)
     result.warnings = diagnose(result, data, material, result.reciprocity)
     return result
 
@@ -426,15 +348,43 @@ def _all_names(W, shared):
     return [f"{p}@{j}" for p in ("n", "k") for j in range(W)] + list(shared)
 
 
-def fit_models(data: Measurements, models=("three", "two"), distribution="beckmann",
-               dd_distribution=None, **options) -> Dict[str, FitResult]:
+def fit_models(data: Measurements, models: Sequence[str] = ("three", "two"),
+               distribution: str = "beckmann", dd_distribution: Optional[str] = None,
+               **options) -> Dict[str, FitResult]:
     """:func:`fit_model` for each of ``models`` with the same options.
 
-    ``distribution="auto"`` fits each model with Beckmann and with GGX lobes and
-    keeps the lower cost (the same objective, data and parameter count); the
-    result's ``distribution_choice`` says what was compared.
-    ``dd_distribution``: the directional diffuse lobe's, by default the same as
-    the specular lobe's."""
+    Parameters
+    ----------
+    data : Measurements
+        What to fit.
+    models : sequence of str
+        ``"three"`` and/or ``"two"``.
+    distribution : str
+        The specular lobe's: ``beckmann``, ``ggx`` or ``auto``, which fits each
+        model with both and keeps the lower cost (the same objective, data and
+        parameter count); the result's ``distribution_choice`` says what was compared.
+    dd_distribution : str, optional
+        The directional diffuse lobe's, by default the same as the specular lobe's.
+    **options
+        :func:`fit_model`'s other options.
+
+    Returns
+    -------
+    dict
+        Model name -> :class:`FitResult`, in the order of ``models``.
+
+    Raises
+    ------
+    ParameterError, ValueError
+        A bad option, before any work.
+
+    Example
+    -------
+    >>> from mitsuba_pbrdf import fitting
+    >>> data = fitting.synthetic_measurements({"sigma": 0.1, "n": 1.2, "k": 7.0})
+    >>> sorted(fitting.fit_models(data, material="Al", starts=1))
+    ['three', 'two']
+    """
     candidates = DISTRIBUTIONS if distribution == "auto" else (distribution,)
     for d in candidates:
         if d not in DISTRIBUTIONS:

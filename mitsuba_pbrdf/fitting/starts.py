@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from .layout import SCALE_FLOORS
+from .vector import SCALE_FLOORS
 
 __all__ = ["SIGMA_STARTS", "WIDTH_RATIOS", "start_points", "default_starts", "WidthOrder"]
 

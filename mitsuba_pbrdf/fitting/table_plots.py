@@ -17,7 +17,7 @@ import numpy as np
 from .. import reference as ref
 from ..measured.lookup import lookup
 from ..measured.pbsdf import PbsdfTable
-from .layout import SHARED
+from .vector import SHARED
 
 __all__ = ["plot_table_fit"]
 

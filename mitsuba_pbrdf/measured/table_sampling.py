@@ -32,9 +32,9 @@ import math
 
 import numpy as np
 
-from ..measured.measurements import ELEMENTS, Measurements
-from ..measured.pbsdf import PbsdfError, PbsdfTable
-from ..measured.rusinkiewicz import angles, directions, facet_to_global
+from .measurements import ELEMENTS, Measurements
+from .pbsdf import PbsdfError, PbsdfTable
+from .rusinkiewicz import angles, directions, facet_to_global
 
 __all__ = ["sample_table", "table_cells"]
 

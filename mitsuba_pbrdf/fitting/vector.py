@@ -18,7 +18,7 @@ from ..errors import ParameterError
 
 __all__ = ["PER_WAVELENGTH", "SHARED", "ANISOTROPIC", "shared_names", "DEFAULTS", "BOUNDS", "SCALE_FLOORS", "PLUGIN_NAMES", "MODELS",
            "TWO_COMPONENT_FIXED", "LOBE_PARAMETERS", "absent_parameters", "parse_assignments",
-           "ParameterLayout"]
+           "ParameterVector"]
 
 _FITTED = [p for p in schema.PARAMETERS if p.fit is not None]
 
@@ -103,7 +103,7 @@ def parse_assignments(text, what):
     return out
 
 
-class ParameterLayout:
+class ParameterVector:
     """Maps the free parameters to a vector and back."""
 
     def __init__(self, wavelengths, model, init, fix, anisotropic=False):

@@ -1,0 +1,83 @@
+"""The one-call reading and fitting of a file (mitsuba_pbrdf.measured.reading,
+mitsuba_pbrdf.fitting.files): docs/python.md's section runs, the calls give
+what the steps they stand for give, and ``pbrdf fit``'s choices are the
+library's records."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mitsuba_pbrdf import fitting, measured
+from mitsuba_pbrdf.errors import ParameterError
+
+ROOT = Path(__file__).resolve().parents[1]
+NIST = ROOT / "tests" / "data" / "nist_ptfe_subset.csv"
+
+
+def _section(page, heading):
+    text = (ROOT / "docs" / page).read_text(encoding="utf-8")
+    body = text.split(f"## {heading}\n", 1)[1].split("\n## ", 1)[0]
+    return re.findall(r"```python\n(.*?)```", body, re.S)
+
+
+def test_python_md_reading_and_fitting_runs(monkeypatch, capsys):
+    blocks = _section("python.md", "Reading and fitting a file")
+    assert blocks
+    monkeypatch.chdir(ROOT)
+    for code in blocks:
+        exec(compile(code, "docs/python.md", "exec"), {})
+    assert capsys.readouterr().out.split()[1] == "None"   # a CSV file has no table
+
+
+def test_read_is_the_reader_then_the_selection():
+    from mitsuba_pbrdf.measured.selection import select_wavelengths
+
+    whole = measured.read_measurements(NIST)
+    picked = measured.read(NIST, wavelengths=[633])
+    expected = select_wavelengths(whole, [633])
+    assert len(picked) == len(expected) < len(whole)
+    np.testing.assert_array_equal(picked.theta_r, expected.theta_r)
+
+
+@pytest.mark.parametrize("kwargs, parameter", [({"layout": "csv"}, "layout"),
+                                               ({"observables": ["m77"]}, "observables")])
+def test_read_names_the_bad_parameter(kwargs, parameter):
+    with pytest.raises(ParameterError) as e:
+        measured.read(NIST, **kwargs)
+    assert e.value.parameter == parameter
+
+
+def test_a_table_takes_no_csv_layout(tmp_path):
+    path = tmp_path / "t.pbsdf"
+    path.write_bytes(b"tensor_file\0")
+    with pytest.raises(ParameterError, match="layout: applies to CSV files"):
+        measured.read(path, layout="nist")
+
+
+def test_fit_commands_choices_are_the_records():
+    """``pbrdf fit`` spells its choices out (importing the records would load
+    NumPy for every command's help); they must be the library's."""
+    import argparse
+
+    from mitsuba_pbrdf.cli import fit as cli_fit
+
+    parser = argparse.ArgumentParser()
+    cli_fit.add_parser(parser.add_subparsers())
+    fit = parser._subparsers._group_actions[0].choices["fit"]
+    choices = {a.dest: tuple(a.choices) for a in fit._actions if a.choices}
+    assert choices["layout"] == measured.LAYOUTS
+    assert choices["model"] == tuple(fitting.MODELS) + ("both",)
+
+
+def test_entry_points_examples_run():
+    """The Example sections of the fit's entry points (numpydoc) run as written."""
+    import doctest
+
+    from mitsuba_pbrdf.fitting import files, solver
+    from mitsuba_pbrdf.measured import reading
+
+    for module in (solver, files, reading):
+        failed, attempted = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
+        assert attempted and not failed, module.__name__
