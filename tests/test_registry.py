@@ -27,7 +27,7 @@ CPP_BASE_READS = {
 }
 
 #: Parameters read under names the schema derives (Mitsuba's ``alpha`` beside
-#: ``sigma``: ``bsdfs/params.read_width``); tests/test_alpha_names.py loads each.
+#: ``sigma``: ``bsdfs/params.read_width``); tests/bsdfs/test_params.py loads each.
 SCHEMA_READS = {"pbrdf": set(schema.ALIASES)}
 
 

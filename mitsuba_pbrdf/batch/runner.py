@@ -45,8 +45,8 @@ one, so the hundreds of jobs submitted within 100 ms shared one priority,
 among which Dask's queue keeps no particular order. A job whose worker was
 lost (killed, ``scancel``, Slurm walltime) went back among the waiting jobs
 of its generation, often behind all of them: on Slurm one waited more than
-60 renders after its worker's walltime (tests/test_batch_slurm.py), on a
-local cluster one ran last of 12 (tests/test_batch_priority.py). Submitted
+60 renders after its worker's walltime (tests/batch/test_slurm.py), on a
+local cluster one ran last of 12 (tests/batch/test_cluster.py). Submitted
 one by one, the first jobs also reached the scheduler as a task group too
 small to queue (Dask queues only groups larger than twice the cluster's
 threads), so they were handed to the first worker up front: a worker lost

@@ -2,7 +2,7 @@
 (:mod:`single_node_slurm`: Debian's slurmctld, slurmd and munge, installed by
 ``.ci/install-slurm.sh``) that the module's fixture starts and stops.
 
-Faults, as on the local cluster (tests/test_batch.py): a worker's Slurm job
+Faults, as on the local cluster (tests/batch/test_runner.py): a worker's Slurm job
 cancelled (``scancel``) and another one running out of walltime while they
 render lose nothing (the renders run again on other workers, every output
 reads back, the manifest's ``note`` names what happened), a rerun renders

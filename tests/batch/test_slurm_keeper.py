@@ -4,7 +4,7 @@ the keeper runs against a stand-in for dask-jobqueue's cluster (its
 ``worker_spec``, ``workers`` of jobs with a ``job_id`` and ``scale``), and
 the sweep's side (futures cancelled, rows left pending, one line, exit 2)
 against a local Dask cluster standing in for the Slurm one. The real-Slurm
-tests are in tests/test_batch_slurm.py."""
+tests are in tests/batch/test_slurm.py."""
 
 import contextlib
 import threading

@@ -71,7 +71,7 @@ def reference_matrix(c, wi_hat, wo_hat):
 @pytest.mark.parametrize("mode", ["radiance", "importance"])
 @pytest.mark.parametrize("name", sorted(CONFIGS))
 def test_anisotropic_plugin_matches_reference(name, mode):
-    """Tolerance as tests/test_bsdf_vs_reference.py: 1e-4 M00 per element plus
+    """Tolerance as tests/bsdfs/test_pbrdf_vs_reference.py: 1e-4 M00 per element plus
     the lane's underflow floor (Mitsuba's D cos(theta_h) < 1e-20 cut-off);
     measured worst: 3.5e-5 M00."""
     config = CONFIGS[name]
@@ -115,7 +115,7 @@ def g1_correction(wi, alpha_u, alpha_v):
 @pytest.mark.parametrize("alphas", [(0.05, 0.5), (0.6, 0.06), (0.3, 0.2)])
 def test_eval_and_pdf_match_roughconductor(distribution, alphas):
     """No diffuse lobes and Smith G: pbrdf is roughconductor with alpha_u,
-    alpha_v. Mueller matrices within 1e-5 M00 (tests/test_roughconductor.py:
+    alpha_v. Mueller matrices within 1e-5 M00 (tests/bsdfs/test_pbrdf_roughconductor.py:
     float32 level); pdfs equal within 1e-5 for GGX, and for Beckmann after
     the exact/approximate G1 ratio of roughconductor's pdf."""
     wi, wo = hemisphere_pairs(12000, seed=21)
@@ -140,7 +140,7 @@ def test_sample_matches_roughconductor(distribution):
     """Same visible-normal sampler: same directions, same pdf (through the G1
     ratio for Beckmann), same Mueller weight (roughconductor's F G1(wo) and our
     eval/pdf agree to float32, with 1e-6/cos_o near the horizon as in
-    tests/test_roughconductor.py)."""
+    tests/bsdfs/test_pbrdf_roughconductor.py)."""
     rc, pb = pair("Al", 0.6, 0.06, distribution)
     wi, _ = hemisphere_pairs(5000, seed=22)
     rng = np.random.default_rng(23)

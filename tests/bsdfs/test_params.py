@@ -3,7 +3,7 @@ taken beside the paper's ``sigma``, ``sigma_u``, ``sigma_v`` with Mitsuba's
 meaning, alpha = sqrt(2) sigma (Beckmann's width; the plugin's GGX takes the
 same alpha as roughconductor's GGX). A width given as alpha is exposed by
 ``traverse`` under that name, with alpha's values. Bad values and giving both
-names are in proof/bad_input.py's table (tests/test_bad_input.py)."""
+names are in proof/bad_input.py's table (tests/hostile/test_bad_input.py)."""
 
 import math
 
@@ -16,7 +16,7 @@ from mitsuba_pbrdf import schema
 from tests.bsdfs.test_pbrdf_textured import MATCHED, checker, s0, tiles
 
 SQRT2 = math.sqrt(2.0)
-#: pbrdf against roughconductor, per element of M00 (tests/test_roughconductor.py).
+#: pbrdf against roughconductor, per element of M00 (tests/bsdfs/test_pbrdf_roughconductor.py).
 TOL = 1e-5
 
 
@@ -39,7 +39,7 @@ def test_each_alias_is_read_and_exposed_under_its_name(name):
 def test_alpha_gives_roughconductors_lobe(distribution):
     """Given as alpha (isotropic; anisotropic from alpha with alpha_v), pbrdf
     with Smith shadowing evaluates roughconductor's matrix; the pdfs differ
-    only by the exact Beckmann G1 (tests/test_roughconductor.py), so they are
+    only by the exact Beckmann G1 (tests/bsdfs/test_pbrdf_roughconductor.py), so they are
     compared for GGX alone."""
     wi, wo = hemisphere_pairs(3000, seed=36)
     si, w, ctx = make_si(wi), to_vector(wo), mi.BSDFContext()
@@ -61,7 +61,7 @@ def test_alpha_gives_roughconductors_lobe(distribution):
 def test_textures_given_as_alpha_render_as_roughconductors():
     """A checkerboard alpha_u beside a constant alpha_v: matched-seed render
     against roughconductor with the same textures (point light: eval only,
-    tests/test_textured_widths.py); given as sigma_u = alpha_u / sqrt(2)
+    tests/bsdfs/test_pbrdf_textured.py); given as sigma_u = alpha_u / sqrt(2)
     rendered the same."""
     rc = {"type": "roughconductor", "material": "Cu", "alpha_u": checker(0.05, 0.3),
           "alpha_v": 0.2}

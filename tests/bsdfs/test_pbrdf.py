@@ -47,7 +47,7 @@ def test_sample_distribution_matches_pdf(name, theta_deg):
 
 
 # The sample weight against the float64 reference and the documented mixture
-# pdf, and the frequencies of sampled_component: tests/test_mixture_sampling.py.
+# pdf, and the frequencies of sampled_component: tests/bsdfs/test_mixture_sampling.py.
 
 
 # ---------------------------------------------------------------- lobes and flags
@@ -117,7 +117,7 @@ def test_components_sum_to_total_and_can_be_selected(mode):
             assert np.all(part[..., 1:, :] == 0) and np.all(part[..., :, 1:] == 0)
     np.testing.assert_allclose(parts, total, rtol=1e-5, atol=1e-7)
     # The mixture pdf against the documented probabilities and the lobes'
-    # own pdfs: tests/test_mixture_sampling.py.
+    # own pdfs: tests/bsdfs/test_mixture_sampling.py.
 
 
 def test_type_mask_selects_diffuse_only():
@@ -152,7 +152,7 @@ def test_directions_below_the_horizon_give_zero(variant):
 
 
 # ---------------------------------------------------------------- valid input
-# (invalid input: tests/test_bad_input.py)
+# (invalid input: tests/hostile/test_bad_input.py)
 
 def test_valid_rgb_and_bitmap_weights_load_in_spectral_variants():
     """Spectral variants store RGB colours and bitmaps as spectral-upsampling
@@ -191,7 +191,7 @@ def test_register_after_switching_variant(variant):
 
 def test_smallest_accepted_roughness_loads():
     """sigma and sigma_dd exactly at the floor MIN_SIGMA (alpha = 1e-4) are
-    valid; only smaller ones are rejected (tests/test_bad_input.py)."""
+    valid; only smaller ones are rejected (tests/hostile/test_bad_input.py)."""
     from mitsuba_pbrdf.schema import MIN_SIGMA
 
     floor = float(np.float32(MIN_SIGMA))

@@ -5,7 +5,7 @@ same sampling (``DeltaReflection``, pdf 1, the mirror direction), ``eval`` and
 
 Tolerances: the Mueller matrices differ from conductor's by the Fresnel
 arithmetic alone (closed form vs dr::Complex, float32): 1e-5 of M00 per
-element, as tests/test_roughconductor.py; renders at matched seed consume the
+element, as tests/bsdfs/test_pbrdf_roughconductor.py; renders at matched seed consume the
 same random numbers, so they agree to float32 rounding (1e-4 of the mean S0
 per 4x4 tile, MODEL.md's figure; measured 6.8e-8 polarized, 3.7e-8 RGB, against a
 seed-to-seed 0.33).

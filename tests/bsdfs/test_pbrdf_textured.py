@@ -11,7 +11,7 @@ Oracles, at matched seed and spp (both BSDFs consume the same random numbers):
   S0 per 4x4 tile); the tolerance 1e-4 is the one MODEL.md gives for
   matched-seed renders. Under a constant environment the pdf enters (sampled
   weights and MIS weights), and roughconductor's Beckmann pdf uses an
-  approximate G1 (0.35 % at most, tests/test_roughconductor.py): measured
+  approximate G1 (0.35 % at most, tests/bsdfs/test_pbrdf_roughconductor.py): measured
   8e-4 per tile, bounded by twice that factor, and far inside the seed-to-seed
   difference (0.28).
 * directional diffuse lobe (which roughconductor has no twin of): a

@@ -1,5 +1,5 @@
 """BSDFs nested in BSDFs compose with their polarization (the emitters:
-tests/test_nesting.py): a pairwise covering array of wrappers around pbrdf
+tests/emitters/test_nesting.py): a pairwise covering array of wrappers around pbrdf
 and roughconductor against the inner BSDF's value rotated into the outer's
 Stokes bases in NumPy, Mitsuba's twosided against polarized_twosided, a
 perturbation of a perturbation against the single equivalent one, and
@@ -334,7 +334,7 @@ def test_a_nested_perturbation_is_the_single_equivalent_one(outer, inner):
 def test_stokes_prb_renders_and_differentiates_the_nestings(case, tmp_path):
     """``stokes_prb`` around nested plugins renders what ``stokes(path)``
     renders with the same random numbers (1e-5 of the image's largest value,
-    tests/test_stokes_prb.py's bound) and differentiates it as ``path`` AD
+    tests/integrators/test_stokes_prb.py's bound) and differentiates it as ``path`` AD
     does where that is exact (cosine sampling: 1e-4), through the wrappers'
     parameters: the nested pbrdf's kdd and eta, the nested lamp's radiance."""
     import test_stokes_prb as prb

@@ -39,7 +39,7 @@ def test_cosine_sampling_weight_and_pdf(mode):
     """pdf = cos(theta_o)/pi and weight = R cos(theta_o) / pdf = pi R, element
     by element, R the float64 reference in the global s/p frames (not the
     plugin's own eval). Tolerance 1e-4 of W00: the accuracy test's float32
-    bound (tests/test_bsdf_vs_reference.py), lanes where the float32 Beckmann
+    bound (tests/bsdfs/test_pbrdf_vs_reference.py), lanes where the float32 Beckmann
     D is cut off (R00 < 1e-18 /sr, Mitsuba's D cos < 1e-20) excepted."""
     bsdf = mi.load_dict(COSINE)
     wi, _ = hemisphere_pairs(5000, seed=12)

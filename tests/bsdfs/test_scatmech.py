@@ -33,7 +33,7 @@ closed-form Jones elements; the reference: Priest-Germer angles and rotations),
 so they agree to rounding, ~1e-14 of M00; 1e-9 of the configuration's largest
 M00 leaves room for cancellation near grazing while catching any model error
 (a sign, a factor or a frame shows up at order 1). Plugin (float32) vs
-SCATMECH: the plugin-vs-reference tolerance of ``tests/test_bsdf_vs_reference.py``,
+SCATMECH: the plugin-vs-reference tolerance of ``tests/bsdfs/test_pbrdf_vs_reference.py``,
 ``1e-4 M00 + 1e-7 max(M00)`` per element.
 """
 

@@ -1,7 +1,7 @@
 """Options do what ``--help`` says, or say why not: ``pbrdf polcam --exposure``
 takes effect whenever it is accepted (with ``--bits`` or ``--full-well``), and
 is refused where it would be ignored (the refusals are rows of
-tests/test_cli_hostile.py and tests/test_batch.py)."""
+tests/hostile/test_cli_hostile.py and tests/batch/test_runner.py)."""
 
 import numpy as np
 

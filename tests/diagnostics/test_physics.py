@@ -109,7 +109,7 @@ def test_reciprocity():
 
     Reference: the model is reciprocal, to float64 rounding (1e-12 of M00).
     Plugin: each of the two evaluations is within 1e-4 M00 of the reference,
-    the bound tests/test_bsdf_vs_reference.py derives for these directions
+    the bound tests/bsdfs/test_pbrdf_vs_reference.py derives for these directions
     (cos theta >= 0.02), so their difference is within 2e-4 M00."""
     rows = physics.reciprocity(pairs=10_000)
     show(["configuration", "engine", "M00 asymmetry", "Q M^T Q"], rows)
@@ -151,7 +151,7 @@ def test_reciprocity_and_realizability_checks_apply_to_any_bsdf():
     bounds as the plugin's hold (realizability.REALIZABILITY_TOL, twice that
     for the DOP excess), above M00 = 1e-30 (NORMAL_FLOOR of float32).
     Reciprocity: in this reduced case it equals pbrdf within 1e-5 M00 per
-    element (tests/test_roughconductor.py), which is within 1e-4 M00 of the
+    element (tests/bsdfs/test_pbrdf_roughconductor.py), which is within 1e-4 M00 of the
     exactly reciprocal reference: 2 x (1e-4 + 1e-5) = 2.2e-4 for the difference
     of two evaluations."""
     import mitsuba as mi

@@ -7,7 +7,7 @@ same seed and spp. With sigma = alpha / sqrt(2), Smith shadowing and no diffuse
 lobes, ``pbrdf`` draws its random numbers as ``roughconductor`` does, so the
 two agree tile by tile far below the seed-to-seed noise. The one known
 difference: ``roughconductor``'s Beckmann pdf uses an approximate G1 (0.35 % at
-most, tests/test_roughconductor.py), which enters the MIS weights and sampled
+most, tests/bsdfs/test_pbrdf_roughconductor.py), which enters the MIS weights and sampled
 weights under area and environment light; a tile therefore differs by at most
 twice that factor of its own S0 (``G1_FACTOR``). The scenes here light the
 metals by a constant sky and a spherical lamp (``include/matpreview.xml`` is a

@@ -1,5 +1,5 @@
 """Emitters nested in emitters compose with their polarization (the BSDFs:
-tests/test_nesting_bsdfs.py).
+tests/bsdfs/test_perturbed.py).
 
 **Emitter in emitter.** ``polarized_emitter`` is a linear diattenuator in
 front of its lamp: principal transmittances T (1 + p) and T (1 - p) (module

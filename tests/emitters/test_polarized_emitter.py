@@ -14,7 +14,7 @@ Korger et al.'s), which agree to first order in the ray's angle beta from
 the axis and may differ by beta² radians in the effective axis: the bound
 there is ``P beta² S0`` (beta <= 3.8 degrees: 4e-3 S0; measured 1.5e-3). The
 lamp's own Stokes vector (no analyzer) is compared per pixel with the
-formula at ``TOL``, the float32 bound of tests/test_polarized_light.py.
+formula at ``TOL``, the float32 bound of tests/emitters/test_polarized_light.py.
 """
 
 import math

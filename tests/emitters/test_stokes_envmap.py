@@ -7,7 +7,7 @@ lights a smooth metal as the sky itself does. Two comparisons per pixel:
 * against the same physics computed from the map's texels, interpolated in
   NumPy float64 as the emitter documents (bilinear on Mitsuba's envmap grid,
   as Stokes vectors): ``TOL = 1e-5``, the float32 bound of
-  tests/test_polarized_light.py (measured: ~1e-6);
+  tests/emitters/test_polarized_light.py (measured: ~1e-6);
 * against ``polarized_sky`` itself: within the map's interpolation error,
   which NumPy measures on the same pixels (1 degree texels: about 2e-4), plus
   ``TOL``.

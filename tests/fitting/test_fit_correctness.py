@@ -127,7 +127,7 @@ def test_drjit_backend_with_the_directional_lobe_off_fits():
     """``--backend drjit --fix kdd=0``: the plugin drops the lobe of a weight
     fixed at 0, so its width had no parameter to differentiate ('internal
     error: KeyError: sigma_dd.value'). Now the width is not fitted, and the
-    plugin's fit is the reference's (as tests/test_fit.py's backend test)."""
+    plugin's fit is the reference's (as tests/fitting/test_solver.py's backend test)."""
     data = small()
     ref_fit = fitting.fit_model(data, "three", fix={"kdd": 0.0}, material="Al", starts=1)
     dr_fit = fitting.fit_model(data, "three", fix={"kdd": 0.0}, material="Al", starts=1,
@@ -280,7 +280,7 @@ def test_synthetic_noise_floor_follows_the_intensity():
 def test_scatmech_data_with_dolp_and_the_diffuse_lobes_fixed():
     """The issue's regression: NIST SCATMECH's Shadowed_Facet_BRDF_Model
     (n = 1.2, k = 7.26, sigma = 0.1, at validation/fit_pbsdf.py's goniometer
-    geometries; conventions as tests/test_scatmech.py: its light at azimuth
+    geometries; conventions as tests/bsdfs/test_scatmech.py: its light at azimuth
     180 deg, no normal viewing) as m00 and DoLP with 1 % noise, fitted with
     ``--model three --fix kdd=0,kid=0 --rel-uncertainty 0.01``, stopped with
     'array must not contain infs or NaNs' (the narrow starts' m00 underflows).

@@ -201,7 +201,7 @@ def check_backend(data, models, row, options):
     against float64 with forward differences: float32 rounding, eps = 6e-8, of
     the terms summed into an element scales with M00; measured 5e-8 of it). The full fits take minutes on
     two cores (11 rows: 11 min, every row passed); the backends' fits agree
-    (tests/test_fit.py, test_fit_correctness.py)."""
+    (tests/fitting/test_solver.py, test_fit_correctness.py)."""
     from mitsuba_pbrdf.fitting.backends import BACKENDS
     from mitsuba_pbrdf.fitting.layout import ParameterLayout
     from mitsuba_pbrdf.fitting.options import assignments_by_model

@@ -68,7 +68,7 @@ def test_export_bands_writes_a_hyperspectral_table_that_fits(tmp_path):
     """11 bands of copper: the table reads (not renderable: measured_polarized
     reads exactly 5) and the fit recovers Mitsuba's n, k of copper at every band
     and the shared parameters within 1e-3 (noise-free float32 entries, the
-    criterion of tests/test_fit_tables.py for 5 bands)."""
+    criterion of tests/fitting/test_table_sampling.py for 5 bands)."""
     out = str(tmp_path / "cu11.pbsdf")
     r = run_cli("export", "--material", "Cu", "--sigma", "0.15", "--kdd", "0.1",
                 "--sigma-dd", "0.5", "--kid", "0.02", "--bands", "450:700:25",

@@ -14,7 +14,7 @@ loads evaluates to finite Mueller matrices (no NaN can render silently).
 
 Bad values of a ``float``/``spectrum`` parameter: NaN, +inf, -1 (every one
 is >= 0), 0 where it must be > 0 (as a texture only where a constant 0 is
-the smooth limit: tests/test_smooth_limit.py), half its floor where it has one; of a
+the smooth limit: tests/bsdfs/test_pbrdf_smooth_limit.py), half its floor where it has one; of a
 ``choice`` or ``material``: an unknown name and a number.
 """
 

@@ -353,7 +353,7 @@ TABLE = [
             status=2, text="give --wavelengths (the 5 bands measured_polarized renders) or --bands",
             absent="{tmp}/h.pbsdf"),
     # pbrdf batch --slurm: checked before Slurm is asked (the rows that need a running
-    # Slurm, Ctrl-C among them, are in tests/test_batch_slurm.py)
+    # Slurm, Ctrl-C among them, are in tests/batch/test_slurm.py)
     Hostile("batch: --slurm, malformed walltime",
             ["batch", "{sweep}", "--slurm", "--walltime", "2h"],
             status=2, text="--walltime '2h' is not a Slurm time", absent="{tmp}/out/manifest.csv"),

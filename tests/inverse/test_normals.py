@@ -9,7 +9,7 @@ Oracles and tolerances:
   sampling (proof/normal_map_gradients.py): the two agree to float32 rounding
   of different arithmetic, ~1e-6 of the largest entry; asserted 1e-4
   (measured: 0, bit for bit). Finite differences are checked in
-  tests/test_normal_maps.py.
+  tests/bsdfs/test_normalmap.py.
 * The polcam loss's linear map is built from camera.polcam.mono_mosaic; it
   must reproduce mono_mosaic on a random Stokes image to float32 rounding of
   a dot product of ~10 terms (1e-6 relative).

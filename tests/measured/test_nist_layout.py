@@ -5,7 +5,7 @@ PTFE measurement read as published, the ``--wavelength`` and
 
 The SCATMECH check: SCATMECH's ``Shadowed_Facet_BRDF_Model`` (Gaussian
 slopes, Torrance-Sparrow shadowing: the reference's specular lobe with
-``shadowing="vgroove"``, ``tests/test_scatmech.py``) computes Mueller BRDFs in
+``shadowing="vgroove"``, ``tests/bsdfs/test_scatmech.py``) computes Mueller BRDFs in
 its own frame (source at azimuth 180 deg, ``psps`` bases, its circular sign).
 They are written in NIST's layout exactly as a lab would (lambda in um, signed
 in-plane ``thetai``, out-of-plane ``phi``, ``f_r11`` and 1-indexed elements
@@ -79,7 +79,7 @@ def write_nist(path, rows, M, lam=0.633, header=HEADER):
 
 def test_scatmech_mueller_brdf_in_nist_layout_matches_the_reference(tmp_path):
     """Element by element, to 1e-9 of the largest M00: the two codes agree to
-    rounding (~1e-14, tests/test_scatmech.py) and the file's 17-digit numbers
+    rounding (~1e-14, tests/bsdfs/test_scatmech.py) and the file's 17-digit numbers
     and the normalization add ~1e-16; a wrong sign, index, azimuth or rotation
     shows at order 1 (the second half of the test shows it does)."""
     S = scatmech_rows(ROWS)

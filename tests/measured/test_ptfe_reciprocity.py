@@ -62,7 +62,7 @@ def test_reciprocity_holds_within_the_mirror_pairs_noise(ptfe):
 def test_a_sign_convention_on_every_row_is_invisible_to_reciprocity(ptfe):
     """Conjugating every matrix by a diagonal of +-1 (the circular sign, s and
     p swapped) or transposing every matrix commutes with M -> Q M^T Q: the
-    check cannot validate those conventions (tests/test_scatmech.py does).
+    check cannot validate those conventions (tests/bsdfs/test_scatmech.py does).
     Equal to rounding (1e-12 of M00)."""
     data, M, pairs, _ = ptfe
     ours = mr.pair_errors(M[pairs[:, 0]], M[pairs[:, 1]], mr.reciprocal)[1]
