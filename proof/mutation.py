@@ -46,7 +46,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
-from .mutation_tables import DEFECTS, EQUIVALENT, FORMER_PATHS, SUBSETS  # noqa: F401 (re-exported)
+from .mutation_tables import DEFECTS, EQUIVALENT, FORMER_NAMES, SUBSETS  # noqa: F401 (re-exported)
 
 #: The repository: the folder that holds proof/ (this file's folder) and the package.
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -263,10 +263,10 @@ def _scaffolding_at(rev):
 
 def in_copy(folder, path):
     """``path`` (a file, or a test ``file::name``) as the copy in ``folder``
-    has it: an older tests/ has a file at its former path (FORMER_PATHS)."""
+    has it: an older, flat tests/ has a file under its former name (FORMER_NAMES)."""
     file, sep, name = path.partition("::")
-    if not os.path.exists(os.path.join(folder, file)):
-        file = FORMER_PATHS.get(file, file)
+    if not os.path.exists(os.path.join(folder, file)) and file in FORMER_NAMES:
+        file = "tests/" + FORMER_NAMES[file]
     return file + sep + name
 
 
