@@ -276,7 +276,8 @@ def run_tests(folder, tests, timeout, stop_first=True):
     tests = [in_copy(folder, t) for t in tests]
     tests = [t for t in tests if os.path.exists(os.path.join(folder, t.split("::")[0]))]
     env = dict(os.environ, PYTHONPATH=folder, PYTHONDONTWRITEBYTECODE="1", MPLBACKEND="Agg")
-    command = [sys.executable, "-m", "pytest", *(["-x"] if stop_first else []), "-q", "-rs",
+    # "-n 0": one process per run; the study runs its copies side by side (--jobs)
+    command = [sys.executable, "-m", "pytest", *(["-x"] if stop_first else []), "-q", "-rs", "-n", "0",
                "-p", "no:cacheprovider", *tests]
     start = time.perf_counter()
     try:
