@@ -342,7 +342,7 @@ def test_dolp_max_is_exposed_and_differentiable():
     params = mi.traverse(emitter)
     nondifferentiable = int(mi.ParamFlags.NonDifferentiable)
     assert "dolp_max" in params and not params.flags("dolp_max") & nondifferentiable
-    # sun_direction too (the pattern's; test_polarized_light_gradients.py)
+    # sun_direction too (the pattern's; test_polarized_sky_gradients.py)
     assert not params.flags("sun_direction") & nondifferentiable
     dr.enable_grad(params["dolp_max"])
     params.update()

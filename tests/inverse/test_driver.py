@@ -10,7 +10,7 @@ as a real SIGINT under Python's own handler (KeyboardInterrupt out of the
 loop, no callback for the interrupted iteration). The fits run at toy sizes
 (8 x 8 pixels, 1-2 spp, 2 iterations): only the seeds they render with are
 checked here; what they recover is tested in test_inverse.py,
-test_normal_recovery.py and test_stokes_prb.py.
+tests/inverse/test_normals.py and tests/integrators/test_stokes_prb.py.
 """
 
 import os

@@ -122,7 +122,7 @@ def test_narrow_band_render_matches_the_reference(wavelength):
     """Renders at 632.8 nm (a HeNe line) and over 622.8-642.8 nm against the
     reference at the same wavelengths (the band: its average over 21 points,
     midpoint rule; n, k are linear over the band and the BRDF smooth in them,
-    so that rule is exact to < 1e-5). Tolerance as in test_analytic_scene.py: 5 standard
+    so that rule is exact to < 1e-5). Tolerance as in test_render.py: 5 standard
     errors of the Monte Carlo mean (pixel-footprint noise, pooled over the
     image from independent passes) plus 2e-3 of S0 for the reference's 8 x 8
     footprint quadrature and float32. The render at 600 nm differs from the

@@ -127,7 +127,7 @@ def test_bad_bands_in_a_sweep_are_refused_at_load_time(tmp_path, body, words):
 def test_batch_job_renders_a_cube(tmp_path):
     """A sweep's ``bands`` reaches the job's render: the job's EXR is the cube,
     and its polcam files have one mosaic per band (run_job in this process: the
-    Dask side is tested in test_batch.py)."""
+    Dask side is tested in tests/batch/test_runner.py)."""
     from mitsuba_pbrdf.batch.job import run_job
     from mitsuba_pbrdf.batch.runner import _task
     from mitsuba_pbrdf.batch.sweep import load_sweep
