@@ -337,7 +337,7 @@ def test_stokes_prb_renders_and_differentiates_the_nestings(case, tmp_path):
     tests/integrators/test_stokes_prb.py's bound) and differentiates it as ``path`` AD
     does where that is exact (cosine sampling: 1e-4), through the wrappers'
     parameters: the nested pbrdf's kdd and eta, the nested lamp's radiance."""
-    import test_stokes_prb as prb
+    from tests.integrators import test_stokes_prb as prb
 
     from mitsuba_pbrdf.integrators import from_path
 

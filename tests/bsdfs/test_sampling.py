@@ -23,14 +23,12 @@ def test_cosine_sampling_distribution_matches_pdf():
 
 def test_the_chi_square_family_counts_every_chi_square_test():
     """bsdf_harness.CHI2_TESTS, the family size of the Sidak correction, is the
-    number of chi-square tests the parametrizations make: test_bsdf's configs
-    x angles, this file's one, test_anisotropic's cases."""
-    import test_anisotropic
-    import test_bsdf
-
+    number of chi-square tests the parametrizations make: test_pbrdf's configs
+    x angles, this file's one, test_microfacet's cases."""
     from bsdf_harness import CHI2_TESTS
+    from tests.bsdfs import test_microfacet, test_pbrdf
 
-    made = len(test_bsdf.CONFIGS) * len(test_bsdf.CHI2_ANGLES) + 1 + len(test_anisotropic.CHI2)
+    made = len(test_pbrdf.CONFIGS) * len(test_pbrdf.CHI2_ANGLES) + 1 + len(test_microfacet.CHI2)
     assert CHI2_TESTS == made
 
 
