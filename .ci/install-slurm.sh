@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs Debian's Slurm (slurmctld, slurmd, the client commands) and munge,
-# for the single-node Slurm that tests/test_batch_slurm.py starts and stops.
+# for the single-node Slurm that tests/batch/test_slurm.py starts and stops.
 # Nothing is started or configured here. Safe to run again: it skips what is
 # already installed.
 set -euo pipefail

@@ -2,9 +2,9 @@
 figures and cost against narrow-band renders.
 
 1. Validation: a 4-band cube over 600-680 nm of scenes/analytic_plane.xml with
-   the steep index of tests/test_narrowband.py, against the float64 reference
+   the steep index of tests/rendering/test_narrowband.py, against the float64 reference
    averaged over each band (largest error / tolerance, tolerance as in
-   tests/test_cube.py), the neighbouring bands' references (which must fail),
+   tests/rendering/test_cube.py), the neighbouring bands' references (which must fail),
    and per-band ``--wavelength c:20`` renders.
 2. Cost: the cube of B bands in one render against B narrow-band renders
    (``render_scene(..., wavelength="c:W")`` one after the other in one
@@ -62,7 +62,7 @@ def validation(lines):
     lines += ["## Validation: cube against the float64 reference", "",
               f"scenes/analytic_plane.xml, 32x24, index n 0.3 -> 1.5, k 3 -> 6 over 600-670 nm; "
               f"cube `600:680:20`, {spp} spp x {runs} independent renders (2 passes each); "
-              "tolerance 5 pooled standard errors + 2e-3 of S0 (tests/test_cube.py).", "",
+              "tolerance 5 pooled standard errors + 2e-3 of S0 (tests/rendering/test_cube.py).", "",
               "| band | pooled rel. std. error of S0 | largest error / tolerance | "
               "image-mean S0 cube / reference - 1 | against the lower neighbour's reference | "
               "against the upper neighbour's reference |",

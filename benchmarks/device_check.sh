@@ -51,9 +51,9 @@ run() {   # print the command, run it, remember a failure but go on
 if [ "${SKIP_TESTS:-0}" != 1 ]; then
     echo "== 1. fast tests in the ${BACKEND}_ad_* variants"
     run env PBRDF_TEST_BACKEND="$BACKEND" "$PY" -m pytest -q -m "not slow" -p no:cacheprovider \
-        tests/test_schema.py tests/test_bsdf_vs_reference.py tests/test_roughconductor.py \
-        tests/test_sampling.py tests/test_mixture_sampling.py tests/test_stokes_prb.py \
-        tests/test_rotators.py
+        tests/test_schema.py tests/bsdfs/test_pbrdf_vs_reference.py tests/bsdfs/test_pbrdf_roughconductor.py \
+        tests/bsdfs/test_sampling.py tests/bsdfs/test_mixture_sampling.py tests/integrators/test_stokes_prb.py \
+        tests/test_mueller.py
 fi
 
 first_size="${SIZES%% *}"

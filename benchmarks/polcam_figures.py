@@ -7,7 +7,7 @@
    through Mitsuba's polarizer turned to θ (scenes/gallery/polarizer.xml);
 3. the time of ``polcam_outputs`` on a 512 x 512 RGB Stokes image;
 4. narrow-band renders (632.8 nm line, 632.8:20 band) against the reference
-   evaluator, with the renders and tolerance of tests/test_narrowband.py.
+   evaluator, with the renders and tolerance of tests/rendering/test_narrowband.py.
 
     python benchmarks/polcam_figures.py [--spp 16] [--report benchmarks/polcam.md]
 

@@ -317,7 +317,7 @@ def create(plugin_type: str, **params):
     swaps the process-wide file resolver for a copy and frees the copy when
     done, while a parallel scene load runs other constructors on other threads
     that read it (``sunsky`` for its data files), so a ``load_dict`` inside a
-    constructor can free what another thread reads (tests/test_plugin_objects.py).
+    constructor can free what another thread reads (tests/test_properties.py).
     The plugin manager touches no resolver."""
     props = mi.Properties(plugin_type)
     for key, value in params.items():

@@ -304,7 +304,7 @@ class Setting:
     high]`` (either None: unbounded), its ``choices`` (a string setting) and
     whether ``traverse`` exposes it as differentiable. Read by
     :func:`mitsuba_pbrdf.properties.declared`; the plugin's docstring table
-    states the same default and flag (tests/test_plugin_tables.py)."""
+    states the same default and flag (tests/test_registry.py)."""
 
     plugin: str
     name: str

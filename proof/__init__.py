@@ -1,7 +1,7 @@
 """The proof outside the wheel: scaffolding that ``tests/`` and ``validation/``
 share and users never need. Not packaged (the wheel holds ``mitsuba_pbrdf``
-alone; tests/test_packaging.py checks it), and nothing in ``mitsuba_pbrdf``
-imports it (tests/test_layout.py checks that).
+alone; tests/project/test_packaging.py checks it), and nothing in ``mitsuba_pbrdf``
+imports it (tests/project/test_layout.py checks that).
 
 * :mod:`.mutation`, :mod:`.mutation_tables`: the mutation-testing tool
   (validation/mutation.md);

@@ -5,7 +5,7 @@ one-line message naming the parameter: :func:`cases` lists them, :func:`load_err
 loads one and returns the last line of the error. Cases Mitsuba's own parser
 rejects before the plugin sees them (a spectrum with negative entries, an
 unreferenced parameter, a Python list) carry Mitsuba's message, which names the
-parameter too. Shared by the tests (``tests/test_bad_input.py``, which asserts
+parameter too. Shared by the tests (``tests/hostile/test_bad_input.py``, which asserts
 on each) and the bad-input study (``validation/bad_input.py``, which lists the
 messages).
 

@@ -1,7 +1,7 @@
 """The white-furnace study's table: the albedo of every lobe by the reference's
 quadrature and by the plugin's own sampling (:mod:`mitsuba_pbrdf.diagnostics.furnace`),
 their comparison, and the flat-surface Fresnel reflectance the metal rows are
-judged against. Used by validation/furnace.py and tests/test_physics.py."""
+judged against. Used by validation/furnace.py and tests/diagnostics/test_physics.py."""
 
 import numpy as np
 

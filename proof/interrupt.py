@@ -1,5 +1,5 @@
-"""Ctrl-C for real, for the tests of ``pbrdf batch`` (tests/test_batch.py on a
-local cluster, tests/test_batch_slurm.py on Slurm): run ``python -m
+"""Ctrl-C for real, for the tests of ``pbrdf batch`` (tests/batch/test_runner.py on a
+local cluster, tests/batch/test_slurm.py on Slurm): run ``python -m
 mitsuba_pbrdf ARGS`` in a session of its own with this checkout first on
 ``PYTHONPATH``, wait until its output folder holds a file, and send SIGINT to
 its whole process group, as a terminal's Ctrl-C does; or send it after a

@@ -1,6 +1,6 @@
 """Helmholtz reciprocity and mirror symmetry of a measured Mueller BRDF, read
 into the project's conventions (the checks behind
-``validation/ptfe_reciprocity.py`` and ``tests/test_ptfe_reciprocity.py``).
+``validation/ptfe_reciprocity.py`` and ``tests/measured/test_ptfe_reciprocity.py``).
 
 Frames and units: the matrices are
 :class:`~mitsuba_pbrdf.measured.measurements.Measurements` rows in the

@@ -12,7 +12,7 @@ A mutant changes one thing in one module of ``mitsuba_pbrdf/bsdfs/`` or
 ``and`` <-> ``or``; a unary ``-`` or ``not`` dropped; a number ``c`` -> ``c + 1``;
 ``True`` <-> ``False``; ``minimum`` <-> ``maximum``, ``min`` <-> ``max``. Not mutated:
 docstrings and other strings, f-strings and the arguments of ``raise`` (error
-messages: tests/test_bad_input.py checks those by content), and annotations.
+messages: tests/hostile/test_bad_input.py checks those by content), and annotations.
 
 Each mutant is written into a private copy of the package (``tests/`` and
 ``pyproject.toml`` beside it; byte-code off, so no stale ``.pyc``) and the test
@@ -46,7 +46,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
-from .mutation_tables import DEFECTS, EQUIVALENT, SUBSETS  # noqa: F401 (re-exported)
+from .mutation_tables import DEFECTS, EQUIVALENT, FORMER_NAMES, SUBSETS  # noqa: F401 (re-exported)
 
 #: The repository: the folder that holds proof/ (this file's folder) and the package.
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -261,12 +261,23 @@ def _scaffolding_at(rev):
     return [p for p in ("proof", "mitsuba_pbrdf/checks") if p in listed][:1]
 
 
+def in_copy(folder, path):
+    """``path`` (a file, or a test ``file::name``) as the copy in ``folder``
+    has it: an older, flat tests/ has a file under its former name (FORMER_NAMES)."""
+    file, sep, name = path.partition("::")
+    if not os.path.exists(os.path.join(folder, file)) and file in FORMER_NAMES:
+        file = "tests/" + FORMER_NAMES[file]
+    return file + sep + name
+
+
 def run_tests(folder, tests, timeout, stop_first=True):
     """``pytest -x`` of ``tests`` in ``folder`` (those of its files that exist
     there: an older tests/ may lack some): (status, seconds, last line)."""
+    tests = [in_copy(folder, t) for t in tests]
     tests = [t for t in tests if os.path.exists(os.path.join(folder, t.split("::")[0]))]
     env = dict(os.environ, PYTHONPATH=folder, PYTHONDONTWRITEBYTECODE="1", MPLBACKEND="Agg")
-    command = [sys.executable, "-m", "pytest", *(["-x"] if stop_first else []), "-q", "-rs",
+    # "-n 0": one process per run; the study runs its copies side by side (--jobs)
+    command = [sys.executable, "-m", "pytest", *(["-x"] if stop_first else []), "-q", "-rs", "-n", "0",
                "-p", "no:cacheprovider", *tests]
     start = time.perf_counter()
     try:
@@ -353,7 +364,7 @@ def run_defect(defect, folder, tests, timeout=900):
     """Apply ``defect`` (a one-line text mutant, mutation_tables.DEFECTS) in
     ``folder`` and run ``tests`` there: (status, seconds, last line), the file
     restored afterwards. "missing" if the line is not in that copy."""
-    target = os.path.join(folder, defect["path"])
+    target = os.path.join(folder, in_copy(folder, defect["path"]))
     with open(target, encoding="utf-8") as f:
         original = f.read()
     if original.count(defect["old"]) < 1:

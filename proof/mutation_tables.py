@@ -4,9 +4,28 @@
 #: quickest killers first: ``pytest -x`` stops at the first failure). A file
 #: that an older tests/ lacks is left out of that run.
 SUBSETS = {
-    "plugin": ["tests/test_bsdf_vs_reference.py", "tests/test_mixture_sampling.py",
-               "tests/test_bsdf.py", "tests/test_sampling.py", "tests/test_bad_input.py"],
-    "reference": ["tests/test_reference.py", "tests/test_bsdf_vs_reference.py"],
+    "plugin": ["tests/bsdfs/test_pbrdf_vs_reference.py", "tests/bsdfs/test_mixture_sampling.py",
+               "tests/bsdfs/test_pbrdf.py", "tests/bsdfs/test_sampling.py",
+               "tests/hostile/test_bad_input.py"],
+    "reference": ["tests/reference/test_model.py", "tests/bsdfs/test_pbrdf_vs_reference.py"],
+}
+#: The name a test file of these tables had in the flat tests/ of the suites
+#: written before tests/ mirrored the package (``--tests-rev`` of an older suite).
+FORMER_NAMES = {
+    "tests/bsdfs/test_fuzz.py": "test_fuzz.py",
+    "tests/bsdfs/test_mixture_sampling.py": "test_mixture_sampling.py",
+    "tests/bsdfs/test_pbrdf.py": "test_bsdf.py",
+    "tests/bsdfs/test_pbrdf_vs_reference.py": "test_bsdf_vs_reference.py",
+    "tests/bsdfs/test_robustness.py": "test_robustness.py",
+    "tests/bsdfs/test_sampling.py": "test_sampling.py",
+    "tests/bsdfs/test_sampling_unbiased.py": "test_sampling_unbiased.py",
+    "tests/diagnostics/test_physics.py": "test_physics.py",
+    "tests/fitting/test_solver.py": "test_fit.py",
+    "tests/hostile/test_bad_input.py": "test_bad_input.py",
+    "tests/inverse/test_gradients.py": "test_gradients.py",
+    "tests/inverse/test_inverse.py": "test_inverse.py",
+    "tests/reference/test_model.py": "test_reference.py",
+    "tests/visualization/test_visualize.py": "test_visualize.py",
 }
 #: Survivors that no test can kill, with the reason (validation/mutation.md).
 EQUIVALENT = {
@@ -65,12 +84,12 @@ def _defect(name, path, old, new, new_tests, old_tests):
     return dict(name=name, path=path, old=old, new=new, new_tests=new_tests, old_tests=old_tests)
 
 
-_MIX = "tests/test_mixture_sampling.py::"
+_MIX = "tests/bsdfs/test_mixture_sampling.py::"
 _FREQ = _MIX + "test_sampled_component_frequencies_follow_the_documented_probabilities"
 _WEIGHT = _MIX + "test_sample_weight_is_reference_value_over_mixture_pdf"
-_OLD_WEIGHT = "tests/test_bsdf.py::test_sample_weight_is_eval_over_pdf"
-_UNBIASED = "tests/test_sampling_unbiased.py"
-_GRAD = "tests/test_gradients.py::test_rendered_stokes_loss_gradient_matches_finite_differences_path"
+_OLD_WEIGHT = "tests/bsdfs/test_pbrdf.py::test_sample_weight_is_eval_over_pdf"
+_UNBIASED = "tests/bsdfs/test_sampling_unbiased.py"
+_GRAD = "tests/inverse/test_gradients.py::test_rendered_stokes_loss_gradient_matches_finite_differences_path"
 
 #: The defects of the suite found in review (issue 14), each as a one-line
 #: mutant (``old`` -> ``new`` in ``path``; a path under tests/ is a broken copy
@@ -81,14 +100,14 @@ DEFECTS = [
             "mitsuba_pbrdf/bsdfs/pbrdf.py", "                if lobe.polarizing:",
             "                if lobe.polarizing and False:",
             [_FREQ, _MIX + "test_pdf_is_the_documented_mixture_of_lobe_pdfs"],
-            ["tests/test_bsdf.py::test_components_sum_to_total_and_can_be_selected",
-             "tests/test_bsdf.py::test_sampled_component_and_type"]),
+            ["tests/bsdfs/test_pbrdf.py::test_components_sum_to_total_and_can_be_selected",
+             "tests/bsdfs/test_pbrdf.py::test_sampled_component_and_type"]),
     _defect("Lobe selection: uniform lobe probabilities", "mitsuba_pbrdf/bsdfs/pbrdf.py",
             "estimates[lobe.index] = dr.maximum(dr.mean(estimate, axis=0), 0.0)",
             "estimates[lobe.index] = mi.Float(1.0)",
             [_FREQ, _MIX + "test_pdf_is_the_documented_mixture_of_lobe_pdfs"],
-            ["tests/test_bsdf.py::test_components_sum_to_total_and_can_be_selected",
-             "tests/test_bsdf.py::test_sampled_component_and_type"]),
+            ["tests/bsdfs/test_pbrdf.py::test_components_sum_to_total_and_can_be_selected",
+             "tests/bsdfs/test_pbrdf.py::test_sampled_component_and_type"]),
     _defect("Circular weight test: G dropped from a lobe", "mitsuba_pbrdf/bsdfs/lobes.py",
             "value = D * G * half.inv_4cos_i", "value = D * half.inv_4cos_i",
             [_WEIGHT], [_OLD_WEIGHT + "[TransportMode.Radiance-full-vgroove]"]),
@@ -102,54 +121,54 @@ DEFECTS = [
             [_WEIGHT], [_OLD_WEIGHT + "[TransportMode.Radiance-full-vgroove]"]),
     _defect("Circular cosine-sampling weight test: G dropped", "mitsuba_pbrdf/bsdfs/lobes.py",
             "value = D * G * half.inv_4cos_i", "value = D * half.inv_4cos_i",
-            ["tests/test_sampling.py::test_cosine_sampling_weight_and_pdf"],
-            ["tests/test_sampling.py::test_cosine_sampling_weight_and_pdf"]),
+            ["tests/bsdfs/test_sampling.py::test_cosine_sampling_weight_and_pdf"],
+            ["tests/bsdfs/test_sampling.py::test_cosine_sampling_weight_and_pdf"]),
     _defect("Reference Fresnel with N = n - ik", "mitsuba_pbrdf/reference/fresnel.py",
             "eta = np.asarray(n, dtype=np.float64) + 1j *",
             "eta = np.asarray(n, dtype=np.float64) - 1j *",
-            ["tests/test_reference.py::test_fresnel_bounded_and_matches_real_form"],
-            ["tests/test_reference.py::test_fresnel_bounded_and_matches_real_form"]),
+            ["tests/reference/test_model.py::test_fresnel_bounded_and_matches_real_form"],
+            ["tests/reference/test_model.py::test_fresnel_bounded_and_matches_real_form"]),
     _defect("Fit: kdd reported 3 % high (stated 2 %, enforced 6.3 %)",
             "mitsuba_pbrdf/fitting/solver.py", "    values = layout.unpack(best.x)",
             "    values = layout.unpack(best.x); values['kdd'] = values['kdd'] * 1.03",
-            ["tests/test_fit.py::test_recovers_parameters_from_m00_and_dolp"],
-            ["tests/test_fit.py::test_recovers_parameters_from_m00_and_dolp"]),
+            ["tests/fitting/test_solver.py::test_recovers_parameters_from_m00_and_dolp"],
+            ["tests/fitting/test_solver.py::test_recovers_parameters_from_m00_and_dolp"]),
     _defect("Inverse: the optimizer does not move", "mitsuba_pbrdf/inverse/optimize.py",
             "        opt.step()", "        pass  # no step",
-            ["tests/test_inverse.py::test_polarization_makes_n_k_ks_identifiable"],
-            ["tests/test_inverse.py::test_polarization_makes_n_k_ks_identifiable"]),
+            ["tests/inverse/test_inverse.py::test_polarization_makes_n_k_ks_identifiable"],
+            ["tests/inverse/test_inverse.py::test_polarization_makes_n_k_ks_identifiable"]),
     _defect("Normal incidence: M33 with the wrong sign", "mitsuba_pbrdf/bsdfs/fresnel.py",
             "    M[3, 3] = C", "    M[3, 3] = -C",
-            ["tests/test_robustness.py::test_normal_incidence_reflectance_is_fresnel"],
-            ["tests/test_robustness.py::test_normal_incidence_reflectance_is_fresnel"]),
+            ["tests/bsdfs/test_robustness.py::test_normal_incidence_reflectance_is_fresnel"],
+            ["tests/bsdfs/test_robustness.py::test_normal_incidence_reflectance_is_fresnel"]),
     _defect("In-plane plot: specular lobe twice too bright", "mitsuba_pbrdf/reference/model.py",
             'scale = D * G / (4.0 * g["cos_i"]', 'scale = D * G / (2.0 * g["cos_i"]',
-            ["tests/test_visualize.py::test_in_plane_mirror_direction_is_fresnel"],
-            ["tests/test_visualize.py::test_in_plane_mirror_direction_is_fresnel"]),
-    _defect("Broken install: a variant that cannot be set", "tests/test_reference.py",
+            ["tests/visualization/test_visualize.py::test_in_plane_mirror_direction_is_fresnel"],
+            ["tests/visualization/test_visualize.py::test_in_plane_mirror_direction_is_fresnel"]),
+    _defect("Broken install: a variant that cannot be set", "tests/reference/test_model.py",
             'mitsuba_variant("llvm_ad_spectral_polarized")', 'mitsuba_variant("llvm_ad_no_such")',
-            ["tests/test_reference.py"], ["tests/test_reference.py"]),
+            ["tests/reference/test_model.py"], ["tests/reference/test_model.py"]),
     _defect("Accuracy test's floor: 0.3 % error in the specular lobe's tail (D < 1e-3 /sr)",
             "mitsuba_pbrdf/bsdfs/lobes.py", "value = D * G * half.inv_4cos_i",
             "value = D * G * half.inv_4cos_i * dr.select(D < 1e-3, 1.003, 1.0)",
-            ["tests/test_bsdf_vs_reference.py::test_plugin_matches_reference"],
-            ["tests/test_bsdf_vs_reference.py::test_plugin_matches_reference"]),
+            ["tests/bsdfs/test_pbrdf_vs_reference.py::test_plugin_matches_reference"],
+            ["tests/bsdfs/test_pbrdf_vs_reference.py::test_plugin_matches_reference"]),
     _defect("Fuzz accuracy: cos(beta) = wi.h (17 x error on nearly opposite pairs)",
             "mitsuba_pbrdf/bsdfs/lobes.py", "mi.Frame3f.cos_theta(h), 0.5 * dr.norm(half),",
             "mi.Frame3f.cos_theta(h), dr.dot(wi, h),",
-            ["tests/test_fuzz.py::test_fixed_hostile_pairs_at_moderate_roughness_have_tight_bounds",
-             "tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"],
-            ["tests/test_fuzz.py::test_fuzz_accuracy_within_float32_of_the_conditioning"]),
+            ["tests/bsdfs/test_fuzz.py::test_fixed_hostile_pairs_at_moderate_roughness_have_tight_bounds",
+             "tests/bsdfs/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"],
+            ["tests/bsdfs/test_fuzz.py::test_fuzz_accuracy_within_float32_of_the_conditioning"]),
     _defect("Fuzz coverage: every lane's bound inflated 10^6 x (no comparison can fail)",
             "proof/stress.py", "ACCURACY_UNITS = 128",
             "ACCURACY_UNITS = 128 * 10 ** 6",
-            ["tests/test_fuzz.py::test_fuzz_covers_the_regions"],
-            ["tests/test_fuzz.py::test_fuzz_covers_the_regions"]),
+            ["tests/bsdfs/test_fuzz.py::test_fuzz_covers_the_regions"],
+            ["tests/bsdfs/test_fuzz.py::test_fuzz_covers_the_regions"]),
     _defect("Transport modes differ by 1e-4", "mitsuba_pbrdf/bsdfs/pbrdf.py",
             "value = dr.select(active, value, zero)",
             "value = dr.select(active, value * (1.0 + 1e-4 * (ctx.mode == mi.TransportMode.Importance)), zero)",
-            ["tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"],
-            ["tests/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"]),
+            ["tests/bsdfs/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"],
+            ["tests/bsdfs/test_fuzz.py::test_eval_is_the_same_in_both_transport_modes_for_nearly_opposite_grazing_pairs"]),
     _defect("Gradient: d/dkid with the wrong sign", "mitsuba_pbrdf/bsdfs/pbrdf.py",
             "weight = lobe.weight.eval(si, active) * value",
             "weight = (2 * dr.detach(lobe.weight.eval(si, active)) - lobe.weight.eval(si, active) if lobe.name == 'ideal_diffuse' else lobe.weight.eval(si, active)) * value",
@@ -158,11 +177,11 @@ DEFECTS = [
             "mitsuba_pbrdf/bsdfs/lobes.py",
             "pdf = prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i",
             "pdf = prob * D * (distribution.smith_g1(si.wi, mi.Vector3f(0.0, 0.0, 1.0)) if self.shadowing == 'smith' else visible_g1(distribution, si.wi)) * half.inv_4cos_i",
-            [_UNBIASED], ["tests/test_physics.py::test_sample_weights_are_unbiased_for_beckmann_lobes",
-                          "tests/test_physics.py::test_albedo_of_each_lobe_plugin_sampling_vs_reference_quadrature"]),
+            [_UNBIASED], ["tests/diagnostics/test_physics.py::test_sample_weights_are_unbiased_for_beckmann_lobes",
+                          "tests/diagnostics/test_physics.py::test_albedo_of_each_lobe_plugin_sampling_vs_reference_quadrature"]),
     _defect("Unbiasedness: every lobe pdf 0.3 % high", "mitsuba_pbrdf/bsdfs/lobes.py",
             "pdf = prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i",
             "pdf = 1.003 * prob * D * visible_g1(distribution, si.wi) * half.inv_4cos_i",
-            [_UNBIASED], ["tests/test_physics.py::test_sample_weights_are_unbiased_for_beckmann_lobes",
-                          "tests/test_physics.py::test_albedo_of_each_lobe_plugin_sampling_vs_reference_quadrature"]),
+            [_UNBIASED], ["tests/diagnostics/test_physics.py::test_sample_weights_are_unbiased_for_beckmann_lobes",
+                          "tests/diagnostics/test_physics.py::test_albedo_of_each_lobe_plugin_sampling_vs_reference_quadrature"]),
 ]

@@ -3,7 +3,7 @@ derivative of a fixed random linear functional of a Stokes render with
 respect to every texel of the normal map (or of the bump map's height
 texture), by ``stokes_prb`` (reverse mode), by Mitsuba's ``path`` in AD mode
 and by central finite differences of the same renders (common random
-numbers). Used by tests/test_normal_recovery.py and
+numbers). Used by tests/inverse/test_normals.py and
 validation/shape_from_polarization.py.
 
 The scene is :mod:`proof.tilted_plane`'s: a flat plate under

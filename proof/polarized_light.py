@@ -1,4 +1,4 @@
-"""Scaffolding for the polarized-light tests (tests/test_polarized_light.py)
+"""Scaffolding for the polarized-light tests (tests/emitters/test_polarized_light.py)
 and benchmarks/polarized_sky.py: small scenes around the package's emitters,
 their Stokes renders, the rays through pixel centres, and an independent
 NumPy float64 statement of the sky models and of Mitsuba's camera Stokes

@@ -1,5 +1,5 @@
 """Derivatives of a fixed linear functional of a rendered image with respect to
-scene parameters, in reverse or forward mode: what tests/test_stokes_prb.py and
+scene parameters, in reverse or forward mode: what tests/integrators/test_stokes_prb.py and
 validation/path_replay_gradients.py compare between integrators (``stokes_prb``
 against Mitsuba's ``path`` in AD mode), entry by entry.
 

@@ -4,7 +4,7 @@ the chosen observables (polcam: the mono IMX250MZR frame through the sensor
 model, 16 bits, shot and read noise), and recover the normals from a flat
 start (mitsuba_pbrdf.inverse.normals.recover_normals). Used by
 validation/shape_from_polarization.py (full size) and
-tests/test_normal_recovery.py (small size). A polarized variant must be set.
+tests/inverse/test_normals.py (small size). A polarized variant must be set.
 """
 
 from __future__ import annotations

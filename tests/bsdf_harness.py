@@ -64,8 +64,8 @@ def hemisphere_pairs(n, seed=0, near_specular=0.5, min_cos=1e-3):
 #: level 1 - (1 - 0.01)^(1/19) = 5.3e-4 (Mitsuba's ChiSquareTest.run(test_count=)),
 #: so a correct sampler fails one of them with probability 1 %.
 CHI2_SIGNIFICANCE = 0.01
-CHI2_TESTS = 19  # tests/test_bsdf.py: 5 configurations x 3 angles; tests/test_sampling.py: 1;
-#                  tests/test_anisotropic.py: 3 (tests/test_sampling.py checks the sum)
+CHI2_TESTS = 19  # tests/bsdfs/test_pbrdf.py: 5 configurations x 3 angles; tests/bsdfs/test_sampling.py: 1;
+#                  tests/bsdfs/test_microfacet.py: 3 (tests/bsdfs/test_sampling.py checks the sum)
 
 
 def chi2_sampling_test(config, wi, sample_count, res=101, ires=8):

@@ -1,4 +1,4 @@
-"""The rows of tests/test_cli_hostile.py's table for the surfaces added since
+"""The rows of tests/hostile/test_cli_hostile.py's table for the surfaces added since
 it was written (issue 28: cubes, sweeps, the NIST layout, recover-normals,
 anisotropy, normal and bump maps), and the files they need.
 
@@ -111,7 +111,7 @@ ROWS = [
     Hostile("plot: --sigma-v below the floor",
             ["plot", "--sigma-v", "5e-324", "--out", "{tmp}/p.png"],
             status=2, text="--sigma-v: must be >= 7.07e-05", absent="{tmp}/p.png"),
-    # recover-normals (the library's checks: tests/test_normal_recovery.py)
+    # recover-normals (the library's checks: tests/inverse/test_normals.py)
     Hostile("recover-normals: --seed -1",
             ["recover-normals", "{plate}", "--targets", "{exr8}", "--out", "{tmp}/rn", "--seed",
              "-1"],

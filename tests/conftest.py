@@ -1,9 +1,12 @@
 """Shared test set-up: the suite's default variant (every test starts in it),
 fixtures that switch variants (``mitsuba_pbrdf.use_variant`` sets one and
 registers the plugin), and the fast tier's check. Helpers that tests import
-are ``bsdf_harness.py``'s."""
+are ``bsdf_harness.py``'s. Under pytest-xdist (README's command runs
+``-n auto --dist loadgroup``) each test file goes to one worker whole, and the
+tests of ``SERIAL`` to one worker together."""
 
 import os
+import sys
 
 import mitsuba as mi
 import pytest
@@ -113,18 +116,52 @@ def package_modules():
     return sorted(names)
 
 
+#: Files whose tests must not run beside one another on two workers: they start
+#: Dask clusters and a single-node Slurm (processes, ports, the one slurmctld)
+#: and wait for them under deadlines, or time a benchmark.
+SERIAL = ("tests/batch/", "tests/benchmarks/")
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Each test's xdist group (``--dist loadgroup``): its file, so that a
+    file's module-scoped fixtures are built once, or "serial" for ``SERIAL``.
+    First, so that xdist's own hook sees the marks."""
+    for item in items:
+        path = item.nodeid.split("::")[0]
+        group = "serial" if path.startswith(SERIAL) else path
+        item.add_marker(pytest.mark.xdist_group(group))
+
+
+def _package_modules_imported():
+    return sorted(m for m in package_modules() if m in sys.modules)
+
+
 def pytest_sessionfinish(session, exitstatus):
     """A whole fast-tier run (``pytest -m "not slow"``, no file or ``-k``
     chosen) must have touched (imported) every module of the package: a module
-    whose only tests are marked ``slow`` fails the run, naming it."""
+    whose only tests are marked ``slow`` fails the run, naming it. Under xdist
+    each worker sends what it imported, and the controller checks the union."""
     config = session.config
+    if hasattr(config, "workerinput"):      # an xdist worker: report, never judge
+        config.workeroutput["pbrdf_imported"] = _package_modules_imported()
+        return
     whole = (config.args_source == pytest.Config.ArgsSource.TESTPATHS
              and not config.option.keyword and not config.option.collectonly)
     if exitstatus != 0 or not whole or config.option.markexpr.strip() != FAST_TIER:
         return
-    import sys
-
-    untouched = [m for m in package_modules() if m not in sys.modules]
+    imported = getattr(config, "pbrdf_worker_imports", None)
+    if imported is None:                    # no workers: this process ran the tests
+        imported = set(_package_modules_imported())
+    untouched = [m for m in package_modules() if m not in imported]
     if untouched:
         print(f"\nthe fast tier ({FAST_TIER}) imported no test of: {', '.join(untouched)}")
         session.exitstatus = 1
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """Collects each xdist worker's imported package modules on the controller."""
+    found = getattr(node, "workeroutput", {}).get("pbrdf_imported", [])
+    imported = getattr(node.config, "pbrdf_worker_imports", set())
+    node.config.pbrdf_worker_imports = imported | set(found)

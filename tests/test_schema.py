@@ -50,7 +50,7 @@ def test_plugin_checks_each_declared_bound(p):
             mi.load_dict({"type": "pbrdf", p.name: value, **extra})
     ok = 0.2 if p.floor is None else max(0.2, p.floor)
     mi.load_dict({"type": "pbrdf", p.name: ok, **extra})
-    if p.smooth_at_zero:   # the smooth limit (tests/test_smooth_limit.py)
+    if p.smooth_at_zero:   # the smooth limit (tests/bsdfs/test_pbrdf_smooth_limit.py)
         smooth = {q: 0.0 for q in schema.REFINEMENTS.get(p.refines or p.name, ())}
         mi.load_dict({"type": "pbrdf", **smooth, p.name: 0.0, **extra})
 
@@ -100,7 +100,7 @@ def test_traverse_exposes_the_declared_parameters_with_their_flags():
     params = mi.traverse(bsdf)
     exposed = {key.split(".")[0] for key in params.keys()}
     # refinements (sigma_u ...) are exposed instead of what they refine only
-    # where given (tests/test_anisotropic.py)
+    # where given (tests/bsdfs/test_microfacet.py)
     declared = {p.name for p in schema.PARAMETERS if p.plugin and p.differentiable
                 and not p.refines}
     assert exposed == declared

@@ -4,7 +4,7 @@
 
 Loads a ``pbrdf`` with every entry of the table in
 ``proof/bad_input.py`` (``llvm_ad_spectral_polarized``) and
-writes the error message it gets. ``tests/test_bad_input.py`` asserts on the
+writes the error message it gets. ``tests/hostile/test_bad_input.py`` asserts on the
 same table that each is rejected at load time and that the message names the
 parameter; this page shows the messages a user sees.
 """
@@ -30,7 +30,7 @@ def main(argv=None):
         rows.append((bad_input.describe(params), message[:160], named))
     text = (f"# Study 5: bad input\n\n`python validation/bad_input.py` "
             f"({time.perf_counter() - start:.1f} s): every invalid parameter of the table in "
-            f"`proof/bad_input.py` ({len(rows)} cases; `tests/test_bad_input.py` "
+            f"`proof/bad_input.py` ({len(rows)} cases; `tests/hostile/test_bad_input.py` "
             "also covers XML, scenes, `mi.traverse` updates and other variants) and the last "
             "line of the error Mitsuba reports when loading it. Found by that test and fixed "
             "since (regression tests there): bitmap textures were checked on a 64×64 grid of "

@@ -11,7 +11,7 @@
    recovered versus true parameters, residuals per Mueller element.
 2. **SCATMECH-computed data**: NIST SCATMECH's ``Shadowed_Facet_BRDF_Model``
    (Gaussian slopes, Torrance-Sparrow shadowing; mapping in
-   ``tests/test_scatmech.py``) at goniometer geometries (incidence 20, 45,
+   ``tests/bsdfs/test_scatmech.py``) at goniometer geometries (incidence 20, 45,
    70 deg, in plane and out of plane), 633 nm, all 16 elements with 1 %
    noise; fitted with the three-component model: does an independent code's
    data give back its parameters?
@@ -80,14 +80,14 @@ def scatmech_data(seed=1):
     rows = []
     for ti in (20.0, 45.0, 70.0):
         # no theta_r = 0: there SCATMECH's psps frame is the limit along phis while
-        # the CSV convention takes the surface x-axis (tests/test_scatmech.py)
+        # the CSV convention takes the surface x-axis (tests/bsdfs/test_scatmech.py)
         for tr in np.arange(-78.0, 78.1, 4.0):
             rows.append((ti, abs(tr), 0.0 if tr >= 0 else 180.0))
         for tr in (20.0, 40.0, 60.0):
             for ps in (30.0, 60.0, 90.0, 150.0):
                 rows.append((ti, tr, ps))
     rows = np.array(rows)
-    D = np.diag([1.0, 1.0, 1.0, -1.0])        # SCATMECH's S3 sign (tests/test_scatmech.py)
+    D = np.diag([1.0, 1.0, 1.0, -1.0])        # SCATMECH's S3 sign (tests/bsdfs/test_scatmech.py)
     M = np.array([D @ np.array(model.MuellerBRDF(*np.radians(r))) @ D for r in rows])
     rng = np.random.default_rng(seed)
     scale = M[:, :1, :1]

@@ -17,7 +17,7 @@ Three parts, each with every objective of ``fitting.objectives``:
    532, 633 and 1064 nm (all 16 elements), both models, Beckmann lobes (the
    paper's), n and k fitted from PTFE's index (n = 1.35, k = 0.01).
 
-No tolerance is set here: the study reports. ``tests/test_fit_real.py`` asserts
+No tolerance is set here: the study reports. ``tests/fitting/test_fit_real.py`` asserts
 the properties it shows at CI size. ``--quick``: part 1 with the log and linear
 objectives, part 2 with GGX, part 3 at 532 nm.
 """

@@ -26,7 +26,7 @@ Two estimates per point, independent of each other (``mitsuba_pbrdf.diagnostics.
 the reference's deterministic quadrature over the half vector, with its error
 estimated by halving the number of points, and the plugin's Monte Carlo over its
 own importance sampling, with its standard error. This script runs them at the
-study's sizes and writes the report; ``tests/test_physics.py`` runs the same
+study's sizes and writes the report; ``tests/diagnostics/test_physics.py`` runs the same
 functions with fewer samples.
 
 With ``shadowing="smith"`` the plugin uses Mitsuba's rational approximation of

@@ -243,7 +243,7 @@ def main(argv=None):
         "",
         common.table(["table", "median", "99.9 %", "max"], rows_bsdf),
         "",
-        "The tails come from float32 angles near the specular peak (tests/test_pbsdf.py "
+        "The tails come from float32 angles near the specular peak (tests/measured/test_pbsdf.py "
         "bounds them); a convention read wrongly would differ at order 1.",
         "",
         "## 2. Predicted interpolation error",

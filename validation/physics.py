@@ -19,7 +19,7 @@ The checks are ``proof.mirror_fresnel`` (1-3) and
 ``mitsuba_pbrdf.diagnostics.physics`` (4, 5), whose docstrings say how the plugin is
 measured; this script runs them at the study's sizes and writes the report. The
 directional-hemispherical albedo (white furnace) is ``furnace.py``. The
-tolerances and their reasons are in ``tests/test_physics.py``, which runs the same
+tolerances and their reasons are in ``tests/diagnostics/test_physics.py``, which runs the same
 functions with fewer samples.
 """
 
@@ -167,7 +167,7 @@ def report(pairs=100_000, plugin=True):
             "evaluator and on the plugin (float32, through `frames.eval_global`), by the "
             "functions of `proof/mirror_fresnel.py` (1–3) and "
             "`mitsuba_pbrdf/diagnostics/physics.py` (4, 5). The same functions run with fewer "
-            "samples in `tests/test_physics.py`, whose docstrings justify each tolerance. "
+            "samples in `tests/diagnostics/test_physics.py`, whose docstrings justify each tolerance. "
             "The white-furnace (albedo) study is "
             "[`furnace.md`](furnace.md).\n\n"
             f"![Fresnel and DOP]({figure})\n\n" + "\n\n".join(sections))

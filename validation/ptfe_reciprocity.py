@@ -13,7 +13,7 @@ the mirror pairs (a, b, dphi) and (a, b, -dphi), M_B = E M_A E with
 E = diag(1, 1, -1, -1), and from the elements that vanish in the plane of
 incidence; then the same check on the file read six wrong ways, on the data
 and on the float64 reference model at the pairs' geometries. The study
-reports; its bounds are asserted in ``tests/test_ptfe_reciprocity.py``.
+reports; its bounds are asserted in ``tests/measured/test_ptfe_reciprocity.py``.
 """
 
 import argparse
@@ -166,7 +166,7 @@ def _report(args, data, pairs, mirror, counts, geometry, recip_rows, noise_rows,
         "`validation/data/nist_ptfe/`), read by `measured.read_measurements` into the "
         "project's global s/p frames (`docs/fitting.md`), 1,824 geometries at each of 351, 532, "
         "633, 1064 nm. Checks: `proof/measured_reciprocity.py`; bounds asserted in "
-        "`tests/test_ptfe_reciprocity.py`.",
+        "`tests/measured/test_ptfe_reciprocity.py`.",
         "## 1. The reciprocal pairs in the file",
         "Reciprocity pairs row A (θi = a, θr = b, Δφ) with row B (θi = b, θr = a, −Δφ) of one "
         "wavelength, Δφ = φr − φi the viewer's azimuth from the source's (an isotropic sample: "
@@ -252,7 +252,7 @@ def _reading(recip_rows, noise_rows, reading_rows, sign_rows, diag_rows):
         "M -> Q M^T Q, so reciprocity holds or fails exactly as before: the rows "
         "'circular sign flipped', 's and p swapped' and 'transposed' equal the project's "
         "reading on the data and on the models (to rounding). Reciprocity does not validate "
-        "the circular sign or the s/p labels; `tests/test_scatmech.py` (against SCATMECH's own "
+        "the circular sign or the s/p labels; `tests/bsdfs/test_scatmech.py` (against SCATMECH's own "
         "code) does.",
         "* **It sees readings that treat the two sides differently or depend on the geometry, "
         f"where the sample polarizes.** On the conductor model the project's reading gives "

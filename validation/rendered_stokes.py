@@ -7,7 +7,7 @@ The scenes (a plate and a sphere of ``pbrdf`` with Al and Cu, lit by an
 unpolarized narrow-band directional light), the per-pixel checks (AoLP from
 geometry alone, DoLP against the reference evaluator) and the noise model are
 described in ``proof.rendered``, which :func:`report` runs at the
-study's sizes; ``tests/test_physics.py`` runs the same measurement with fewer
+study's sizes; ``tests/diagnostics/test_physics.py`` runs the same measurement with fewer
 samples and asserts on it.
 """
 

@@ -3,7 +3,7 @@
     python validation/scatmech.py        (-> scatmech.md)
 
 The grid, the models and the mapping of conventions are those of
-``tests/test_scatmech.py`` (SCATMECH's ``Facet_BRDF_Model`` and
+``tests/bsdfs/test_scatmech.py`` (SCATMECH's ``Facet_BRDF_Model`` and
 ``Shadowed_Facet_BRDF_Model`` with Gaussian slopes, s = sqrt(2) sigma; its S3
 sign flipped). Per Mueller element: the largest |ours - SCATMECH| over the
 grid, divided by the largest M00 of the configuration, for the float64
@@ -76,7 +76,7 @@ def main(argv=None):
             "{no shadowing, V-groove (Torrance-Sparrow)} x 160 geometries "
             f"({count} Mueller matrices); the plugin in float32 for the V-groove ones. "
             "Largest |ours - SCATMECH| per element over the configuration's largest M00 "
-            "(the mapping of conventions is in tests/test_scatmech.py).", "",
+            "(the mapping of conventions is in tests/bsdfs/test_scatmech.py).", "",
             common.table(["element", "reference (float64)", "plugin (float32)"], rows), ""]
     common.write_markdown("scatmech", "\n".join(text))
 

@@ -168,7 +168,7 @@ READING = [
     "aluminium from three views drifted to 7.32° with a loss at 1024 spp 26 x the truth's, "
     "view 0's loss rising from 0.10 to 0.35 while view 2's stayed flat; copper did the same "
     "(4.63°, 13 x). A loop of `dr.backward` through `mi.render` with `stokes_prb` leaves the "
-    "texels holding the last view's gradient only (tests/test_normal_recovery.py asserts it); "
+    "texels holding the last view's gradient only (tests/inverse/test_normals.py asserts it); "
     "`summed_gradients` now reads and sums the views' gradients. With it, aluminium from "
     "three views at 40 x 16 spp reaches 3.03° (9.58° before; 8.40° from one view). Each "
     "view's gradient itself was right (the `views` table: it matches finite differences), "

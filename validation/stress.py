@@ -14,7 +14,7 @@ The generator is ``proof.fuzz_inputs``, the checks and their
 tallies ``proof.stress``, the conditioning
 ``proof.conditioning``; their docstrings give every range,
 region and bound. This script runs them at the study's size and writes the
-report; ``tests/test_fuzz.py`` runs the same code on 10^5 pairs.
+report; ``tests/bsdfs/test_fuzz.py`` runs the same code on 10^5 pairs.
 """
 
 import argparse
@@ -57,7 +57,7 @@ def report(samples=1_000_000, seed=0):
 in both transport modes with `eval`, `pdf`, `eval_pdf` and `sample` ({tally.evaluations:,}
 calls' lanes; × 4 wavelengths). The generator, the parameter ranges and the regions are
 described in `proof/fuzz_inputs.py`, the checks in
-`proof/stress.py`; `tests/test_fuzz.py` runs the same code on 10⁵ pairs.
+`proof/stress.py`; `tests/bsdfs/test_fuzz.py` runs the same code on 10⁵ pairs.
 
 **Checks** (number of failing lanes; every check must be 0):
 
@@ -73,7 +73,7 @@ own sensitivity to perturbations the size of the float32 representation of the i
 (`proof/conditioning.py`). Large relative errors occur only where κ is large, i.e. where the problem itself is
 ill-conditioned: narrow lobes near grazing, and nearly opposite grazing directions, where the
 half vector is the normalized sum of two almost cancelling float32 vectors. Bound asserted in
-`tests/test_fuzz.py`: {stress.ACCURACY_UNITS} u (1 + κ).
+`tests/bsdfs/test_fuzz.py`: {stress.ACCURACY_UNITS} u (1 + κ).
 
 {accuracy}
 

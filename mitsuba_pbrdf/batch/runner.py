@@ -45,7 +45,7 @@ last one, so the hundreds of jobs submitted within 100 ms would share one
 priority, among which Dask's queue keeps no particular order: a job whose
 worker was lost (killed, ``scancel``, Slurm walltime) would go back among the
 waiting jobs of its generation, often behind all of them
-(tests/test_batch_slurm.py, tests/test_batch_priority.py). Submitted one by
+(tests/batch/test_slurm.py, tests/batch/test_cluster.py). Submitted one by
 one, the first jobs would also reach the scheduler as a task group too small
 to queue (Dask queues only groups larger than twice the cluster's threads)
 and be handed to the first worker up front, to be lost with it.

@@ -12,7 +12,7 @@ submitting jobs for ever.
 Imports neither Dask nor Slurm: the cluster (dask-jobqueue's
 ``SLURMCluster``) and the Slurm look-up come in as arguments, and the
 scheduler's worker events as calls (:class:`~mitsuba_pbrdf.batch.slurm.WorkerJobEvents`),
-so the unit tests drive it with stand-ins (tests/test_slurm_keeper.py).
+so the unit tests drive it with stand-ins (tests/batch/test_slurm_keeper.py).
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ evaluation's Mueller matrix unchanged: its Stokes bases are those of the
 mirrored directions, mirrored back they are left-handed and turned about the
 ray, so the coupling of S1 with S2 and S3 changes sign and the angle of
 linear polarization of light reflected on the back comes out mirrored
-(``roughconductor`` as ``pbrdf``; tests/test_nesting_bsdfs.py). Here the matrix is
+(``roughconductor`` as ``pbrdf``; tests/bsdfs/test_perturbed.py). Here the matrix is
 mapped back: ``D M D`` with ``D = diag(1, 1, -1, -1)`` (the mirror's change of
 handedness), then one Stokes rotator per side from the mirrored basis to
 Mitsuba's basis of the actual direction. The back side is then the front

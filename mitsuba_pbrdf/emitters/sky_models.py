@@ -40,7 +40,7 @@ the projection of a neutral point onto the basis (``|P| = sin gamma_p``),
 (``P_Ba = P_Br`` gives the Rayleigh pattern above). This vector form is
 continuous where the Babinet point crosses the zenith, where the
 stereographic form's normalization changes sign; elsewhere the two agree
-(tests/test_polarized_light.py compares them). The paper's further
+(tests/emitters/test_polarized_light.py compares them). The paper's further
 depolarization near the horizon is not modelled.
 """
 

@@ -18,7 +18,7 @@ bounding sphere it starts with. Its ``sample_direction`` then puts the
 sampled point 2 units away (``ds.p``), and the shadow ray that
 ``Scene.sample_emitter_direction`` traces to that point misses every
 occluder farther away: light leaked through the ground of a scene 20 units
-wide (``tests/test_sky_radiance_texture.py``). :func:`sample_direction` puts
+wide (``tests/emitters/test_polarized_sky_texture.py``). :func:`sample_direction` puts
 the point :data:`FAR` away instead. ``sample_ray`` (light tracing) still
 starts its rays on that unit sphere (docs/polarized-light.md).
 

@@ -13,7 +13,7 @@ unpolarized data (M00 alone) evaluate the specular lobe in the scalar form
 (:func:`mitsuba_pbrdf.reference.specular_unpolarized`), a third of the work of
 the Mueller form. The lobes are the reference's own functions; the sum is the
 reference's :func:`~mitsuba_pbrdf.reference.pbrdf` written out
-(``tests/test_fit_real.py`` checks that the two agree).
+(``tests/fitting/test_fit_real.py`` checks that the two agree).
 """
 
 from __future__ import annotations

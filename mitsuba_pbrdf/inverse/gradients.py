@@ -365,7 +365,7 @@ def summed_gradients(view_losses, variables):
     normal map's texels set from the variable (``params[key] = f(x)``,
     ``params.update()``) before each view's ``mi.render`` with
     ``stokes_prb``, a plain loop of ``dr.backward`` calls leaves the variable
-    holding the last view's gradient alone (tests/test_normal_recovery.py
+    holding the last view's gradient alone (tests/inverse/test_normals.py
     asserts it): such a fit fitted the last view only. (Where the scene
     parameters are the optimizer's variables themselves, as in
     :mod:`.svbrdf`, the loop's gradients do add up.)"""

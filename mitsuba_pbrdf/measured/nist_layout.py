@@ -22,7 +22,7 @@ conventions.
 ``psps``). Each ray's Stokes basis has ``s = z x k`` (k its propagation
 direction, z the surface normal) and ``p`` completing the right-handed
 ``(s, p, k)`` frame, the reference evaluator's global s/p frames; SCATMECH's
-circular sign is the opposite of Mitsuba's (``tests/test_scatmech.py``).
+circular sign is the opposite of Mitsuba's (``tests/bsdfs/test_scatmech.py``).
 So element ``f_rIJ`` becomes ``m(I-1)(J-1)`` with
 
     M_project = R(eta_out) D M_NIST D R(-eta_in),   D = diag(1, 1, 1, -1)

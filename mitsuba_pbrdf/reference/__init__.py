@@ -52,7 +52,7 @@ Directions and frames
   ``rotator(theta) = [[1,0,0,0],[0,c,s,0],[0,-s,c,0],[0,0,0,1]]`` with
   ``c, s = cos 2theta, sin 2theta`` (Mitsuba's ``mueller.rotator``).
 
-Sign conventions (each pinned by a test in ``tests/test_reference.py``)
+Sign conventions (each pinned by a test in ``tests/reference/test_model.py``)
 -----------------------------------------------------------------------
 * Complex index ``N = n + i k`` with ``k >= 0`` and time factor ``exp(-i w t)``
   (the optics convention); the transmitted wave has ``Im(N cos theta_t) >= 0``.
