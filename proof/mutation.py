@@ -55,7 +55,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: it calls) and the reference evaluator's, by the name of their test subset.
 STUDIED = {
     "plugin": [f"mitsuba_pbrdf/bsdfs/{name}.py"
-               for name in ("fresnel", "ior", "lobes", "microfacet", "params", "pbrdf")]
+               for name in ("fresnel", "ior", "lobes", "microfacet", "pbrdf_properties", "pbrdf")]
               + ["mitsuba_pbrdf/mueller.py"],
     "reference": sorted(f"mitsuba_pbrdf/reference/{name}"
                         for name in os.listdir(os.path.join(ROOT, "mitsuba_pbrdf", "reference"))

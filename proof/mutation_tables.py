@@ -53,11 +53,11 @@ EQUIVALENT = {
         'c > 0 on every active lane: 0 / c = 0 * c',
     'mitsuba_pbrdf/bsdfs/lobes.py::MicrofacetLobe.eval_pdf: 0.0 -> 1.0':
         'cos(beta) = |wi + wo| / 2 > 0 on every active lane',
-    'mitsuba_pbrdf/bsdfs/params.py::: 1024 -> 1025':
+    'mitsuba_pbrdf/bsdfs/pbrdf_properties.py::: 1024 -> 1025':
         "resolution cap of the check's grid for bitmaps over 1024^2",
-    'mitsuba_pbrdf/bsdfs/params.py::check_texture_values: low < minimum -> low <= minimum':
+    'mitsuba_pbrdf/bsdfs/pbrdf_properties.py::check_texture_values: low < minimum -> low <= minimum':
         'no float32 texture value equals MIN_SIGMA (float64)',
-    'mitsuba_pbrdf/bsdfs/params.py::_evaluated_values: 4 -> 5 #4':
+    'mitsuba_pbrdf/bsdfs/pbrdf_properties.py::_evaluated_values: 4 -> 5 #4':
         '24 wavelengths: the padding of the last block stays empty',
     "mitsuba_pbrdf/reference/geometry.py::_geometry: g['cos_b'] > 0 -> g['cos_b'] >= 0":
         'cos(beta) > 0 for every float64 angle input',

@@ -12,7 +12,7 @@ import pytest
 from mitsuba_pbrdf import fitting, measured
 from mitsuba_pbrdf.errors import ParameterError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 NIST = ROOT / "tests" / "data" / "nist_ptfe_subset.csv"
 
 
