@@ -2,8 +2,8 @@
 fixtures that switch variants (``mitsuba_pbrdf.use_variant`` sets one and
 registers the plugin), and the fast tier's check. Helpers that tests import
 are ``bsdf_harness.py``'s. Under pytest-xdist (README's command runs
-``-n auto --dist loadgroup``) each test file goes to one worker whole, and the
-tests of ``SERIAL`` to one worker together."""
+``-n auto``) each test file goes to one worker whole, and the tests of
+``SERIAL`` to one worker together (``pytest_xdist_make_scheduler``)."""
 
 import os
 import sys
@@ -122,15 +122,21 @@ def package_modules():
 SERIAL = ("tests/batch/", "tests/benchmarks/")
 
 
-@pytest.hookimpl(tryfirst=True)
-def pytest_collection_modifyitems(config, items):
-    """Each test's xdist group (``--dist loadgroup``): its file, so that a
-    file's module-scoped fixtures are built once, or "serial" for ``SERIAL``.
-    First, so that xdist's own hook sees the marks."""
-    for item in items:
-        path = item.nodeid.split("::")[0]
-        group = "serial" if path.startswith(SERIAL) else path
-        item.add_marker(pytest.mark.xdist_group(group))
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """xdist's scheduler for README's ``-n auto``: a test file goes to one
+    worker whole (its module fixtures and compiled kernels built once), the
+    files of ``SERIAL`` to one worker together. xdist's own ``loadgroup``
+    cannot say this under pytest 9.2, which ignores the group suffix its
+    workers write into the test ids."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class FileScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid):
+            path = nodeid.split("::")[0]
+            return "serial" if path.startswith(SERIAL) else path
+
+    return FileScheduling(config, log)
 
 
 def _package_modules_imported():
