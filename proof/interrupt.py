@@ -9,6 +9,7 @@ tests/test_interrupts.py) and judge the outcome (:func:`sigint_outcome`)."""
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -86,20 +87,32 @@ def interrupt_after(args: Sequence[str], delay: float, env: Optional[Mapping[str
     return subprocess.CompletedProcess(argv, proc.returncode, out, err)
 
 
+def _before_the_hold(err: str) -> bool:
+    """Whether a traceback's frames in the package all come before SIGINT can
+    be held: none, or the package's import of :mod:`mitsuba_pbrdf.interrupts`
+    (the module that holds it) and that module's own imports."""
+    frames = re.findall(r'File "([^"]*)", line \d+, in (\S+)(?:\n {4}(\S[^\n]*))?',
+                        err.replace(os.sep, "/"))
+    return all((path.endswith("mitsuba_pbrdf/__init__.py") and code.startswith("from . import interrupts"))
+               or (path.endswith("mitsuba_pbrdf/interrupts.py") and where == "<module>"
+                   and code.startswith(("import ", "from ")))
+               for path, where, code in frames if "mitsuba_pbrdf/" in path)
+
+
 def sigint_outcome(result: subprocess.CompletedProcess, command: str) -> str:
     """What a SIGINT did, in words: ``"interrupted"`` (exit 130, the last line
     of stderr ``pbrdf COMMAND: interrupted``, no traceback), ``"finished"``
     (exit 0: it came after the work was done), ``"before python"`` (killed by
     the signal before Python's own handler was installed: nothing had run),
     ``"python startup"`` (a KeyboardInterrupt in Python's start-up, site.py
-    or importlib, before any line of this package ran),
+    or importlib, before the package could hold SIGINT: in its import of
+    :mod:`mitsuba_pbrdf.interrupts` at the latest),
     or a description of anything else (a failure of the promise)."""
     err = result.stderr
     lines = [line for line in err.replace("\r", "\n").splitlines() if line.strip()]
     if result.returncode == -signal.SIGINT and not err.strip():
         return "before python"
-    if "KeyboardInterrupt" in err and "mitsuba_pbrdf/" not in err.replace(os.sep, "/") \
-            and "pbrdf " not in err:  # in site.py or importlib: no line of the package ran
+    if "KeyboardInterrupt" in err and "pbrdf " not in err and _before_the_hold(err):
         return "python startup"
     if "Traceback" in err or "terminate called" in err:
         return f"exit {result.returncode} with: {err.strip()[-3000:]}"

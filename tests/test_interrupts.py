@@ -302,3 +302,26 @@ def test_sigint_at_random_delays_never_replaces_an_output(name, tmp_path):
         else:
             assert outcome == "finished", (delay, outcome)
             assert not any(earlier), (delay, "finished without replacing its outputs")
+
+
+def test_a_sigint_before_the_package_can_hold_it_counts_as_python_startup():
+    """A KeyboardInterrupt in the package's import of ``interrupts`` (before it
+    can hold SIGINT) is start-up, as in site.py; one raised after it, in the
+    package's other lines, is a failure of the promise."""
+    import subprocess
+
+    from proof.interrupt import sigint_outcome
+
+    def outcome(code):
+        err = ('Traceback (most recent call last):\n'
+               '  File "<frozen runpy>", line 112, in _get_module_details\n'
+               '  File "/x/mitsuba_pbrdf/__init__.py", line 43, in <module>\n'
+               f'    {code}\n'
+               '  File "/x/mitsuba_pbrdf/interrupts.py", line 42, in <module>\n'
+               '    import threading\n'
+               '  File "<frozen importlib._bootstrap>", line 1176, in _find_and_load\n'
+               'KeyboardInterrupt\n')
+        return sigint_outcome(subprocess.CompletedProcess([], -2, "", err), "render")
+
+    assert outcome("from . import interrupts as _interrupts") == "python startup"
+    assert outcome("from .registry import install_hook").startswith("exit -2 with: Traceback")
