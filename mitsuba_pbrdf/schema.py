@@ -1,5 +1,6 @@
-"""The model's parameters, each declared once: name, kind, default, bounds,
-flags and a one-line doc.
+"""Every plugin's parameters, each declared once: name, kind, default, bounds,
+flags and a one-line doc (:class:`Parameter`). ``pbrdf``'s are
+:data:`PARAMETERS`; the other plugins' are in :data:`PLUGIN_PARAMETERS`.
 
 Pure Python, no imports beyond the standard library. Everything that takes a
 model parameter reads it from here:
@@ -14,7 +15,10 @@ model parameter reads it from here:
 * the fitted parameters, their starting values and bounds
   (:mod:`mitsuba_pbrdf.fitting.vector`);
 * the parameter table of ``docs/plugin.md`` (:func:`markdown_table`; a test
-  checks the two are the same).
+  checks the two are the same);
+* every plugin's docstring rows of its declared parameters (:func:`rst_row`,
+  written by :func:`write_plugin_docstring_table`; tests/test_schema.py checks
+  them) and the reads of :func:`mitsuba_pbrdf.properties.declared`.
 
 The plugin and the reference still compute the model independently: only the
 names, defaults and bounds are shared. Adding a parameter means a line here and
@@ -30,7 +34,7 @@ from typing import Optional, Tuple
 __all__ = ["Parameter", "Fit", "Alias", "ALIASES", "PARAMETERS", "MIN_SIGMA", "LOBES", "DEFAULTS", "SHADOWING",
            "REFERENCE_SHADOWING", "DD_DISTRIBUTIONS", "DISTRIBUTIONS", "SAMPLING",
            "REFINEMENTS", "ANISOTROPIC_WIDTHS", "exposed_widths", "parameter", "names",
-           "markdown_table", "rst_table", "Setting", "SETTINGS", "setting"]
+           "markdown_table", "rst_table", "rst_row", "PLUGIN_PARAMETERS", "bounds_doc"]
 
 #: Smallest accepted RMS slope (``sigma``, ``sigma_dd``): Mitsuba's microfacet
 #: distributions clamp the Beckmann/GGX width alpha = sqrt(2) sigma to 1e-4.
@@ -67,14 +71,17 @@ class Alias:
 
 @dataclass(frozen=True)
 class Parameter:
-    """One model parameter.
+    """One parameter of a plugin.
 
     ``kind``: ``"spectrum"`` (a number, spectrum or texture; may vary with
     wavelength), ``"float"`` (a number or texture, one value per point),
-    ``"choice"`` (a string from ``choices``) or ``"material"`` (a conductor
-    name). ``lower``/``positive``: the value must be >= ``lower`` (> 0 where
+    ``"number"`` (a plain number), ``"boolean"``, ``"choice"`` (a string from
+    ``choices``) or ``"material"`` (a conductor name). ``lower``/``upper``/
+    ``positive``: the value must be >= ``lower``, <= ``upper`` (> 0 where
     ``positive``); ``floor``: the smallest value the plugin takes (Mitsuba's
-    limit). ``lobe``/``role``: the lobe it weights (``"weight"``) or shapes
+    limit). ``flags_doc``: the docs' Flags cell where ``differentiable`` does
+    not say it all (exposed under another key, or exposed and not
+    differentiable). ``lobe``/``role``: the lobe it weights (``"weight"``) or shapes
     (``"width"``; ``"width_u"``/``"width_v"``: its width along the shading
     frame's s and t axes). ``refines``: the parameter it refines (``sigma_u``
     and ``sigma_v`` refine ``sigma``): it defaults to that parameter's value,
@@ -95,6 +102,7 @@ class Parameter:
     default: object
     doc: str
     lower: Optional[float] = None
+    upper: Optional[float] = None
     positive: bool = False
     floor: Optional[float] = None
     choices: Tuple[str, ...] = ()
@@ -115,6 +123,7 @@ class Parameter:
     alias: Optional[Alias] = None
     stands_for: Optional[str] = None          # an alias's parameter (``sigma`` for ``alpha``)
     scale: float = 1.0                        # an alias's values per the parameter's
+    flags_doc: Optional[str] = None
 
     @property
     def option(self) -> str:
@@ -130,9 +139,16 @@ class Parameter:
                     else f">= {self.floor:.3g}")
         if self.positive:
             return "> 0"
-        if self.lower is not None:
-            return f">= {self.lower:g}"
+        if self.lower is not None or self.upper is not None:
+            return bounds_doc(self.lower, self.upper)
         return ""
+
+
+def bounds_doc(low: Optional[float], high: Optional[float]) -> str:
+    """``in [low, high]``, ``>= low`` or ``<= high``, as the docs and the
+    errors word a range (either bound None: open)."""
+    return (f"in [{low:g}, {high:g}]" if low is not None and high is not None
+            else f">= {low:g}" if low is not None else f"<= {high:g}")
 
 
 #: Every model parameter, in the order of the docs' table.
@@ -247,10 +263,12 @@ ALIASES = {p.alias.name: _as_alias(p) for p in PARAMETERS if p.alias}
 _BY_NAME = {**{p.name: p for p in PARAMETERS}, **ALIASES}
 
 
-def parameter(name: str) -> Parameter:
-    """The declaration of parameter *name*, or of an alias (``alpha``) as
-    given under that name."""
-    return _BY_NAME[name]
+def parameter(name: str, plugin: str = "pbrdf") -> Parameter:
+    """The declaration of plugin *plugin*'s parameter *name*, or of an alias
+    of ``pbrdf``'s (``alpha``) as given under that name."""
+    if plugin == "pbrdf":
+        return _BY_NAME[name]
+    return next(p for p in PLUGIN_PARAMETERS[plugin] if p.name == name)
 
 
 def names(**flags) -> Tuple[str, ...]:
@@ -297,40 +315,62 @@ def exposed_widths(lobe: str, anisotropic: bool) -> Tuple[str, ...]:
 DEFAULTS = {p.name: p.default for p in PARAMETERS}
 
 
-@dataclass(frozen=True)
-class Setting:
-    """A number or choice of another of the package's plugins (the emitters;
-    ``pbrdf``'s are :data:`PARAMETERS`): its default, its bounds ``[low,
-    high]`` (either None: unbounded), its ``choices`` (a string setting) and
-    whether ``traverse`` exposes it as differentiable. Read by
-    :func:`mitsuba_pbrdf.properties.declared`; the plugin's docstring table
-    states the same default and flag (tests/test_registry.py)."""
-
-    plugin: str
-    name: str
-    default: object
-    low: Optional[float] = None
-    high: Optional[float] = None
-    choices: Tuple[str, ...] = ()
-    differentiable: bool = False
+def _other(name: str, kind: str, default, doc: str, **flags) -> Parameter:
+    """A parameter of a plugin other than ``pbrdf``: neither the reference
+    evaluator nor the model options take it."""
+    return Parameter(name, kind, default, doc, reference=False, cli=False, **flags)
 
 
-SETTINGS: Tuple[Setting, ...] = (
-    Setting("polarized_sky", "model", "rayleigh", choices=("rayleigh", "berry")),
-    Setting("polarized_sky", "dolp_max", 0.8, 0.0, 1.0, differentiable=True),
-    Setting("polarized_sky", "neutral_point_separation", 35.0, 0.0, 90.0),
-    Setting("polarized_emitter", "angle", 0.0),
-    Setting("polarized_emitter", "degree", 1.0, 0.0, 1.0),
-    Setting("polarized_emitter", "transmittance", 1.0, 0.0, 1.0),
-    Setting("stokes_envmap", "scale", 1.0, low=0.0),
-)
+_FLIP = _other("flip_invalid_normals", "boolean", True,
+               "Mirror the perturbed normal's tangential part where it faces away from the "
+               "viewer (Schüssler et al. 2017), as Mitsuba's ``normalmap`` and ``bumpmap`` do.")
+_SHADOWING_FUNCTION = _other(
+    "use_shadowing_function", "boolean", True,
+    "Multiply by Estevez et al. 2019's shadowing term of the perturbed normal (softens the "
+    "bump-terminator edge), as Mitsuba's ``normalmap`` and ``bumpmap`` do.")
 
-_SETTINGS = {(s.plugin, s.name): s for s in SETTINGS}
-
-
-def setting(plugin: str, name: str) -> Setting:
-    """The declaration of plugin *plugin*'s setting *name*."""
-    return _SETTINGS[(plugin, name)]
+#: The declared parameters of each plugin, by the name scene files give it
+#: (``pbrdf``: :data:`PARAMETERS`). A plugin's other rows (nested objects,
+#: files, directions, transforms) are read and documented in its module.
+PLUGIN_PARAMETERS = {
+    "pbrdf": tuple(p for p in PARAMETERS if p.plugin),
+    "polarized_normalmap": (_FLIP, _SHADOWING_FUNCTION),
+    "polarized_bumpmap": (
+        _other("scale", "number", 1.0, "Multiplier of the height gradient; a finite number "
+               "(not a boolean), re-checked at ``parameters_changed``.", flags_doc="|exposed|"),
+        _FLIP, _SHADOWING_FUNCTION),
+    "polarized_sky": (
+        _other("model", "choice", "rayleigh",
+               "``rayleigh``: single scattering, DoLP = ``dolp_max`` sin²γ/(1 + cos²γ) (γ: "
+               "angle between the viewing direction and the sun), polarized perpendicular to "
+               "the plane through the sun and the viewing direction. ``berry``: the neutral "
+               "points of the real sky (Babinet, Brewster, Arago and the fourth), Berry, "
+               "Dennis and Lee, New J. Phys. 6 (2004) 162.", choices=("rayleigh", "berry")),
+        _other("dolp_max", "number", 0.8,
+               "Degree of linear polarization at 90° from the sun (Rayleigh); clear skies "
+               "reach 0.7-0.8.", lower=0.0, upper=1.0, differentiable=True,
+               flags_doc="|exposed|, |differentiable| (JIT variants)"),
+        _other("neutral_point_separation", "number", 35.0,
+               "``berry`` only: the angle in degrees between the Babinet point (above the "
+               "sun) and the Brewster point (below it); each lies half of it from the sun. "
+               "The Babinet point is typically observed 15-20° above the sun.",
+               lower=0.0, upper=90.0)),
+    "polarized_emitter": (
+        _other("angle", "number", 0.0,
+               "The polarizer's transmission axis in degrees, from the local x axis towards "
+               "the local y axis of ``to_world``."),
+        _other("degree", "number", 1.0,
+               "Degree of linear polarization the filter gives unpolarized light (1: an ideal "
+               "polarizer; less: a leaky one).", lower=0.0, upper=1.0),
+        _other("transmittance", "number", 1.0,
+               "Fraction of an unpolarized lamp's radiance the filter passes. An ideal "
+               "polarizer passes 0.5; the default keeps the lamp's radiance and polarizes it "
+               "(and so doubles light already polarized along its axis, see below).",
+               lower=0.0, upper=1.0)),
+    "stokes_envmap": (
+        _other("scale", "number", 1.0, "Factor on the radiance.", lower=0.0,
+               flags_doc="``intensity.scale``"),),
+}
 
 SHADOWING = parameter("shadowing").choices
 #: The reference evaluator also offers ``"none"`` (G = 1: the original
@@ -341,7 +381,8 @@ DISTRIBUTIONS = parameter("distribution").choices
 SAMPLING = parameter("sampling").choices
 
 _KIND_DOC = {"spectrum": "spectrum or texture", "float": "float or texture",
-             "choice": "string", "material": "string"}
+             "choice": "string", "material": "string", "number": "float",
+             "boolean": "boolean"}
 
 
 def _documented() -> Tuple[Parameter, ...]:
@@ -351,6 +392,8 @@ def _documented() -> Tuple[Parameter, ...]:
 
 
 def _flags(p: Parameter) -> str:
+    if p.flags_doc:
+        return p.flags_doc
     if not p.differentiable:
         return "--"
     exposed = ("exposed where the lobe is anisotropic" if p.refines else
@@ -364,6 +407,8 @@ def _default(p: Parameter) -> str:
         return "--"
     if p.refines:
         return f"``{p.default_doc}``"
+    if p.kind == "boolean":
+        return str(p.default).lower()
     return p.default_doc if p.default_doc else f"``{p.default}``" if p.kind in (
         "choice", "material") else f"{p.default:g}"
 
@@ -387,12 +432,15 @@ def rst_table() -> str:
     lines = [".. list-table::", "   :header-rows: 1", "",
              "   * - Parameter", "     - Type", "     - Description", "     - Default",
              "     - Flags"]
-    for p in _documented():
-        if p.plugin:
-            bound = f" Valid: {p.bound_doc}." if p.bound_doc else ""
-            lines += [f"   * - ``{p.name}``", f"     - {_KIND_DOC[p.kind]}",
-                      f"     - {p.doc}{bound}", f"     - {_default(p)}", f"     - {_flags(p)}"]
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines) + "\n" + "".join(rst_row(p) for p in _documented() if p.plugin)
+
+
+def rst_row(p: Parameter) -> str:
+    """Parameter *p*'s row of a plugin docstring's list-table."""
+    bound = f" Valid: {p.bound_doc}." if p.bound_doc else ""
+    return "\n".join([f"   * - ``{p.name}``", f"     - {_KIND_DOC[p.kind]}",
+                      f"     - {p.doc}{bound}", f"     - {_default(p)}",
+                      f"     - {_flags(p)}"]) + "\n"
 
 
 #: The markers around the generated table in ``docs/plugin.md``.
@@ -418,19 +466,31 @@ def write_docs_table(path: str) -> None:
 
 
 def write_plugin_docstring_table(path: str) -> None:
-    """Replace the ``.. list-table::`` in the docstring of the plugin module
-    *path* (``mitsuba_pbrdf/bsdfs/pbrdf.py``) by :func:`rst_table`."""
+    """Rewrite the declared rows of the ``.. list-table::`` in plugin module
+    *path* (the plugin: the file's first ````name````): ``pbrdf``'s whole
+    table is :func:`rst_table`, another plugin's declared rows each its
+    :func:`rst_row`, in place."""
+    import re
+
     with open(path, encoding="utf-8") as f:
         text = f.read()
-    start = text.index(".. list-table::")
-    end = text.index("\n\n", text.index("   * - ", start) + 1)
-    while text.startswith("   ", end + 2) or text.startswith("     ", end + 1):
-        end = text.index("\n\n", end + 1)
+    plugin = re.search(r"``(\w+)``", text).group(1)
+    if plugin == "pbrdf":
+        start = text.index(".. list-table::")
+        end = text.index("\n\n", text.index("   * - ", start) + 1)
+        while text.startswith("   ", end + 2) or text.startswith("     ", end + 1):
+            end = text.index("\n\n", end + 1)
+        text = text[:start] + rst_table().rstrip("\n") + text[end:]
+    for p in PLUGIN_PARAMETERS[plugin] if plugin != "pbrdf" else ():
+        start = text.index(f"   * - ``{p.name}``\n")
+        # the row runs to the next row or the end of the table
+        end = re.compile(r"^(?! {5})", re.M).search(text, text.index("\n", start) + 1).start()
+        text = text[:start] + rst_row(p) + text[end:]
     with open(path, "w", encoding="utf-8") as f:
-        f.write(text[:start] + rst_table().rstrip("\n") + text[end:])
+        f.write(text)
 
 
-if __name__ == "__main__":  # python -m mitsuba_pbrdf.schema docs/plugin.md mitsuba_pbrdf/bsdfs/pbrdf.py
+if __name__ == "__main__":  # python -m mitsuba_pbrdf.schema docs/plugin.md PLUGIN_MODULE.py ...
     import sys
 
     for target in sys.argv[1:]:

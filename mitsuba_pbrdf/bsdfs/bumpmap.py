@@ -24,20 +24,17 @@
      - |exposed|, |differentiable|, |discontinuous|
    * - ``scale``
      - float
-     - Multiplier of the height gradient; a finite number (not a
-       boolean), re-checked at ``parameters_changed``.
-     - 1.0
+     - Multiplier of the height gradient; a finite number (not a boolean), re-checked at ``parameters_changed``.
+     - 1
      - |exposed|
    * - ``flip_invalid_normals``
      - boolean
-     - Mirror the perturbed normal's tangential part where it faces away
-       from the viewer, as ``bumpmap`` does.
+     - Mirror the perturbed normal's tangential part where it faces away from the viewer (Schüssler et al. 2017), as Mitsuba's ``normalmap`` and ``bumpmap`` do.
      - true
      - --
    * - ``use_shadowing_function``
      - boolean
-     - Multiply by Estevez et al. 2019's shadowing term of the perturbed
-       normal, as ``bumpmap`` does (see :mod:`.normalmap`).
+     - Multiply by Estevez et al. 2019's shadowing term of the perturbed normal (softens the bump-terminator edge), as Mitsuba's ``normalmap`` and ``bumpmap`` do.
      - true
      - --
 
@@ -88,6 +85,7 @@ import numpy as np
 
 from . import perturbed
 from .. import properties as read
+from ..schema import parameter
 
 
 _NAME = "polarized_bumpmap"
@@ -176,9 +174,9 @@ def build_class():
                                  f"found {len(textures)}")
             self.nested_texture = next(iter(textures.values()))
             check_heights(self.nested_texture)
-            self.scale = mi.Float(check_scale(props.get("scale", 1.0)))
-            self.flip_invalid_normals = read.flag(props, _NAME, "flip_invalid_normals", True)
-            self.use_shadowing_function = read.flag(props, _NAME, "use_shadowing_function", True)
+            self.scale = mi.Float(check_scale(props.get("scale", parameter("scale", _NAME).default)))
+            self.flip_invalid_normals = read.declared(props, _NAME, "flip_invalid_normals")
+            self.use_shadowing_function = read.declared(props, _NAME, "use_shadowing_function")
             self.m_components = [self.nested_bsdf.flags(i)
                                  for i in range(self.nested_bsdf.component_count())]
             self.m_flags = self.nested_bsdf.flags()

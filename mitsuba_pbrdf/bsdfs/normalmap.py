@@ -27,14 +27,12 @@
      - |exposed|, |differentiable|
    * - ``flip_invalid_normals``
      - boolean
-     - Mirror the perturbed normal's tangential part where it faces away
-       from the viewer (Schüssler et al. 2017), as ``normalmap`` does.
+     - Mirror the perturbed normal's tangential part where it faces away from the viewer (Schüssler et al. 2017), as Mitsuba's ``normalmap`` and ``bumpmap`` do.
      - true
      - --
    * - ``use_shadowing_function``
      - boolean
-     - Multiply by Estevez et al. 2019's shadowing term of the perturbed
-       normal (softens the bump-terminator edge), as ``normalmap`` does.
+     - Multiply by Estevez et al. 2019's shadowing term of the perturbed normal (softens the bump-terminator edge), as Mitsuba's ``normalmap`` and ``bumpmap`` do.
      - true
      - --
 
@@ -189,8 +187,8 @@ def build_class():
                                  "(a bitmap with raw = true)")
             self.normalmap = props["normalmap"]
             check_normal_texels(self.normalmap)
-            self.flip_invalid_normals = read.flag(props, _NAME, "flip_invalid_normals", True)
-            self.use_shadowing_function = read.flag(props, _NAME, "use_shadowing_function", True)
+            self.flip_invalid_normals = read.declared(props, _NAME, "flip_invalid_normals")
+            self.use_shadowing_function = read.declared(props, _NAME, "use_shadowing_function")
             self.m_components = [self.nested_bsdf.flags(i)
                                  for i in range(self.nested_bsdf.component_count())]
             self.m_flags = mi.BSDFFlags.Empty

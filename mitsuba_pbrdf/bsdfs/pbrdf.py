@@ -215,12 +215,6 @@ def _read(props, name):
     return pbrdf_properties.declared(props, schema.parameter(name))
 
 
-def _read_choice(props, name):
-    """String parameter *name*, one of its declared choices."""
-    p = schema.parameter(name)
-    return properties.choice(props, _NAME, name, p.choices, p.default)
-
-
 def _exposed_widths(widths):
     """``{name: texture}`` of a lobe's widths (None: absent) as given."""
     return {w.name: w.texture for w in widths if w is not None}
@@ -251,16 +245,16 @@ def build_class():
             self.sigma = pbrdf_properties.read_width(props, "sigma")
             self.sigma_u = pbrdf_properties.read_refinement(props, "sigma_u", self.sigma)
             self.sigma_v = pbrdf_properties.read_refinement(props, "sigma_v", self.sigma)
-            self.distribution = _read_choice(props, "distribution")
+            self.distribution = properties.declared(props, _NAME, "distribution")
             self.ks = _read(props, "ks")
             self.kdd = _read(props, "kdd")
             self.sigma_dd = pbrdf_properties.read_width(props, "sigma_dd")
             self.sigma_dd_u = pbrdf_properties.read_refinement(props, "sigma_dd_u", self.sigma_dd)
             self.sigma_dd_v = pbrdf_properties.read_refinement(props, "sigma_dd_v", self.sigma_dd)
             self.kid = _read(props, "kid")
-            self.shadowing = _read_choice(props, "shadowing")
-            self.dd_distribution = _read_choice(props, "dd_distribution")
-            self.sampling = _read_choice(props, "sampling")
+            self.shadowing = properties.declared(props, _NAME, "shadowing")
+            self.dd_distribution = properties.declared(props, _NAME, "dd_distribution")
+            self.sampling = properties.declared(props, _NAME, "sampling")
 
             self.lobes = self._build_lobes()
             # a component's flags: its lobe type, front side, and anisotropic where it is

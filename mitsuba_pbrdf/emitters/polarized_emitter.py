@@ -17,22 +17,17 @@
      - ``emitter.*``
    * - ``angle``
      - float
-     - The polarizer's transmission axis in degrees, from the local x axis
-       towards the local y axis of ``to_world``.
+     - The polarizer's transmission axis in degrees, from the local x axis towards the local y axis of ``to_world``.
      - 0
      - --
    * - ``degree``
      - float
-     - Degree of linear polarization the filter gives unpolarized light, in
-       [0, 1] (1: an ideal polarizer; less: a leaky one).
+     - Degree of linear polarization the filter gives unpolarized light (1: an ideal polarizer; less: a leaky one). Valid: in [0, 1].
      - 1
      - --
    * - ``transmittance``
      - float
-     - Fraction of an unpolarized lamp's radiance the filter passes, in
-       [0, 1]. An ideal polarizer passes 0.5; the default keeps the lamp's
-       radiance and polarizes it (and so doubles light already polarized
-       along its axis, see below).
+     - Fraction of an unpolarized lamp's radiance the filter passes. An ideal polarizer passes 0.5; the default keeps the lamp's radiance and polarizes it (and so doubles light already polarized along its axis, see below). Valid: in [0, 1].
      - 1
      - --
    * - ``to_world``
@@ -99,7 +94,6 @@ import mitsuba as mi
 from . import wrapped
 from .. import properties as read
 from ..mueller import basis, linear_diattenuator, times
-from ..schema import setting
 
 
 _NAME = "polarized_emitter"
@@ -112,9 +106,9 @@ def _configure(props):
         raise ValueError(f"{_NAME}: exactly one nested emitter (the lamp) must be given, "
                          f"found {len(nested)}")
     lamp = next(iter(nested.values()))
-    angle = math.radians(read.declared(props, setting(_NAME, "angle")))
-    degree = read.declared(props, setting(_NAME, "degree"))
-    transmittance = read.declared(props, setting(_NAME, "transmittance"))
+    angle = math.radians(read.declared(props, _NAME, "angle"))
+    degree = read.declared(props, _NAME, "degree")
+    transmittance = read.declared(props, _NAME, "transmittance")
     m = read.transform(props, _NAME, "to_world")
     local = (math.cos(angle), math.sin(angle), 0.0)
     axis = read.unit_vector(_NAME, "to_world",

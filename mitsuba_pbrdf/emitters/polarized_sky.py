@@ -36,25 +36,17 @@
      - ``intensity.*`` (not differentiable)
    * - ``model``
      - string
-     - ``rayleigh``: single scattering, DoLP = ``dolp_max`` sin²γ/(1 + cos²γ)
-       (γ: angle between the viewing direction and the sun), polarized
-       perpendicular to the plane through the sun and the viewing direction.
-       ``berry``: the neutral points of the real sky (Babinet, Brewster,
-       Arago and the fourth), Berry, Dennis and Lee, New J. Phys. 6 (2004) 162.
+     - ``rayleigh``: single scattering, DoLP = ``dolp_max`` sin²γ/(1 + cos²γ) (γ: angle between the viewing direction and the sun), polarized perpendicular to the plane through the sun and the viewing direction. ``berry``: the neutral points of the real sky (Babinet, Brewster, Arago and the fourth), Berry, Dennis and Lee, New J. Phys. 6 (2004) 162. Valid: ``rayleigh`` or ``berry``.
      - ``rayleigh``
      - --
    * - ``dolp_max``
      - float
-     - Degree of linear polarization at 90° from the sun (Rayleigh), in
-       [0, 1]; clear skies reach 0.7-0.8.
+     - Degree of linear polarization at 90° from the sun (Rayleigh); clear skies reach 0.7-0.8. Valid: in [0, 1].
      - 0.8
      - |exposed|, |differentiable| (JIT variants)
    * - ``neutral_point_separation``
      - float
-     - ``berry`` only: the angle in degrees, in [0, 90], between the Babinet
-       point (above the sun) and the Brewster point (below it); each lies
-       half of it from the sun. The Babinet point is typically observed
-       15-20° above the sun.
+     - ``berry`` only: the angle in degrees between the Babinet point (above the sun) and the Brewster point (below it); each lies half of it from the sun. The Babinet point is typically observed 15-20° above the sun. Valid: in [0, 90].
      - 35
      - --
    * - ``turbidity``, ``albedo``, ``sun_scale``, ``sky_scale``, ``sun_aperture``
@@ -138,7 +130,7 @@ import mitsuba as mi
 
 from . import wrapped
 from .. import properties as read
-from ..schema import setting
+from ..schema import parameter
 from .sky_models import berry, neutral_points, rayleigh
 from ..mueller import emitted, intensity
 
@@ -273,9 +265,9 @@ def _floats(value):
 
 def _configure(props):
     """The checked parameters of a ``polarized_sky``, as attributes."""
-    model = read.declared(props, setting(_NAME, "model"))
-    dolp_max = read.declared(props, setting(_NAME, "dolp_max"))
-    separation = read.declared(props, setting(_NAME, "neutral_point_separation"))
+    model = read.declared(props, _NAME, "model")
+    dolp_max = read.declared(props, _NAME, "dolp_max")
+    separation = read.declared(props, _NAME, "neutral_point_separation")
     if model != "berry" and "neutral_point_separation" in props:
         raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
                          "model 'berry' only")
@@ -403,10 +395,10 @@ def build_class():
 
         def parameters_changed(self, keys):
             if not keys or "dolp_max" in keys:
-                value, declared = _floats(self.dolp_max), setting(_NAME, "dolp_max")
-                if len(value) != 1 or not (declared.low <= value[0] <= declared.high):
+                value, declared = _floats(self.dolp_max), parameter("dolp_max", _NAME)
+                if len(value) != 1 or not (declared.lower <= value[0] <= declared.upper):
                     raise ValueError(f"{_NAME}: parameter 'dolp_max' must be "
-                                     f"{read.bounds(declared.low, declared.high)}, got "
+                                     f"{declared.bound_doc}, got "
                                      f"{value if len(value) != 1 else value[0]}")
             if not keys or "sun_direction" in keys:
                 # a new sun: checked, handed to the sunsky intensity without its

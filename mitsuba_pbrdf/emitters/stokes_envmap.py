@@ -21,7 +21,7 @@
      - --
    * - ``scale``
      - float
-     - Factor on the radiance (>= 0).
+     - Factor on the radiance. Valid: >= 0.
      - 1
      - ``intensity.scale``
    * - ``to_world``
@@ -80,7 +80,6 @@ import numpy as np
 from . import wrapped
 from .. import properties as read
 from ..mueller import basis, emitted, intensity
-from ..schema import setting
 
 
 _NAME = "stokes_envmap"
@@ -124,7 +123,7 @@ def _configure(props):
     path = str(mi.file_resolver().resolve(filename))
     if not os.path.isfile(path):
         raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
-    scale = read.declared(props, setting(_NAME, "scale"))
+    scale = read.declared(props, _NAME, "scale")
     m = np.array(read.rotation(props, _NAME, "to_world"), np.float64)
     s0, stokes = load_stokes_map(path)
     config = {"bitmap": mi.Bitmap(s0), "scale": scale}
