@@ -120,15 +120,11 @@ def _configure(props):
 
 def build_class():
     """``PolarizedEmitter`` on the active variant's base class (registry.plugin_class)."""
-    class PolarizedEmitter(mi.Emitter):
+    class PolarizedEmitter(wrapped.emitter_base(_configure)):
         """A lamp behind a linear polarizer (module docstring)."""
 
         def __init__(self, props):
-            # checked before the base class registers the instance with Dr.Jit
-            config = _configure(props)
             super().__init__(props)
-            for key, value in config.items():
-                setattr(self, key, value)
             self.m_flags = self.inner.flags()
             self.m_needs_sample_2 = self.inner.needs_sample_2()
             self.m_needs_sample_3 = self.inner.needs_sample_3()
@@ -150,13 +146,6 @@ def build_class():
             w = si.to_world(si.wi) if self.surface else si.wi
             return self.light(wrapped.nested(self).eval(si, active), w)
 
-        eval_direction = wrapped.eval_direction
-        sample_direction = wrapped.sample_direction
-        pdf_direction = wrapped.pdf_direction
-        sample_ray = wrapped.sample_ray
-        sample_position = wrapped.sample_position
-        bbox = wrapped.bbox
-
         def pdf_position(self, ps, active=True):
             return wrapped.nested(self).pdf_position(ps, active)
 
@@ -167,9 +156,6 @@ def build_class():
         def set_shape(self, shape):
             super().set_shape(shape)
             self.inner.set_shape(shape)
-
-        def is_environment(self):
-            return self.inner.is_environment()
 
         def traverse(self, callback):
             callback.put("emitter", self.inner, mi.ParamFlags.Differentiable)

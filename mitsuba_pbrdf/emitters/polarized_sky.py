@@ -294,18 +294,12 @@ def _configure(props):
 
 def build_class():
     """``PolarizedSky`` on the active variant's base class (registry.plugin_class)."""
-    class PolarizedSky(mi.Emitter):
+    class PolarizedSky(wrapped.emitter_base(_configure)):
         """A sky whose light carries the polarization of :mod:`.sky_models`
         (module docstring)."""
 
         def __init__(self, props):
-            # Everything is read and checked before the base class registers the
-            # instance with Dr.Jit: a half-built emitter left registered after an
-            # error would break every later render of the session.
-            config = _configure(props)
             super().__init__(props)
-            for key, value in config.items():
-                setattr(self, key, value)
             self.sun_direction = mi.Vector3f(self.sun)
             self._set_sun_disk()
             self._set_pattern()
@@ -364,20 +358,9 @@ def build_class():
 
         # -------------------------------------------------------------- Emitter API
 
-        eval = wrapped.eval
-        eval_direction = wrapped.eval_direction
-        sample_direction = wrapped.sample_direction
-        pdf_direction = wrapped.pdf_direction
-        sample_ray = wrapped.sample_ray
-        sample_position = wrapped.sample_position
-        bbox = wrapped.bbox
-
         def sample_wavelengths(self, si, sample, active=True):
             wavelengths, weight = self.inner.sample_wavelengths(si, sample, active)
             return wavelengths, self.light(weight, si.wi, wavelengths)
-
-        def is_environment(self):
-            return True
 
         # -------------------------------------------------------------- parameters
 

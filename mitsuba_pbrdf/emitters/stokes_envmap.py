@@ -138,16 +138,11 @@ def _configure(props):
 
 def build_class():
     """``StokesEnvmap`` on the active variant's base class (registry.plugin_class)."""
-    class StokesEnvmap(mi.Emitter):
+    class StokesEnvmap(wrapped.emitter_base(_configure)):
         """An environment map of Stokes vectors (module docstring)."""
 
         def __init__(self, props):
-            # Read and checked before the base class registers the instance with
-            # Dr.Jit (a half-built emitter left registered breaks later renders).
-            config = _configure(props)
             super().__init__(props)
-            for key, value in config.items():
-                setattr(self, key, value)
             self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
 
         # -------------------------------------------------------------- polarization
@@ -205,20 +200,9 @@ def build_class():
 
         # -------------------------------------------------------------- Emitter API
 
-        eval = wrapped.eval
-        eval_direction = wrapped.eval_direction
-        sample_direction = wrapped.sample_direction
-        pdf_direction = wrapped.pdf_direction
-        sample_ray = wrapped.sample_ray
-        sample_position = wrapped.sample_position
-        bbox = wrapped.bbox
-
         def sample_wavelengths(self, si, sample, active=True):
             # envmap draws wavelengths from a texture coordinate, not a direction
             return self.inner.sample_wavelengths(si, sample, active)
-
-        def is_environment(self):
-            return True
 
         def traverse(self, callback):
             callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)
