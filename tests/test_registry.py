@@ -5,8 +5,9 @@ the parameters its constructor reads.
 The reads are found in the source: the first string passed with ``props``
 to a call (``props.get("x")``, ``read.number(props, NAME, "x")``), used as
 ``props["x"]`` or ``"x" in props``, and the keys of module-level tuples or
-dicts iterated against ``props``. Parameters read by a Python base class of
-Mitsuba (``ADIntegrator``) are found the same way in its ``__init__``; those
+dicts iterated against ``props``. Parameters read by a Python base class
+(Mitsuba's ``ADIntegrator``, ``bsdfs/perturbed.wrapper_base``) are found the
+same way in its ``__init__``; those
 that a C++ base reads are listed below with where they are read. pbrdf's
 table and the other plugins' declared rows are also checked against schema.py
 (tests/test_schema.py)."""
@@ -93,11 +94,13 @@ def reads(source: str) -> set:
 
 
 def python_base_reads(cls) -> set:
-    """What the ``__init__`` of *cls*'s Python base classes from Mitsuba read."""
+    """What the ``__init__`` of *cls*'s Python base classes (Mitsuba's, the
+    package's) read."""
     found = set()
     for base in cls.__mro__[1:]:
         init = base.__dict__.get("__init__")
-        if init is not None and getattr(base, "__module__", "").startswith("mitsuba.") \
+        if init is not None and getattr(base, "__module__", "").startswith(
+                ("mitsuba.", "mitsuba_pbrdf.")) \
                 and inspect.isfunction(init):   # Python code, not a C++ binding
             found |= reads(inspect.getsource(init))
     return found

@@ -229,16 +229,19 @@ def test_each_plugins_docstring_rows_are_its_declarations(plugin):
     import importlib
     import inspect
 
-    from mitsuba_pbrdf.registry import PLUGINS
+    from mitsuba_pbrdf.registry import PLUGINS, plugin_class
 
     module = importlib.import_module(next(m for _, name, m, _ in PLUGINS if name == plugin))
-    source = inspect.getsource(module)
+    # the plugin's module and those of its Python base classes (perturbed.wrapper_base)
+    source = "".join(inspect.getsource(sys.modules[c.__module__])
+                     for c in plugin_class(plugin).__mro__
+                     if c.__module__.startswith("mitsuba_pbrdf."))
     for p in schema.PLUGIN_PARAMETERS[plugin]:
         assert schema.rst_row(p) in module.__doc__, (
             f"{module.__name__}'s row of '{p.name}' is out of date: run "
             f"`python -m mitsuba_pbrdf.schema {module.__file__}`")
-        assert (f'declared(props, _NAME, "{p.name}")' in source
-                or f'parameter("{p.name}", _NAME).default' in source), p.name
+        assert re.search(rf'declared\(props, (_NAME|plugin), "{p.name}"\)'
+                         rf'|parameter\("{p.name}", _NAME\)\.default', source), p.name
 
 
 @pytest.mark.parametrize("plugin, p", [(plugin, p) for plugin in OTHER_PLUGINS

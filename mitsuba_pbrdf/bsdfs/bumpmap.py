@@ -161,13 +161,12 @@ def bumpmap_frame(texture, scale, si, flip_invalid_normals, active):
 
 def build_class():
     """``PolarizedBumpMap`` on the active variant's base class (registry.plugin_class)."""
-    class PolarizedBumpMap(perturbed.wrapper_base(zero_pdf_on_wrong_side=False)):
+    class PolarizedBumpMap(perturbed.wrapper_base(_NAME, zero_pdf_on_wrong_side=False)):
         """Mitsuba's ``bumpmap`` with the nested Mueller matrix rotated into the
         unperturbed frame's Stokes bases (module docstring)."""
 
         def __init__(self, props):
             super().__init__(props)
-            self.nested_bsdf = read.single_nested(props, _NAME, mi.BSDF)
             textures = read.nested_objects(props, mi.Texture)
             if len(textures) != 1:
                 raise ValueError(f"{_NAME}: exactly one nested height texture must be given, "
@@ -175,10 +174,6 @@ def build_class():
             self.nested_texture = next(iter(textures.values()))
             check_heights(self.nested_texture)
             self.scale = mi.Float(check_scale(props.get("scale", parameter("scale", _NAME).default)))
-            self.flip_invalid_normals = read.declared(props, _NAME, "flip_invalid_normals")
-            self.use_shadowing_function = read.declared(props, _NAME, "use_shadowing_function")
-            self.m_components = [self.nested_bsdf.flags(i)
-                                 for i in range(self.nested_bsdf.component_count())]
             self.m_flags = self.nested_bsdf.flags()
 
         def traverse(self, callback):
