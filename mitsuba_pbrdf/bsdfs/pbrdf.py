@@ -183,7 +183,7 @@ from .. import properties, schema
 from . import pbrdf_properties
 from .fresnel import fresnel_unpolarized, specular_mueller
 from .ior import complex_ior_textures
-from .lobes import DeltaLobe, Evaluation, LambertianLobe, MicrofacetLobe
+from .lobes import DeltaLobe, Evaluation, LambertianLobe, MicrofacetLobe, sample_record
 from .microfacet import SHADOWING
 
 _NAME = "pbrdf"
@@ -359,19 +359,19 @@ def build_class():
             active = mi.Bool(active) & (cos_i > 0)
             enabled = self._enabled_lobes(ctx)
             if not enabled:
-                return _sample_record(si.wi, mi.Float(0.0), mi.UInt32(0), mi.UInt32(0),
+                return sample_record(si.wi, mi.Float(0.0), mi.UInt32(0), mi.UInt32(0),
                                       mi.Bool(False), dr.zeros(mi.Spectrum))
             if self.sampling == "cosine":
                 wo = mi.warp.square_to_cosine_hemisphere(sample2)
                 ev = Evaluation.of(si, wo, active)
-                return _sample_record(wo, self._pdf(ctx, ev), mi.UInt32(enabled[0].index),
+                return sample_record(wo, self._pdf(ctx, ev), mi.UInt32(enabled[0].index),
                                       mi.UInt32(self._component_flags(enabled[0])), ev.active,
                                       self._value(ctx, ev))
             if len(enabled) == 1:
                 lobe = enabled[0]
                 s = lobe.sample_alone(si, sample2, active)
                 value = self._weighted(lobe, ctx, si, s.wo, s.facet_normal, s.value, s.active)
-                return _sample_record(s.wo, s.pdf, mi.UInt32(lobe.index),
+                return sample_record(s.wo, s.pdf, mi.UInt32(lobe.index),
                                       mi.UInt32(self._component_flags(lobe)), s.active, value)
             probs = self._lobe_probabilities(ctx, si, active)
 
@@ -401,7 +401,7 @@ def build_class():
                 pdf = dr.select(on_delta, probs[delta.index], pdf)
                 value = dr.select(on_delta, self._weighted(delta, ctx, si, wo, mi.Vector3f(0, 0, 1),
                                                            1.0, ev.active), value)
-            return _sample_record(wo, pdf, component, sampled_type, ev.active, value)
+            return sample_record(wo, pdf, component, sampled_type, ev.active, value)
 
         # -------------------------------------------------------------- internals
 
@@ -479,17 +479,3 @@ def build_class():
 
     return PolarizedBRDF
 
-
-def _sample_record(wo, pdf, component, sampled_type, active, value):
-    """``(BSDFSample3f, weight = value / pdf)``, zero where inactive or where
-    the pdf is 0 or not finite."""
-    active = active & (pdf > 0) & dr.isfinite(pdf)
-    bs = dr.zeros(mi.BSDFSample3f)
-    bs.wo = wo
-    bs.pdf = dr.select(active, pdf, 0.0)
-    bs.eta = 1.0
-    bs.sampled_component = component
-    bs.sampled_type = sampled_type
-    zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
-    weight = dr.select(active, value * dr.rcp(pdf), zero)
-    return bs, weight
