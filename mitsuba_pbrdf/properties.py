@@ -42,13 +42,18 @@ def number(props, plugin, name, default=None, low=None, high=None, what=""):
 def declared(props, plugin, name):
     """Plugin *plugin*'s parameter *name* read and checked against its
     declaration (:data:`mitsuba_pbrdf.schema.PLUGIN_PARAMETERS`): a choice, a
-    boolean or a bounded number; its declared default where absent."""
+    boolean, a bounded number or integer; its declared default where absent."""
     p = parameter(name, plugin)
     if p.kind == "choice":
         return choice(props, plugin, name, p.choices, p.default)
     if p.kind == "boolean":
         return flag(props, plugin, name, p.default)
-    return number(props, plugin, name, p.default, p.lower, p.upper)
+    value = number(props, plugin, name, p.default, p.lower, p.upper)
+    if p.kind == "integer":
+        if value != int(value):
+            raise ValueError(f"{plugin}: parameter '{name}' must be a whole number, got {value:g}")
+        return int(value)
+    return value
 
 
 def direction(props, plugin, name):

@@ -14,11 +14,11 @@ model parameter reads it from here:
   (:mod:`mitsuba_pbrdf.cli.model_options`);
 * the fitted parameters, their starting values and bounds
   (:mod:`mitsuba_pbrdf.fitting.vector`);
-* the parameter table of ``docs/plugin.md`` (:func:`markdown_table`; a test
-  checks the two are the same);
-* every plugin's docstring rows of its declared parameters (:func:`rst_row`,
-  written by :func:`write_plugin_docstring_table`; tests/test_schema.py checks
-  them) and the reads of :func:`mitsuba_pbrdf.properties.declared`.
+* the parameter table of ``docs/plugin.md`` and every plugin's docstring
+  rows of its declared parameters (:mod:`mitsuba_pbrdf.schema_tables`, which
+  ``python -m mitsuba_pbrdf.schema_tables`` rewrites; tests/test_schema.py checks
+  them);
+* the reads of :func:`mitsuba_pbrdf.properties.declared`.
 
 The plugin and the reference still compute the model independently: only the
 names, defaults and bounds are shared. Adding a parameter means a line here and
@@ -34,7 +34,7 @@ from typing import Optional, Tuple
 __all__ = ["Parameter", "Fit", "Alias", "ALIASES", "PARAMETERS", "MIN_SIGMA", "LOBES", "DEFAULTS", "SHADOWING",
            "REFERENCE_SHADOWING", "DD_DISTRIBUTIONS", "DISTRIBUTIONS", "SAMPLING",
            "REFINEMENTS", "ANISOTROPIC_WIDTHS", "exposed_widths", "parameter", "names",
-           "markdown_table", "rst_table", "rst_row", "PLUGIN_PARAMETERS", "bounds_doc"]
+           "PLUGIN_PARAMETERS", "bounds_doc"]
 
 #: Smallest accepted RMS slope (``sigma``, ``sigma_dd``): Mitsuba's microfacet
 #: distributions clamp the Beckmann/GGX width alpha = sqrt(2) sigma to 1e-4.
@@ -75,7 +75,7 @@ class Parameter:
 
     ``kind``: ``"spectrum"`` (a number, spectrum or texture; may vary with
     wavelength), ``"float"`` (a number or texture, one value per point),
-    ``"number"`` (a plain number), ``"boolean"``, ``"choice"`` (a string from
+    ``"number"`` (a plain number), ``"integer"``, ``"boolean"``, ``"choice"`` (a string from
     ``choices``) or ``"material"`` (a conductor name). ``lower``/``upper``/
     ``positive``: the value must be >= ``lower``, <= ``upper`` (> 0 where
     ``positive``); ``floor``: the smallest value the plugin takes (Mitsuba's
@@ -329,6 +329,16 @@ _SHADOWING_FUNCTION = _other(
     "Multiply by Estevez et al. 2019's shadowing term of the perturbed normal (softens the "
     "bump-terminator edge), as Mitsuba's ``normalmap`` and ``bumpmap`` do.")
 
+def _sunsky(name: str, default, doc: str, kind: str = "number",
+            flags_doc: str = "``intensity.*``", **bounds) -> Parameter:
+    """A parameter that ``polarized_sky`` hands to its internal ``sunsky``,
+    whose default (Mitsuba 3.9.1's) applies where it is not given."""
+    return _other(name, kind, default, doc, default_doc=f"``sunsky``'s: {default:.7g}",
+                  flags_doc=flags_doc, **bounds)
+
+
+_DATE = "``intensity.*`` (not differentiable)"   # the sun's position is read-only
+
 #: The declared parameters of each plugin, by the name scene files give it
 #: (``pbrdf``: :data:`PARAMETERS`). A plugin's other rows (nested objects,
 #: files, directions, transforms) are read and documented in its module.
@@ -354,7 +364,34 @@ PLUGIN_PARAMETERS = {
                "``berry`` only: the angle in degrees between the Babinet point (above the "
                "sun) and the Brewster point (below it); each lies half of it from the sun. "
                "The Babinet point is typically observed 15-20° above the sun.",
-               lower=0.0, upper=90.0)),
+               lower=0.0, upper=90.0),
+        _sunsky("turbidity", 3.0, "Turbidity of the ``sunsky`` intensity (Hosek-Wilkie sky "
+                "and sun), handed to the internal ``sunsky`` as the rows below.",
+                lower=1.0, upper=10.0),
+        _sunsky("sun_scale", 1.0, "Factor on the ``sunsky`` intensity's sun.", lower=0.0),
+        _sunsky("sky_scale", 1.0, "Factor on the ``sunsky`` intensity's sky.", lower=0.0),
+        _sunsky("sun_aperture", 0.5358, "Apparent diameter of the ``sunsky`` intensity's sun, "
+                "degrees.", lower=1e-3, upper=179.9),
+        _sunsky("albedo", 0.3, "Ground albedo of the ``sunsky`` intensity: a number, or a "
+                "spectrum (not checked).", lower=0.0, upper=1.0),
+        _sunsky("year", 2010, "Instead of ``sun_direction``, with the rest of the date, the "
+                "time and the place: the sun ``sunsky`` puts there (+X south, +Y west in its "
+                "frame, measured), which must be above the horizon. Only with the ``sunsky`` "
+                "intensity.", kind="integer",
+                flags_doc=_DATE),
+        _sunsky("month", 7, "Month of the date.", kind="integer", lower=1, upper=12,
+                flags_doc=_DATE),
+        _sunsky("day", 10, "Day of the month.", kind="integer", lower=1, upper=31,
+                flags_doc=_DATE),
+        _sunsky("hour", 15.0, "Local time: hours.", lower=0.0, upper=24.0, flags_doc=_DATE),
+        _sunsky("minute", 0.0, "Local time: minutes.", lower=0.0, upper=60.0, flags_doc=_DATE),
+        _sunsky("second", 0.0, "Local time: seconds.", lower=0.0, upper=60.0, flags_doc=_DATE),
+        _sunsky("latitude", 35.6894, "Latitude of the place, degrees north.", lower=-90.0,
+                upper=90.0, flags_doc=_DATE),
+        _sunsky("longitude", 139.6917, "Longitude of the place, degrees east.", lower=-180.0,
+                upper=180.0, flags_doc=_DATE),
+        _sunsky("timezone", 9.0, "Time zone of the local time, hours from UTC.", lower=-12.0,
+                upper=14.0, flags_doc=_DATE)),
     "polarized_emitter": (
         _other("angle", "number", 0.0,
                "The polarizer's transmission axis in degrees, from the local x axis towards "
@@ -379,121 +416,3 @@ REFERENCE_SHADOWING = SHADOWING + parameter("shadowing").reference_choices
 DD_DISTRIBUTIONS = parameter("dd_distribution").choices
 DISTRIBUTIONS = parameter("distribution").choices
 SAMPLING = parameter("sampling").choices
-
-_KIND_DOC = {"spectrum": "spectrum or texture", "float": "float or texture",
-             "choice": "string", "material": "string", "number": "float",
-             "boolean": "boolean"}
-
-
-def _documented() -> Tuple[Parameter, ...]:
-    """The plugin's parameters in table order, each followed by its alias."""
-    return tuple(q for p in PARAMETERS if p.plugin
-                 for q in ((p, ALIASES[p.alias.name]) if p.alias else (p,)))
-
-
-def _flags(p: Parameter) -> str:
-    if p.flags_doc:
-        return p.flags_doc
-    if not p.differentiable:
-        return "--"
-    exposed = ("exposed where the lobe is anisotropic" if p.refines else
-               "exposed where the lobe is isotropic" if (p.stands_for or p.name) in REFINEMENTS
-               else "exposed")
-    return exposed + ", differentiable" + (", discontinuous" if p.discontinuous else "")
-
-
-def _default(p: Parameter) -> str:
-    if p.stands_for:
-        return "--"
-    if p.refines:
-        return f"``{p.default_doc}``"
-    if p.kind == "boolean":
-        return str(p.default).lower()
-    return p.default_doc if p.default_doc else f"``{p.default}``" if p.kind in (
-        "choice", "material") else f"{p.default:g}"
-
-
-def markdown_table() -> str:
-    """The plugin's parameter table in Markdown (``docs/plugin.md``)."""
-    rows = ["| name | type | default | unit | valid (typical) | meaning | flags |",
-            "|---|---|---|---|---|---|---|"]
-    for p in _documented():
-        if p.plugin:
-            valid = p.bound_doc.replace("``", "`")
-            if p.typical:
-                valid = f"{valid} ({p.typical})" if valid else p.typical
-            rows.append(f"| `{p.name}` | {_KIND_DOC[p.kind]} | {_default(p).replace('``', '`')} "
-                        f"| {p.unit} | {valid} | {p.doc} | {_flags(p)} |")
-    return "\n".join(rows) + "\n"
-
-
-def rst_table() -> str:
-    """The same table as a reStructuredText list-table (the plugin's docstring)."""
-    lines = [".. list-table::", "   :header-rows: 1", "",
-             "   * - Parameter", "     - Type", "     - Description", "     - Default",
-             "     - Flags"]
-    return "\n".join(lines) + "\n" + "".join(rst_row(p) for p in _documented() if p.plugin)
-
-
-def rst_row(p: Parameter) -> str:
-    """Parameter *p*'s row of a plugin docstring's list-table."""
-    bound = f" Valid: {p.bound_doc}." if p.bound_doc else ""
-    return "\n".join([f"   * - ``{p.name}``", f"     - {_KIND_DOC[p.kind]}",
-                      f"     - {p.doc}{bound}", f"     - {_default(p)}",
-                      f"     - {_flags(p)}"]) + "\n"
-
-
-#: The markers around the generated table in ``docs/plugin.md``.
-TABLE_START = "<!-- schema table: generated from mitsuba_pbrdf/schema.py"
-TABLE_END = "<!-- end of schema table -->"
-
-
-def docs_table(text: str) -> str:
-    """The generated table as it stands in *text* (a Markdown file), between
-    :data:`TABLE_START`'s line and :data:`TABLE_END`."""
-    start = text.index("\n", text.index(TABLE_START)) + 1
-    return text[start:text.index(TABLE_END, start)]
-
-
-def write_docs_table(path: str) -> None:
-    """Replace the generated table in Markdown file *path* by :func:`markdown_table`."""
-    with open(path, encoding="utf-8") as f:
-        text = f.read()
-    old = docs_table(text)
-    start = text.index(old, text.index(TABLE_START))
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text[:start] + markdown_table() + text[start + len(old):])
-
-
-def write_plugin_docstring_table(path: str) -> None:
-    """Rewrite the declared rows of the ``.. list-table::`` in plugin module
-    *path* (the plugin: the file's first ````name````): ``pbrdf``'s whole
-    table is :func:`rst_table`, another plugin's declared rows each its
-    :func:`rst_row`, in place."""
-    import re
-
-    with open(path, encoding="utf-8") as f:
-        text = f.read()
-    plugin = re.search(r"``(\w+)``", text).group(1)
-    if plugin == "pbrdf":
-        start = text.index(".. list-table::")
-        end = text.index("\n\n", text.index("   * - ", start) + 1)
-        while text.startswith("   ", end + 2) or text.startswith("     ", end + 1):
-            end = text.index("\n\n", end + 1)
-        text = text[:start] + rst_table().rstrip("\n") + text[end:]
-    for p in PLUGIN_PARAMETERS[plugin] if plugin != "pbrdf" else ():
-        start = text.index(f"   * - ``{p.name}``\n")
-        # the row runs to the next row or the end of the table
-        end = re.compile(r"^(?! {5})", re.M).search(text, text.index("\n", start) + 1).start()
-        text = text[:start] + rst_row(p) + text[end:]
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text)
-
-
-if __name__ == "__main__":  # python -m mitsuba_pbrdf.schema docs/plugin.md PLUGIN_MODULE.py ...
-    import sys
-
-    for target in sys.argv[1:]:
-        (write_plugin_docstring_table if target.endswith(".py") else write_docs_table)(target)
-    if len(sys.argv) == 1:
-        print(markdown_table(), end="")

@@ -1,7 +1,7 @@
 """The ``pbrdf`` plugin: three-component polarized BRDF for metals.
 
 Parameters (declared in :mod:`mitsuba_pbrdf.schema`, each read by name in the
-constructor; the table below is ``schema.rst_table()``, written here so that the
+constructor; the table below is ``schema_tables.rst_table()``, written here so that the
 source reads as the documentation, and ``tests/test_schema.py`` checks that the
 two agree):
 
