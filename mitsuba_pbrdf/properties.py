@@ -49,6 +49,8 @@ def declared(props, plugin, name):
     if p.kind == "boolean":
         return flag(props, plugin, name, p.default)
     value = number(props, plugin, name, p.default, p.lower, p.upper)
+    if p.positive and not value > 0:
+        raise ValueError(f"{plugin}: parameter '{name}' must be > 0, got {value:g}")
     if p.kind == "integer":
         if value != int(value):
             raise ValueError(f"{plugin}: parameter '{name}' must be a whole number, got {value:g}")

@@ -404,6 +404,14 @@ PLUGIN_PARAMETERS = {
                "polarizer passes 0.5; the default keeps the lamp's radiance and polarizes it "
                "(and so doubles light already polarized along its axis, see below).",
                lower=0.0, upper=1.0)),
+    "stokes_prb": (   # rr_depth and max_depth's default are read by Mitsuba's ADIntegrator
+        _other("max_depth", "integer", 6, "Longest path, as in ``path`` (1: emitters seen "
+               "directly, 2: direct illumination, ...); the replay stores each vertex of a "
+               "sample in local memory, so the depth must be finite.", lower=0, upper=64),
+        _other("rr_depth", "integer", 5, "Depth at which Russian roulette starts, as in "
+               "``path``.", positive=True),
+        _other("hide_emitters", "boolean", False, "Hide directly visible emitters, as in "
+               "``path``.")),
     "stokes_envmap": (
         _other("scale", "number", 1.0, "Factor on the radiance.", lower=0.0,
                flags_doc="``intensity.scale``"),),

@@ -266,6 +266,9 @@ def _scene(plugin, stokes_map):
 def test_each_plugin_checks_its_declared_parameters_at_load_time(plugin, p, stokes_map):
     """Each declared parameter is read through its declaration: a value out of
     its bounds, or of the wrong type, is refused with the declared words."""
+    if plugin == "stokes_prb":
+        pytest.skip("read by Mitsuba's ADIntegrator and stokes_prb's own check, in their "
+                    "words (test_stokes_prb_runs_with_the_declared_defaults)")
     if p.lower is not None or p.upper is not None:
         bad = p.lower - 1 if p.lower is not None else p.upper + 1
         words = f"must be {re.escape(p.bound_doc)}"
@@ -288,7 +291,7 @@ def test_declared_reads_give_the_default_and_refuse_what_is_out_of_bounds(plugin
     if p.name == "scale" and plugin == "polarized_bumpmap":
         pytest.skip("read by bumpmap.check_scale (tests/bsdfs/test_perturbed.py)")
     assert properties.declared(mi.Properties(), plugin, p.name) == p.default
-    for bound, step in ((p.lower, -1.0), (p.upper, 1.0)):
+    for bound, step in ((p.lower, -1.0), (p.upper, 1.0), (0.0 if p.positive else None, 0.0)):
         if bound is not None:
             props = mi.Properties()
             props[p.name] = bound + step
@@ -336,3 +339,17 @@ def test_the_declared_sunsky_defaults_are_sunskys():
     if mi.is_spectral:
         si.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
     assert np.array_equal(np.array(default.eval(si)), np.array(explicit.eval(si)))
+
+
+def test_stokes_prb_runs_with_the_declared_defaults():
+    from mitsuba_pbrdf.integrators.support import MAX_DEPTH_LIMIT, usable_variant
+
+    if not usable_variant(mi.variant()):
+        pytest.skip("stokes_prb needs a polarized JIT variant")
+    integrator = mi.load_dict({"type": "stokes_prb"})
+    for p in schema.PLUGIN_PARAMETERS["stokes_prb"]:
+        assert getattr(integrator, p.name) == p.default, p.name
+    assert MAX_DEPTH_LIMIT == schema.parameter("max_depth", "stokes_prb").upper
+    with pytest.raises(Exception, match="greater than zero"):   # Mitsuba's check of rr_depth
+        mi.load_dict({"type": "stokes_prb", "rr_depth": 0})
+
