@@ -345,6 +345,7 @@ _DATE = "``intensity.*`` (not differentiable)"   # the sun's position is read-on
 PLUGIN_PARAMETERS = {
     "pbrdf": tuple(p for p in PARAMETERS if p.plugin),
     "polarized_normalmap": (_FLIP, _SHADOWING_FUNCTION),
+    "polarized_twosided": (),   # its two nested BSDFs only
     "polarized_bumpmap": (
         _other("scale", "number", 1.0, "Multiplier of the height gradient; a finite number "
                "(not a boolean), re-checked at ``parameters_changed``.", flags_doc="|exposed|"),

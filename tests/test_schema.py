@@ -221,6 +221,12 @@ def test_min_sigma_is_mitsubas_alpha_floor():
 OTHER_PLUGINS = [name for name in schema.PLUGIN_PARAMETERS if name != "pbrdf"]
 
 
+def test_every_registered_plugin_is_declared():
+    from mitsuba_pbrdf.registry import PLUGINS
+
+    assert sorted(schema.PLUGIN_PARAMETERS) == sorted(name for _, name, _, _ in PLUGINS)
+
+
 @pytest.mark.parametrize("plugin", OTHER_PLUGINS)
 def test_each_plugins_docstring_rows_are_its_declarations(plugin):
     """The other plugins' tables are written by hand around the declared rows,
