@@ -173,7 +173,8 @@ def build_class():
                                  f"found {len(textures)}")
             self.nested_texture = next(iter(textures.values()))
             check_heights(self.nested_texture)
-            self.scale = mi.Float(check_scale(props.get("scale", parameter("scale", _NAME).default)))
+            scale = props.get("scale", parameter("scale", _NAME).default)
+            self.scale = mi.Float(check_scale(scale))
             self.m_flags = self.nested_bsdf.flags()
 
         def traverse(self, callback):

@@ -85,7 +85,6 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
-from .. import properties as read
 
 
 #: Decoded normals shorter than this have no usable direction (an 8-bit
