@@ -329,6 +329,7 @@ _SHADOWING_FUNCTION = _other(
     "Multiply by Estevez et al. 2019's shadowing term of the perturbed normal (softens the "
     "bump-terminator edge), as Mitsuba's ``normalmap`` and ``bumpmap`` do.")
 
+
 def _sunsky(name: str, default, doc: str, kind: str = "number",
             flags_doc: str = "``intensity.*``", **bounds) -> Parameter:
     """A parameter that ``polarized_sky`` hands to its internal ``sunsky``,
@@ -374,12 +375,11 @@ PLUGIN_PARAMETERS = {
         _sunsky("sun_aperture", 0.5358, "Apparent diameter of the ``sunsky`` intensity's sun, "
                 "degrees.", lower=1e-3, upper=179.9),
         _sunsky("albedo", 0.3, "Ground albedo of the ``sunsky`` intensity: a number, or a "
-                "spectrum (not checked).", lower=0.0, upper=1.0),
+                "spectrum as ``sunsky`` takes it.", lower=0.0, upper=1.0),
         _sunsky("year", 2010, "Instead of ``sun_direction``, with the rest of the date, the "
                 "time and the place: the sun ``sunsky`` puts there (+X south, +Y west in its "
                 "frame, measured), which must be above the horizon. Only with the ``sunsky`` "
-                "intensity.", kind="integer",
-                flags_doc=_DATE),
+                "intensity.", kind="integer", flags_doc=_DATE),
         _sunsky("month", 7, "Month of the date.", kind="integer", lower=1, upper=12,
                 flags_doc=_DATE),
         _sunsky("day", 10, "Day of the month.", kind="integer", lower=1, upper=31,
@@ -405,7 +405,7 @@ PLUGIN_PARAMETERS = {
                "polarizer passes 0.5; the default keeps the lamp's radiance and polarizes it "
                "(and so doubles light already polarized along its axis, see below).",
                lower=0.0, upper=1.0)),
-    "stokes_prb": (   # rr_depth and max_depth's default are read by Mitsuba's ADIntegrator
+    "stokes_prb": (   # Mitsuba's ADIntegrator reads them too, with the same defaults
         _other("max_depth", "integer", 6, "Longest path, as in ``path`` (1: emitters seen "
                "directly, 2: direct illumination, ...); the replay stores each vertex of a "
                "sample in local memory, so the depth must be finite.", lower=0, upper=64),

@@ -56,7 +56,7 @@
      - ``intensity.*``
    * - ``albedo``
      - float
-     - Ground albedo of the ``sunsky`` intensity: a number, or a spectrum (not checked). Valid: in [0, 1].
+     - Ground albedo of the ``sunsky`` intensity: a number, or a spectrum as ``sunsky`` takes it. Valid: in [0, 1].
      - ``sunsky``'s: 0.3
      - ``intensity.*``
    * - ``year``
