@@ -11,8 +11,9 @@ Mueller matrix in polarized variants.
 S (``si.wi``, ``wo`` are S-local); ``frame_world`` is P in world space (the
 nested BSDF's ``si.sh_frame``). Plain functions: ``mi.*`` is looked up when
 called, so this module serves every variant. :func:`wrapper_base` gives
-both wrappers their eval, pdf, eval_pdf and sample as a base class built on
-the active variant's ``mi.BSDF`` (nanobind takes one base, no mix-in).
+both wrappers their shared reads and their eval, pdf, eval_pdf and sample as
+a base class built on the active variant's ``mi.BSDF`` (nanobind takes one
+base, no mix-in).
 """
 
 import drjit as dr
