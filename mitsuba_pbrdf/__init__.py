@@ -32,7 +32,8 @@ Sub-packages, one concern each:
   reciprocity, albedo);
 * :mod:`~mitsuba_pbrdf.errors`: errors in the library's terms, one-line descriptions;
 * :mod:`~mitsuba_pbrdf.cli`: the ``pbrdf`` command line;
-* :mod:`~mitsuba_pbrdf.schema`: the model's parameters, each declared once (name, kind, default, bounds, flags);
+* :mod:`~mitsuba_pbrdf.schema`: every plugin's parameters, each declared once (name, kind, default, bounds, flags),
+  written as tables by :mod:`~mitsuba_pbrdf.schema_tables`;
 * :mod:`~mitsuba_pbrdf.variant`, :mod:`~mitsuba_pbrdf.registry`: Mitsuba variants, and
   registering the plugins in them.
 """

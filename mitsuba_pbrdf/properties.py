@@ -15,6 +15,8 @@ import math
 
 import mitsuba as mi
 
+from .schema import bounds_doc, parameter
+
 _NUMBER = (mi.Properties.Type.Float, mi.Properties.Type.Integer)
 
 
@@ -32,24 +34,28 @@ def number(props, plugin, name, default=None, low=None, high=None, what=""):
     if not math.isfinite(value):
         raise ValueError(f"{plugin}: parameter '{name}' must be finite, got {value}")
     if (low is not None and value < low) or (high is not None and value > high):
-        raise ValueError(f"{plugin}: parameter '{name}' must be {bounds(low, high)}{what}, "
+        raise ValueError(f"{plugin}: parameter '{name}' must be {bounds_doc(low, high)}{what}, "
                          f"got {value:g}")
     return value
 
 
-def declared(props, setting):
-    """Setting *setting* (a :class:`mitsuba_pbrdf.schema.Setting`) read and
-    checked against its declaration: a choice or a bounded number."""
-    if setting.choices:
-        return choice(props, setting.plugin, setting.name, setting.choices, setting.default)
-    return number(props, setting.plugin, setting.name, setting.default, setting.low,
-                  setting.high)
-
-
-def bounds(low, high):
-    """``in [low, high]``, ``>= low`` or ``<= high``, as errors word a range."""
-    return (f"in [{low:g}, {high:g}]" if low is not None and high is not None
-            else f">= {low:g}" if low is not None else f"<= {high:g}")
+def declared(props, plugin, name):
+    """Plugin *plugin*'s parameter *name* read and checked against its
+    declaration (:data:`mitsuba_pbrdf.schema.PLUGIN_PARAMETERS`): a choice, a
+    boolean, a bounded number or integer; its declared default where absent."""
+    p = parameter(name, plugin)
+    if p.kind == "choice":
+        return choice(props, plugin, name, p.choices, p.default)
+    if p.kind == "boolean":
+        return flag(props, plugin, name, p.default)
+    value = number(props, plugin, name, p.default, p.lower, p.upper)
+    if p.positive and not value > 0:
+        raise ValueError(f"{plugin}: parameter '{name}' must be > 0, got {value:g}")
+    if p.kind == "integer":
+        if value != int(value):
+            raise ValueError(f"{plugin}: parameter '{name}' must be a whole number, got {value:g}")
+        return int(value)
+    return value
 
 
 def direction(props, plugin, name):

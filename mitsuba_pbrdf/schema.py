@@ -1,5 +1,6 @@
-"""The model's parameters, each declared once: name, kind, default, bounds,
-flags and a one-line doc.
+"""Every plugin's parameters, each declared once: name, kind, default, bounds,
+flags and a one-line doc (:class:`Parameter`). ``pbrdf``'s are
+:data:`PARAMETERS`; the other plugins' are in :data:`PLUGIN_PARAMETERS`.
 
 Pure Python, no imports beyond the standard library. Everything that takes a
 model parameter reads it from here:
@@ -13,8 +14,11 @@ model parameter reads it from here:
   (:mod:`mitsuba_pbrdf.cli.model_options`);
 * the fitted parameters, their starting values and bounds
   (:mod:`mitsuba_pbrdf.fitting.vector`);
-* the parameter table of ``docs/plugin.md`` (:func:`markdown_table`; a test
-  checks the two are the same).
+* the parameter table of ``docs/plugin.md`` and every plugin's docstring
+  rows of its declared parameters (:mod:`mitsuba_pbrdf.schema_tables`, which
+  ``python -m mitsuba_pbrdf.schema_tables`` rewrites; tests/test_schema.py checks
+  them);
+* the reads of :func:`mitsuba_pbrdf.properties.declared`.
 
 The plugin and the reference still compute the model independently: only the
 names, defaults and bounds are shared. Adding a parameter means a line here and
@@ -30,7 +34,7 @@ from typing import Optional, Tuple
 __all__ = ["Parameter", "Fit", "Alias", "ALIASES", "PARAMETERS", "MIN_SIGMA", "LOBES", "DEFAULTS", "SHADOWING",
            "REFERENCE_SHADOWING", "DD_DISTRIBUTIONS", "DISTRIBUTIONS", "SAMPLING",
            "REFINEMENTS", "ANISOTROPIC_WIDTHS", "exposed_widths", "parameter", "names",
-           "markdown_table", "rst_table", "Setting", "SETTINGS", "setting"]
+           "PLUGIN_PARAMETERS", "bounds_doc"]
 
 #: Smallest accepted RMS slope (``sigma``, ``sigma_dd``): Mitsuba's microfacet
 #: distributions clamp the Beckmann/GGX width alpha = sqrt(2) sigma to 1e-4.
@@ -67,14 +71,17 @@ class Alias:
 
 @dataclass(frozen=True)
 class Parameter:
-    """One model parameter.
+    """One parameter of a plugin.
 
     ``kind``: ``"spectrum"`` (a number, spectrum or texture; may vary with
     wavelength), ``"float"`` (a number or texture, one value per point),
-    ``"choice"`` (a string from ``choices``) or ``"material"`` (a conductor
-    name). ``lower``/``positive``: the value must be >= ``lower`` (> 0 where
+    ``"number"`` (a plain number), ``"integer"``, ``"boolean"``, ``"choice"`` (a string from
+    ``choices``) or ``"material"`` (a conductor name). ``lower``/``upper``/
+    ``positive``: the value must be >= ``lower``, <= ``upper`` (> 0 where
     ``positive``); ``floor``: the smallest value the plugin takes (Mitsuba's
-    limit). ``lobe``/``role``: the lobe it weights (``"weight"``) or shapes
+    limit). ``flags_doc``: the docs' Flags cell where ``differentiable`` does
+    not say it all (exposed under another key, or exposed and not
+    differentiable). ``lobe``/``role``: the lobe it weights (``"weight"``) or shapes
     (``"width"``; ``"width_u"``/``"width_v"``: its width along the shading
     frame's s and t axes). ``refines``: the parameter it refines (``sigma_u``
     and ``sigma_v`` refine ``sigma``): it defaults to that parameter's value,
@@ -95,6 +102,7 @@ class Parameter:
     default: object
     doc: str
     lower: Optional[float] = None
+    upper: Optional[float] = None
     positive: bool = False
     floor: Optional[float] = None
     choices: Tuple[str, ...] = ()
@@ -115,6 +123,7 @@ class Parameter:
     alias: Optional[Alias] = None
     stands_for: Optional[str] = None          # an alias's parameter (``sigma`` for ``alpha``)
     scale: float = 1.0                        # an alias's values per the parameter's
+    flags_doc: Optional[str] = None
 
     @property
     def option(self) -> str:
@@ -130,9 +139,16 @@ class Parameter:
                     else f">= {self.floor:.3g}")
         if self.positive:
             return "> 0"
-        if self.lower is not None:
-            return f">= {self.lower:g}"
+        if self.lower is not None or self.upper is not None:
+            return bounds_doc(self.lower, self.upper)
         return ""
+
+
+def bounds_doc(low: Optional[float], high: Optional[float]) -> str:
+    """``in [low, high]``, ``>= low`` or ``<= high``, as the docs and the
+    errors word a range (either bound None: open)."""
+    return (f"in [{low:g}, {high:g}]" if low is not None and high is not None
+            else f">= {low:g}" if low is not None else f"<= {high:g}")
 
 
 #: Every model parameter, in the order of the docs' table.
@@ -247,10 +263,12 @@ ALIASES = {p.alias.name: _as_alias(p) for p in PARAMETERS if p.alias}
 _BY_NAME = {**{p.name: p for p in PARAMETERS}, **ALIASES}
 
 
-def parameter(name: str) -> Parameter:
-    """The declaration of parameter *name*, or of an alias (``alpha``) as
-    given under that name."""
-    return _BY_NAME[name]
+def parameter(name: str, plugin: str = "pbrdf") -> Parameter:
+    """The declaration of plugin *plugin*'s parameter *name*, or of an alias
+    of ``pbrdf``'s (``alpha``) as given under that name."""
+    if plugin == "pbrdf":
+        return _BY_NAME[name]
+    return next(p for p in PLUGIN_PARAMETERS[plugin] if p.name == name)
 
 
 def names(**flags) -> Tuple[str, ...]:
@@ -297,40 +315,108 @@ def exposed_widths(lobe: str, anisotropic: bool) -> Tuple[str, ...]:
 DEFAULTS = {p.name: p.default for p in PARAMETERS}
 
 
-@dataclass(frozen=True)
-class Setting:
-    """A number or choice of another of the package's plugins (the emitters;
-    ``pbrdf``'s are :data:`PARAMETERS`): its default, its bounds ``[low,
-    high]`` (either None: unbounded), its ``choices`` (a string setting) and
-    whether ``traverse`` exposes it as differentiable. Read by
-    :func:`mitsuba_pbrdf.properties.declared`; the plugin's docstring table
-    states the same default and flag (tests/test_registry.py)."""
-
-    plugin: str
-    name: str
-    default: object
-    low: Optional[float] = None
-    high: Optional[float] = None
-    choices: Tuple[str, ...] = ()
-    differentiable: bool = False
+def _other(name: str, kind: str, default, doc: str, **flags) -> Parameter:
+    """A parameter of a plugin other than ``pbrdf``: neither the reference
+    evaluator nor the model options take it."""
+    return Parameter(name, kind, default, doc, reference=False, cli=False, **flags)
 
 
-SETTINGS: Tuple[Setting, ...] = (
-    Setting("polarized_sky", "model", "rayleigh", choices=("rayleigh", "berry")),
-    Setting("polarized_sky", "dolp_max", 0.8, 0.0, 1.0, differentiable=True),
-    Setting("polarized_sky", "neutral_point_separation", 35.0, 0.0, 90.0),
-    Setting("polarized_emitter", "angle", 0.0),
-    Setting("polarized_emitter", "degree", 1.0, 0.0, 1.0),
-    Setting("polarized_emitter", "transmittance", 1.0, 0.0, 1.0),
-    Setting("stokes_envmap", "scale", 1.0, low=0.0),
-)
-
-_SETTINGS = {(s.plugin, s.name): s for s in SETTINGS}
+_FLIP = _other("flip_invalid_normals", "boolean", True,
+               "Mirror the perturbed normal's tangential part where it faces away from the "
+               "viewer (Schüssler et al. 2017), as Mitsuba's ``normalmap`` and ``bumpmap`` do.")
+_SHADOWING_FUNCTION = _other(
+    "use_shadowing_function", "boolean", True,
+    "Multiply by Estevez et al. 2019's shadowing term of the perturbed normal (softens the "
+    "bump-terminator edge), as Mitsuba's ``normalmap`` and ``bumpmap`` do.")
 
 
-def setting(plugin: str, name: str) -> Setting:
-    """The declaration of plugin *plugin*'s setting *name*."""
-    return _SETTINGS[(plugin, name)]
+def _sunsky(name: str, default, doc: str, kind: str = "number",
+            flags_doc: str = "``intensity.*``", **bounds) -> Parameter:
+    """A parameter that ``polarized_sky`` hands to its internal ``sunsky``,
+    whose default (Mitsuba 3.9.1's) applies where it is not given."""
+    return _other(name, kind, default, doc, default_doc=f"``sunsky``'s: {default:.7g}",
+                  flags_doc=flags_doc, **bounds)
+
+
+_DATE = "``intensity.*`` (not differentiable)"   # the sun's position is read-only
+
+#: The declared parameters of each plugin, by the name scene files give it
+#: (``pbrdf``: :data:`PARAMETERS`). A plugin's other rows (nested objects,
+#: files, directions, transforms) are read and documented in its module.
+PLUGIN_PARAMETERS = {
+    "pbrdf": tuple(p for p in PARAMETERS if p.plugin),
+    "polarized_normalmap": (_FLIP, _SHADOWING_FUNCTION),
+    "polarized_twosided": (),   # its two nested BSDFs only
+    "polarized_bumpmap": (
+        _other("scale", "number", 1.0, "Multiplier of the height gradient; a finite number "
+               "(not a boolean), re-checked at ``parameters_changed``.", flags_doc="|exposed|"),
+        _FLIP, _SHADOWING_FUNCTION),
+    "polarized_sky": (
+        _other("model", "choice", "rayleigh",
+               "``rayleigh``: single scattering, DoLP = ``dolp_max`` sin²γ/(1 + cos²γ) (γ: "
+               "angle between the viewing direction and the sun), polarized perpendicular to "
+               "the plane through the sun and the viewing direction. ``berry``: the neutral "
+               "points of the real sky (Babinet, Brewster, Arago and the fourth), Berry, "
+               "Dennis and Lee, New J. Phys. 6 (2004) 162.", choices=("rayleigh", "berry")),
+        _other("dolp_max", "number", 0.8,
+               "Degree of linear polarization at 90° from the sun (Rayleigh); clear skies "
+               "reach 0.7-0.8.", lower=0.0, upper=1.0, differentiable=True,
+               flags_doc="|exposed|, |differentiable| (JIT variants)"),
+        _other("neutral_point_separation", "number", 35.0,
+               "``berry`` only: the angle in degrees between the Babinet point (above the "
+               "sun) and the Brewster point (below it); each lies half of it from the sun. "
+               "The Babinet point is typically observed 15-20° above the sun.",
+               lower=0.0, upper=90.0),
+        _sunsky("turbidity", 3.0, "Turbidity of the ``sunsky`` intensity (Hosek-Wilkie sky "
+                "and sun), handed to the internal ``sunsky`` as the rows below.",
+                lower=1.0, upper=10.0),
+        _sunsky("sun_scale", 1.0, "Factor on the ``sunsky`` intensity's sun.", lower=0.0),
+        _sunsky("sky_scale", 1.0, "Factor on the ``sunsky`` intensity's sky.", lower=0.0),
+        _sunsky("sun_aperture", 0.5358, "Apparent diameter of the ``sunsky`` intensity's sun, "
+                "degrees.", lower=1e-3, upper=179.9),
+        _sunsky("albedo", 0.3, "Ground albedo of the ``sunsky`` intensity: a number, or a "
+                "spectrum as ``sunsky`` takes it.", lower=0.0, upper=1.0),
+        _sunsky("year", 2010, "Instead of ``sun_direction``, with the rest of the date, the "
+                "time and the place: the sun ``sunsky`` puts there (+X south, +Y west in its "
+                "frame, measured), which must be above the horizon. Only with the ``sunsky`` "
+                "intensity.", kind="integer", flags_doc=_DATE),
+        _sunsky("month", 7, "Month of the date.", kind="integer", lower=1, upper=12,
+                flags_doc=_DATE),
+        _sunsky("day", 10, "Day of the month.", kind="integer", lower=1, upper=31,
+                flags_doc=_DATE),
+        _sunsky("hour", 15.0, "Local time: hours.", lower=0.0, upper=24.0, flags_doc=_DATE),
+        _sunsky("minute", 0.0, "Local time: minutes.", lower=0.0, upper=60.0, flags_doc=_DATE),
+        _sunsky("second", 0.0, "Local time: seconds.", lower=0.0, upper=60.0, flags_doc=_DATE),
+        _sunsky("latitude", 35.6894, "Latitude of the place, degrees north.", lower=-90.0,
+                upper=90.0, flags_doc=_DATE),
+        _sunsky("longitude", 139.6917, "Longitude of the place, degrees east.", lower=-180.0,
+                upper=180.0, flags_doc=_DATE),
+        _sunsky("timezone", 9.0, "Time zone of the local time, hours from UTC.", lower=-12.0,
+                upper=14.0, flags_doc=_DATE)),
+    "polarized_emitter": (
+        _other("angle", "number", 0.0,
+               "The polarizer's transmission axis in degrees, from the local x axis towards "
+               "the local y axis of ``to_world``."),
+        _other("degree", "number", 1.0,
+               "Degree of linear polarization the filter gives unpolarized light (1: an ideal "
+               "polarizer; less: a leaky one).", lower=0.0, upper=1.0),
+        _other("transmittance", "number", 1.0,
+               "Fraction of an unpolarized lamp's radiance the filter passes. An ideal "
+               "polarizer passes 0.5; the default keeps the lamp's radiance and polarizes it "
+               "(and so doubles light already polarized along its axis, see below).",
+               lower=0.0, upper=1.0)),
+    "stokes_prb": (   # Mitsuba's ADIntegrator reads them too, with the same defaults
+        _other("max_depth", "integer", 6, "Longest path, as in ``path`` (1: emitters seen "
+               "directly, 2: direct illumination, ...); the replay stores each vertex of a "
+               "sample in local memory, so the depth must be finite.", lower=0, upper=64),
+        _other("rr_depth", "integer", 5, "Depth at which Russian roulette starts, as in "
+               "``path``.", positive=True),
+        _other("hide_emitters", "boolean", False, "Hide directly visible emitters, as in "
+               "``path``.")),
+    "stokes_envmap": (
+        _other("scale", "number", 1.0, "Factor on the radiance.", lower=0.0,
+               flags_doc="``intensity.scale``"),),
+}
 
 SHADOWING = parameter("shadowing").choices
 #: The reference evaluator also offers ``"none"`` (G = 1: the original
@@ -339,101 +425,3 @@ REFERENCE_SHADOWING = SHADOWING + parameter("shadowing").reference_choices
 DD_DISTRIBUTIONS = parameter("dd_distribution").choices
 DISTRIBUTIONS = parameter("distribution").choices
 SAMPLING = parameter("sampling").choices
-
-_KIND_DOC = {"spectrum": "spectrum or texture", "float": "float or texture",
-             "choice": "string", "material": "string"}
-
-
-def _documented() -> Tuple[Parameter, ...]:
-    """The plugin's parameters in table order, each followed by its alias."""
-    return tuple(q for p in PARAMETERS if p.plugin
-                 for q in ((p, ALIASES[p.alias.name]) if p.alias else (p,)))
-
-
-def _flags(p: Parameter) -> str:
-    if not p.differentiable:
-        return "--"
-    exposed = ("exposed where the lobe is anisotropic" if p.refines else
-               "exposed where the lobe is isotropic" if (p.stands_for or p.name) in REFINEMENTS
-               else "exposed")
-    return exposed + ", differentiable" + (", discontinuous" if p.discontinuous else "")
-
-
-def _default(p: Parameter) -> str:
-    if p.stands_for:
-        return "--"
-    if p.refines:
-        return f"``{p.default_doc}``"
-    return p.default_doc if p.default_doc else f"``{p.default}``" if p.kind in (
-        "choice", "material") else f"{p.default:g}"
-
-
-def markdown_table() -> str:
-    """The plugin's parameter table in Markdown (``docs/plugin.md``)."""
-    rows = ["| name | type | default | unit | valid (typical) | meaning | flags |",
-            "|---|---|---|---|---|---|---|"]
-    for p in _documented():
-        if p.plugin:
-            valid = p.bound_doc.replace("``", "`")
-            if p.typical:
-                valid = f"{valid} ({p.typical})" if valid else p.typical
-            rows.append(f"| `{p.name}` | {_KIND_DOC[p.kind]} | {_default(p).replace('``', '`')} "
-                        f"| {p.unit} | {valid} | {p.doc} | {_flags(p)} |")
-    return "\n".join(rows) + "\n"
-
-
-def rst_table() -> str:
-    """The same table as a reStructuredText list-table (the plugin's docstring)."""
-    lines = [".. list-table::", "   :header-rows: 1", "",
-             "   * - Parameter", "     - Type", "     - Description", "     - Default",
-             "     - Flags"]
-    for p in _documented():
-        if p.plugin:
-            bound = f" Valid: {p.bound_doc}." if p.bound_doc else ""
-            lines += [f"   * - ``{p.name}``", f"     - {_KIND_DOC[p.kind]}",
-                      f"     - {p.doc}{bound}", f"     - {_default(p)}", f"     - {_flags(p)}"]
-    return "\n".join(lines) + "\n"
-
-
-#: The markers around the generated table in ``docs/plugin.md``.
-TABLE_START = "<!-- schema table: generated from mitsuba_pbrdf/schema.py"
-TABLE_END = "<!-- end of schema table -->"
-
-
-def docs_table(text: str) -> str:
-    """The generated table as it stands in *text* (a Markdown file), between
-    :data:`TABLE_START`'s line and :data:`TABLE_END`."""
-    start = text.index("\n", text.index(TABLE_START)) + 1
-    return text[start:text.index(TABLE_END, start)]
-
-
-def write_docs_table(path: str) -> None:
-    """Replace the generated table in Markdown file *path* by :func:`markdown_table`."""
-    with open(path, encoding="utf-8") as f:
-        text = f.read()
-    old = docs_table(text)
-    start = text.index(old, text.index(TABLE_START))
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text[:start] + markdown_table() + text[start + len(old):])
-
-
-def write_plugin_docstring_table(path: str) -> None:
-    """Replace the ``.. list-table::`` in the docstring of the plugin module
-    *path* (``mitsuba_pbrdf/bsdfs/pbrdf.py``) by :func:`rst_table`."""
-    with open(path, encoding="utf-8") as f:
-        text = f.read()
-    start = text.index(".. list-table::")
-    end = text.index("\n\n", text.index("   * - ", start) + 1)
-    while text.startswith("   ", end + 2) or text.startswith("     ", end + 1):
-        end = text.index("\n\n", end + 1)
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text[:start] + rst_table().rstrip("\n") + text[end:])
-
-
-if __name__ == "__main__":  # python -m mitsuba_pbrdf.schema docs/plugin.md mitsuba_pbrdf/bsdfs/pbrdf.py
-    import sys
-
-    for target in sys.argv[1:]:
-        (write_plugin_docstring_table if target.endswith(".py") else write_docs_table)(target)
-    if len(sys.argv) == 1:
-        print(markdown_table(), end="")

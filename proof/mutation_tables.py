@@ -38,7 +38,7 @@ EQUIVALENT = {
     'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.sample: 0.0 -> 1.0':
         'start value of wo: every active lane is overwritten, inactive ones have weight 0',
     'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.sample: 0.0 -> 1.0 #4':
-        '_sample_record zeroes the pdf of the (inactive) empty record',
+        'lobes.sample_record zeroes the pdf of the (inactive) empty record',
     'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.sample: sample1 < cdf + prob -> sample1 <= cdf + prob':
         'moves a lobe boundary by one float32 value (probability <= 2^-24; weight stays value / mixture pdf)',
     'mitsuba_pbrdf/bsdfs/pbrdf.py::_define_class.PolarizedBRDF.sample: sample1 >= cdf -> sample1 > cdf #2':

@@ -5,10 +5,12 @@ the parameters its constructor reads.
 The reads are found in the source: the first string passed with ``props``
 to a call (``props.get("x")``, ``read.number(props, NAME, "x")``), used as
 ``props["x"]`` or ``"x" in props``, and the keys of module-level tuples or
-dicts iterated against ``props``. Parameters read by a Python base class of
-Mitsuba (``ADIntegrator``) are found the same way in its ``__init__``; those
+dicts iterated against ``props``. Parameters read by a Python base class
+(Mitsuba's ``ADIntegrator``, ``bsdfs/perturbed.wrapper_base``) are found the
+same way in its ``__init__``; those
 that a C++ base reads are listed below with where they are read. pbrdf's
-table is also checked against schema.py (tests/test_schema.py)."""
+table and the other plugins' declared rows are also checked against schema.py
+(tests/test_schema.py)."""
 
 import ast
 import importlib
@@ -75,9 +77,6 @@ def reads(source: str) -> set:
         if isinstance(n, ast.Call) and (any(is_props(a) for a in n.args)
                                         or isinstance(n.func, ast.Attribute) and is_props(n.func.value)):
             keys = [a.value for a in n.args if isinstance(a, ast.Constant) and isinstance(a.value, str)]
-            keys += [k.value for a in n.args   # read.declared(props, setting(NAME, "key"))
-                     if isinstance(a, ast.Call) and getattr(a.func, "id", "") == "setting"
-                     for k in a.args[1:] if isinstance(k, ast.Constant)]
             found |= set(keys[:1])   # the key; a later string is a default
         elif isinstance(n, ast.Subscript) and is_props(n.value):
             found |= _string_constants(n.slice, constants)
@@ -95,11 +94,13 @@ def reads(source: str) -> set:
 
 
 def python_base_reads(cls) -> set:
-    """What the ``__init__`` of *cls*'s Python base classes from Mitsuba read."""
+    """What the ``__init__`` of *cls*'s Python base classes (Mitsuba's, the
+    package's) read."""
     found = set()
     for base in cls.__mro__[1:]:
         init = base.__dict__.get("__init__")
-        if init is not None and getattr(base, "__module__", "").startswith("mitsuba.") \
+        if init is not None and getattr(base, "__module__", "").startswith(
+                ("mitsuba.", "mitsuba_pbrdf.")) \
                 and inspect.isfunction(init):   # Python code, not a C++ binding
             found |= reads(inspect.getsource(init))
     return found
@@ -127,31 +128,7 @@ def f(props):
         if key in props:
             pass
     [k for k in ("h", "i") if k in props]
-    read.declared(props, setting(NAME, "j"))
+    read.declared(props, NAME, "j")
 '''
     assert reads(source) == set("abcdeghij")
     assert documented("   * - ``x``, ``y``\n     - float\n   * - (nested)\n") == {"x", "y"}
-
-
-def table_rows(docstring: str) -> dict:
-    """``{name: [type, description, default, flags]}`` of a list-table, each
-    cell's lines joined."""
-    rows = {}
-    for row in re.split(r"^ *\* - ", docstring, flags=re.M)[1:]:
-        cells = [" ".join(c.split()) for c in re.split(r"^ *- ", row, flags=re.M)]
-        name = re.match(r"``(\w+)``", cells[0])
-        if name:
-            rows[name.group(1)] = cells[1:]
-    return rows
-
-
-@pytest.mark.parametrize("s", schema.SETTINGS, ids=[f"{s.plugin}.{s.name}" for s in schema.SETTINGS])
-def test_the_table_states_each_declared_setting(s):
-    """Each declared setting's row gives its default and, where ``traverse``
-    exposes it as differentiable, says so; the module reads it by declaration."""
-    module = next(p[2] for p in PLUGINS if p[1] == s.plugin)
-    source = inspect.getsource(importlib.import_module(module))
-    _, _, default, flags = table_rows(ast.get_docstring(ast.parse(source)))[s.name]
-    assert default == (f"``{s.default}``" if s.choices else f"{s.default:g}"), s
-    assert ("differentiable" in flags) == s.differentiable, (s, flags)
-    assert f'setting(_NAME, "{s.name}")' in source

@@ -5,6 +5,7 @@ with the schema, and the last one adds a parameter to the schema alone and
 finds it everywhere."""
 
 import os
+import re
 import subprocess
 import sys
 
@@ -12,7 +13,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_pbrdf import schema
+from mitsuba_pbrdf import schema, schema_tables
 
 ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
 VALUED = [p for p in schema.PARAMETERS if p.plugin and p.kind in ("float", "spectrum")]
@@ -21,9 +22,9 @@ VALUED = [p for p in schema.PARAMETERS if p.plugin and p.kind in ("float", "spec
 def test_docs_table_is_the_schemas():
     with open(os.path.join(ROOT, "docs", "plugin.md"), encoding="utf-8") as f:
         text = f.read()
-    assert schema.docs_table(text) == schema.markdown_table(), (
+    assert schema_tables.docs_table(text) == schema_tables.markdown_table(), (
         "docs/plugin.md's parameter table is out of date: run "
-        "`python -m mitsuba_pbrdf.schema docs/plugin.md`")
+        "`python -m mitsuba_pbrdf.schema_tables docs/plugin.md`")
 
 
 def test_plugin_docstring_holds_the_table():
@@ -32,9 +33,9 @@ def test_plugin_docstring_holds_the_table():
     doc = plugin_class("pbrdf").__doc__
     for p in schema.PARAMETERS:
         assert f"``{p.name}``" in doc
-    assert schema.rst_table() in doc, (
+    assert schema_tables.rst_table() in doc, (
         "bsdfs/pbrdf.py's parameter table is out of date: run "
-        "`python -m mitsuba_pbrdf.schema mitsuba_pbrdf/bsdfs/pbrdf.py`")
+        "`python -m mitsuba_pbrdf.schema_tables mitsuba_pbrdf/bsdfs/pbrdf.py`")
 
 
 @pytest.mark.parametrize("p", VALUED, ids=lambda p: p.name)
@@ -173,7 +174,7 @@ def test_fit_layout_is_the_schemas():
 
 ADD_ONE = r"""
 import dataclasses, sys
-from mitsuba_pbrdf import schema
+from mitsuba_pbrdf import schema, schema_tables
 extra = schema.Parameter("zeta", "float", 0.25, "A parameter declared only in the schema.",
                          positive=True, differentiable=True, cli=True)
 schema.PARAMETERS = schema.PARAMETERS + (extra,)
@@ -188,7 +189,7 @@ except ValueError as e:
     print("record-check", e)
 args = build_parser().parse_args(["plot", "--zeta", "0.5"])
 print("cli", args.zeta)
-print("table", "`zeta`" in schema.markdown_table())
+print("table", "`zeta`" in schema_tables.markdown_table())
 sys.path.insert(0, "tests")
 from test_schema import plugin_reads
 print("plugin-unread", sorted(set(schema.names(plugin=True)) - plugin_reads()))
@@ -215,3 +216,146 @@ def test_a_parameter_added_to_the_schema_reaches_every_consumer():
 def test_min_sigma_is_mitsubas_alpha_floor():
     assert np.isclose(np.sqrt(2.0) * schema.MIN_SIGMA, 1e-4)
     assert schema.parameter("sigma").floor == schema.parameter("sigma_dd").floor == schema.MIN_SIGMA
+
+
+OTHER_PLUGINS = [name for name in schema.PLUGIN_PARAMETERS if name != "pbrdf"]
+
+
+def test_every_registered_plugin_is_declared():
+    from mitsuba_pbrdf.registry import PLUGINS
+
+    assert sorted(schema.PLUGIN_PARAMETERS) == sorted(name for _, name, _, _ in PLUGINS)
+
+
+@pytest.mark.parametrize("plugin", OTHER_PLUGINS)
+def test_each_plugins_docstring_rows_are_its_declarations(plugin):
+    """The other plugins' tables are written by hand around the declared rows,
+    which are generated from schema.py."""
+    import importlib
+
+    from mitsuba_pbrdf.registry import PLUGINS
+
+    module = importlib.import_module(next(m for _, name, m, _ in PLUGINS if name == plugin))
+    for p in schema.PLUGIN_PARAMETERS[plugin]:
+        assert schema_tables.rst_row(p) in module.__doc__, (
+            f"{module.__name__}'s row of '{p.name}' is out of date: run "
+            f"`python -m mitsuba_pbrdf.schema_tables {module.__file__}`")
+
+
+@pytest.fixture(scope="module")
+def stokes_map(tmp_path_factory):
+    from mitsuba_pbrdf.stokes import write_stokes_exr
+
+    path = tmp_path_factory.mktemp("decl") / "map.exr"
+    stokes = np.zeros((2, 4, 4, 3), np.float32)
+    stokes[:, :, 0] = 1.0
+    write_stokes_exr(path, stokes, bands=["R", "G", "B"])
+    return str(path)
+
+
+def _scene(plugin, stokes_map):
+    """A scene of plugin *plugin* that loads, as a dict."""
+    raw = {"type": "bitmap", "raw": True, "filter_type": "nearest"}
+    return {"polarized_sky": {"sun_direction": [0, 0.5, 1]},
+            "polarized_emitter": {"lamp": {"type": "constant"}},
+            "stokes_envmap": {"filename": stokes_map},
+            "polarized_normalmap": {"normalmap": dict(raw, bitmap=mi.Bitmap(
+                np.tile(np.float32([0.5, 0.5, 1.0]), (2, 2, 1)))), "bsdf": {"type": "diffuse"}},
+            "polarized_bumpmap": {"height": dict(raw, bitmap=mi.Bitmap(
+                np.zeros((2, 2, 1), np.float32))), "bsdf": {"type": "diffuse"}},
+            }[plugin] | {"type": plugin}
+
+
+@pytest.mark.parametrize("plugin, p", [(plugin, p) for plugin in OTHER_PLUGINS
+                                       for p in schema.PLUGIN_PARAMETERS[plugin]],
+                         ids=lambda x: getattr(x, "name", x))
+def test_each_plugin_checks_its_declared_parameters_at_load_time(plugin, p, stokes_map):
+    """Each declared parameter is read through its declaration: a value out of
+    its bounds, or of the wrong type, is refused with the declared words."""
+    if plugin == "stokes_prb":
+        pytest.skip("read by Mitsuba's ADIntegrator and stokes_prb's own check, in their "
+                    "words (test_stokes_prb_runs_with_the_declared_defaults)")
+    if p.lower is not None or p.upper is not None:
+        bad = p.lower - 1 if p.lower is not None else p.upper + 1
+        words = f"must be {re.escape(p.bound_doc)}"
+    elif p.kind == "choice":
+        bad, words = "no_such_choice", f"is 'no_such_choice'; valid values: {', '.join(p.choices)}"
+    else:
+        bad, words = "text", "must be a"
+    mi.load_dict(_scene(plugin, stokes_map))
+    with pytest.raises((RuntimeError, ValueError, TypeError),
+                       match=f"{plugin}: parameter '{p.name}' {words}"):
+        mi.load_dict(_scene(plugin, stokes_map) | {p.name: bad})
+
+
+@pytest.mark.parametrize("plugin, p", [(plugin, p) for plugin in OTHER_PLUGINS
+                                       for p in schema.PLUGIN_PARAMETERS[plugin]],
+                         ids=lambda x: getattr(x, "name", x))
+def test_declared_reads_give_the_default_and_refuse_what_is_out_of_bounds(plugin, p):
+    from mitsuba_pbrdf import properties
+
+    if p.name == "scale" and plugin == "polarized_bumpmap":
+        pytest.skip("read by bumpmap.check_scale (tests/bsdfs/test_perturbed.py)")
+    assert properties.declared(mi.Properties(), plugin, p.name) == p.default
+    for bound, step in ((p.lower, -1.0), (p.upper, 1.0), (0.0 if p.positive else None, 0.0)):
+        if bound is not None:
+            props = mi.Properties()
+            props[p.name] = bound + step
+            with pytest.raises(ValueError, match=rf"^{plugin}: parameter '{p.name}' must be "
+                                                 rf"{re.escape(p.bound_doc)}, got"):
+                properties.declared(props, plugin, p.name)
+
+
+def test_the_emitters_expose_the_differentiable_declarations():
+    """``traverse`` puts a declared parameter as differentiable exactly where
+    the declaration says so."""
+    lamp = {"type": "constant"}
+    emitters = {"polarized_sky": {"type": "polarized_sky", "sun_direction": [0, 0.5, 1],
+                                  "radiance": 1.0},
+                "polarized_emitter": {"type": "polarized_emitter", "lamp": lamp}}
+    for plugin, scene in emitters.items():
+        params = mi.traverse(mi.load_dict(scene))
+        for p in schema.PLUGIN_PARAMETERS[plugin]:
+            exposed = p.name in params.keys() and not (
+                params.flags(p.name) & mi.ParamFlags.NonDifferentiable)
+            assert exposed == p.differentiable, (plugin, p.name)
+
+
+def test_the_declared_sunsky_defaults_are_sunskys():
+    """polarized_sky hands only what is given to its internal ``sunsky``;
+    the defaults its table states are sunsky's own: given explicitly, they
+    change neither the sun nor the sky."""
+    import drjit as dr
+
+    if not (mi.is_rgb or mi.is_spectral):
+        pytest.skip("sunsky needs an RGB or spectral variant")
+    from mitsuba_pbrdf.emitters.polarized_sky import SUN_POSITION, SUNSKY_PARAMETERS
+
+    given = {key: schema.parameter(key, "polarized_sky").default
+             for key in (*SUNSKY_PARAMETERS, *SUN_POSITION)}
+    default, explicit = (mi.load_dict({"type": "sunsky", **extra}) for extra in ({}, given))
+    assert np.allclose(mi.traverse(default)["sun_direction"],
+                       mi.traverse(explicit)["sun_direction"], rtol=0, atol=1e-6)
+    # 15 directions over the sphere and the sun's centre (sun_scale, sun_aperture)
+    w = np.random.default_rng(1).normal(size=(3, 15))
+    sun = np.array(mi.traverse(default)["sun_direction"], np.float64).reshape(3, 1)
+    w = np.concatenate([w / np.linalg.norm(w, axis=0), sun], 1)
+    si = dr.zeros(mi.SurfaceInteraction3f, 16)
+    si.wi = mi.Vector3f(*(-w))    # an infinite emitter is seen along -si.wi
+    if mi.is_spectral:
+        si.wavelengths = mi.UnpolarizedSpectrum(450.0, 520.0, 600.0, 690.0)
+    assert np.array_equal(np.array(default.eval(si)), np.array(explicit.eval(si)))
+
+
+def test_stokes_prb_runs_with_the_declared_defaults():
+    from mitsuba_pbrdf.integrators.support import MAX_DEPTH_LIMIT, usable_variant
+
+    if not usable_variant(mi.variant()):
+        pytest.skip("stokes_prb needs a polarized JIT variant")
+    integrator = mi.load_dict({"type": "stokes_prb"})
+    for p in schema.PLUGIN_PARAMETERS["stokes_prb"]:
+        assert getattr(integrator, p.name) == p.default, p.name
+    assert MAX_DEPTH_LIMIT == schema.parameter("max_depth", "stokes_prb").upper
+    with pytest.raises(Exception, match="greater than zero"):   # Mitsuba's check of rr_depth
+        mi.load_dict({"type": "stokes_prb", "rr_depth": 0})
+

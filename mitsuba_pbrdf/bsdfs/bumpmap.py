@@ -24,20 +24,17 @@
      - |exposed|, |differentiable|, |discontinuous|
    * - ``scale``
      - float
-     - Multiplier of the height gradient; a finite number (not a
-       boolean), re-checked at ``parameters_changed``.
-     - 1.0
+     - Multiplier of the height gradient; a finite number (not a boolean), re-checked at ``parameters_changed``.
+     - 1
      - |exposed|
    * - ``flip_invalid_normals``
      - boolean
-     - Mirror the perturbed normal's tangential part where it faces away
-       from the viewer, as ``bumpmap`` does.
+     - Mirror the perturbed normal's tangential part where it faces away from the viewer (Schüssler et al. 2017), as Mitsuba's ``normalmap`` and ``bumpmap`` do.
      - true
      - --
    * - ``use_shadowing_function``
      - boolean
-     - Multiply by Estevez et al. 2019's shadowing term of the perturbed
-       normal, as ``bumpmap`` does (see :mod:`.normalmap`).
+     - Multiply by Estevez et al. 2019's shadowing term of the perturbed normal (softens the bump-terminator edge), as Mitsuba's ``normalmap`` and ``bumpmap`` do.
      - true
      - --
 
@@ -88,6 +85,7 @@ import numpy as np
 
 from . import perturbed
 from .. import properties as read
+from ..schema import parameter
 
 
 _NAME = "polarized_bumpmap"
@@ -163,24 +161,20 @@ def bumpmap_frame(texture, scale, si, flip_invalid_normals, active):
 
 def build_class():
     """``PolarizedBumpMap`` on the active variant's base class (registry.plugin_class)."""
-    class PolarizedBumpMap(perturbed.wrapper_base(zero_pdf_on_wrong_side=False)):
+    class PolarizedBumpMap(perturbed.wrapper_base(_NAME, zero_pdf_on_wrong_side=False)):
         """Mitsuba's ``bumpmap`` with the nested Mueller matrix rotated into the
         unperturbed frame's Stokes bases (module docstring)."""
 
         def __init__(self, props):
             super().__init__(props)
-            self.nested_bsdf = read.single_nested(props, _NAME, mi.BSDF)
             textures = read.nested_objects(props, mi.Texture)
             if len(textures) != 1:
                 raise ValueError(f"{_NAME}: exactly one nested height texture must be given, "
                                  f"found {len(textures)}")
             self.nested_texture = next(iter(textures.values()))
             check_heights(self.nested_texture)
-            self.scale = mi.Float(check_scale(props.get("scale", 1.0)))
-            self.flip_invalid_normals = read.flag(props, _NAME, "flip_invalid_normals", True)
-            self.use_shadowing_function = read.flag(props, _NAME, "use_shadowing_function", True)
-            self.m_components = [self.nested_bsdf.flags(i)
-                                 for i in range(self.nested_bsdf.component_count())]
+            scale = props.get("scale", parameter("scale", _NAME).default)
+            self.scale = mi.Float(check_scale(scale))
             self.m_flags = self.nested_bsdf.flags()
 
         def traverse(self, callback):

@@ -24,7 +24,8 @@ returns), ``pdf`` (the density of sampling ``wo``, times the lobe's selection
 probability), ``sample_direction`` (a direction drawn from it) and
 ``sample_alone`` (a :class:`LobeSample`, when it is the only lobe enabled). The
 BSDF applies the weight and, for the polarizing lobe, the Fresnel Mueller
-matrix at the facet normal.
+matrix at the facet normal, and returns what it sampled as Mitsuba's record,
+:func:`sample_record`.
 """
 
 from __future__ import annotations
@@ -229,3 +230,18 @@ class DeltaLobe:
 def mirror(wi):
     """The mirror direction of ``wi`` about the shading normal (local frame)."""
     return mi.Vector3f(-wi.x, -wi.y, wi.z)
+
+
+def sample_record(wo, pdf, component, sampled_type, active, value):
+    """``(BSDFSample3f, weight = value / pdf)``, zero where inactive or where
+    the pdf is 0 or not finite."""
+    active = active & (pdf > 0) & dr.isfinite(pdf)
+    bs = dr.zeros(mi.BSDFSample3f)
+    bs.wo = wo
+    bs.pdf = dr.select(active, pdf, 0.0)
+    bs.eta = 1.0
+    bs.sampled_component = component
+    bs.sampled_type = sampled_type
+    zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
+    weight = dr.select(active, value * dr.rcp(pdf), zero)
+    return bs, weight

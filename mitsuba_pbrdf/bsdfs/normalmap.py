@@ -27,14 +27,12 @@
      - |exposed|, |differentiable|
    * - ``flip_invalid_normals``
      - boolean
-     - Mirror the perturbed normal's tangential part where it faces away
-       from the viewer (Schüssler et al. 2017), as ``normalmap`` does.
+     - Mirror the perturbed normal's tangential part where it faces away from the viewer (Schüssler et al. 2017), as Mitsuba's ``normalmap`` and ``bumpmap`` do.
      - true
      - --
    * - ``use_shadowing_function``
      - boolean
-     - Multiply by Estevez et al. 2019's shadowing term of the perturbed
-       normal (softens the bump-terminator edge), as ``normalmap`` does.
+     - Multiply by Estevez et al. 2019's shadowing term of the perturbed normal (softens the bump-terminator edge), as Mitsuba's ``normalmap`` and ``bumpmap`` do.
      - true
      - --
 
@@ -87,7 +85,6 @@ import mitsuba as mi
 import numpy as np
 
 from . import perturbed
-from .. import properties as read
 
 
 #: Decoded normals shorter than this have no usable direction (an 8-bit
@@ -177,22 +174,17 @@ def normalmap_frame(texture, si, flip_invalid_normals, active):
 
 def build_class():
     """``PolarizedNormalMap`` on the active variant's base class (registry.plugin_class)."""
-    class PolarizedNormalMap(perturbed.wrapper_base(zero_pdf_on_wrong_side=True)):
+    class PolarizedNormalMap(perturbed.wrapper_base(_NAME, zero_pdf_on_wrong_side=True)):
         """Mitsuba's ``normalmap`` with the nested Mueller matrix rotated into the
         unperturbed frame's Stokes bases (module docstring)."""
 
         def __init__(self, props):
             super().__init__(props)
-            self.nested_bsdf = read.single_nested(props, _NAME, mi.BSDF)
             if "normalmap" not in props or not isinstance(props["normalmap"], mi.Texture):
                 raise ValueError(f"{_NAME}: parameter 'normalmap' must be a texture "
                                  "(a bitmap with raw = true)")
             self.normalmap = props["normalmap"]
             check_normal_texels(self.normalmap)
-            self.flip_invalid_normals = read.flag(props, _NAME, "flip_invalid_normals", True)
-            self.use_shadowing_function = read.flag(props, _NAME, "use_shadowing_function", True)
-            self.m_components = [self.nested_bsdf.flags(i)
-                                 for i in range(self.nested_bsdf.component_count())]
             self.m_flags = mi.BSDFFlags.Empty
             for flags in self.m_components:
                 self.m_flags = self.m_flags | flags

@@ -1,7 +1,7 @@
 """The ``pbrdf`` plugin: three-component polarized BRDF for metals.
 
 Parameters (declared in :mod:`mitsuba_pbrdf.schema`, each read by name in the
-constructor; the table below is ``schema.rst_table()``, written here so that the
+constructor; the table below is ``schema_tables.rst_table()``, written here so that the
 source reads as the documentation, and ``tests/test_schema.py`` checks that the
 two agree):
 
@@ -183,7 +183,7 @@ from .. import properties, schema
 from . import pbrdf_properties
 from .fresnel import fresnel_unpolarized, specular_mueller
 from .ior import complex_ior_textures
-from .lobes import DeltaLobe, Evaluation, LambertianLobe, MicrofacetLobe
+from .lobes import DeltaLobe, Evaluation, LambertianLobe, MicrofacetLobe, sample_record
 from .microfacet import SHADOWING
 
 _NAME = "pbrdf"
@@ -213,12 +213,6 @@ def _depolarized(value):
 def _read(props, name):
     """Float or spectrum parameter *name*, read and checked against its declaration."""
     return pbrdf_properties.declared(props, schema.parameter(name))
-
-
-def _read_choice(props, name):
-    """String parameter *name*, one of its declared choices."""
-    p = schema.parameter(name)
-    return properties.choice(props, _NAME, name, p.choices, p.default)
 
 
 def _exposed_widths(widths):
@@ -251,16 +245,16 @@ def build_class():
             self.sigma = pbrdf_properties.read_width(props, "sigma")
             self.sigma_u = pbrdf_properties.read_refinement(props, "sigma_u", self.sigma)
             self.sigma_v = pbrdf_properties.read_refinement(props, "sigma_v", self.sigma)
-            self.distribution = _read_choice(props, "distribution")
+            self.distribution = properties.declared(props, _NAME, "distribution")
             self.ks = _read(props, "ks")
             self.kdd = _read(props, "kdd")
             self.sigma_dd = pbrdf_properties.read_width(props, "sigma_dd")
             self.sigma_dd_u = pbrdf_properties.read_refinement(props, "sigma_dd_u", self.sigma_dd)
             self.sigma_dd_v = pbrdf_properties.read_refinement(props, "sigma_dd_v", self.sigma_dd)
             self.kid = _read(props, "kid")
-            self.shadowing = _read_choice(props, "shadowing")
-            self.dd_distribution = _read_choice(props, "dd_distribution")
-            self.sampling = _read_choice(props, "sampling")
+            self.shadowing = properties.declared(props, _NAME, "shadowing")
+            self.dd_distribution = properties.declared(props, _NAME, "dd_distribution")
+            self.sampling = properties.declared(props, _NAME, "sampling")
 
             self.lobes = self._build_lobes()
             # a component's flags: its lobe type, front side, and anisotropic where it is
@@ -365,19 +359,19 @@ def build_class():
             active = mi.Bool(active) & (cos_i > 0)
             enabled = self._enabled_lobes(ctx)
             if not enabled:
-                return _sample_record(si.wi, mi.Float(0.0), mi.UInt32(0), mi.UInt32(0),
+                return sample_record(si.wi, mi.Float(0.0), mi.UInt32(0), mi.UInt32(0),
                                       mi.Bool(False), dr.zeros(mi.Spectrum))
             if self.sampling == "cosine":
                 wo = mi.warp.square_to_cosine_hemisphere(sample2)
                 ev = Evaluation.of(si, wo, active)
-                return _sample_record(wo, self._pdf(ctx, ev), mi.UInt32(enabled[0].index),
+                return sample_record(wo, self._pdf(ctx, ev), mi.UInt32(enabled[0].index),
                                       mi.UInt32(self._component_flags(enabled[0])), ev.active,
                                       self._value(ctx, ev))
             if len(enabled) == 1:
                 lobe = enabled[0]
                 s = lobe.sample_alone(si, sample2, active)
                 value = self._weighted(lobe, ctx, si, s.wo, s.facet_normal, s.value, s.active)
-                return _sample_record(s.wo, s.pdf, mi.UInt32(lobe.index),
+                return sample_record(s.wo, s.pdf, mi.UInt32(lobe.index),
                                       mi.UInt32(self._component_flags(lobe)), s.active, value)
             probs = self._lobe_probabilities(ctx, si, active)
 
@@ -407,7 +401,7 @@ def build_class():
                 pdf = dr.select(on_delta, probs[delta.index], pdf)
                 value = dr.select(on_delta, self._weighted(delta, ctx, si, wo, mi.Vector3f(0, 0, 1),
                                                            1.0, ev.active), value)
-            return _sample_record(wo, pdf, component, sampled_type, ev.active, value)
+            return sample_record(wo, pdf, component, sampled_type, ev.active, value)
 
         # -------------------------------------------------------------- internals
 
@@ -485,17 +479,3 @@ def build_class():
 
     return PolarizedBRDF
 
-
-def _sample_record(wo, pdf, component, sampled_type, active, value):
-    """``(BSDFSample3f, weight = value / pdf)``, zero where inactive or where
-    the pdf is 0 or not finite."""
-    active = active & (pdf > 0) & dr.isfinite(pdf)
-    bs = dr.zeros(mi.BSDFSample3f)
-    bs.wo = wo
-    bs.pdf = dr.select(active, pdf, 0.0)
-    bs.eta = 1.0
-    bs.sampled_component = component
-    bs.sampled_type = sampled_type
-    zero = dr.zeros(mi.Spectrum) if mi.is_polarized else mi.UnpolarizedSpectrum(0.0)
-    weight = dr.select(active, value * dr.rcp(pdf), zero)
-    return bs, weight

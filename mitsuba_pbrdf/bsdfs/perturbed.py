@@ -11,13 +11,15 @@ Mueller matrix in polarized variants.
 S (``si.wi``, ``wo`` are S-local); ``frame_world`` is P in world space (the
 nested BSDF's ``si.sh_frame``). Plain functions: ``mi.*`` is looked up when
 called, so this module serves every variant. :func:`wrapper_base` gives
-both wrappers their eval, pdf, eval_pdf and sample as a base class built on
-the active variant's ``mi.BSDF`` (nanobind takes one base, no mix-in).
+both wrappers their shared reads and their eval, pdf, eval_pdf and sample as
+a base class built on the active variant's ``mi.BSDF`` (nanobind takes one
+base, no mix-in).
 """
 
 import drjit as dr
 import mitsuba as mi
 
+from .. import properties as read
 from ..mueller import to_unperturbed_bases
 
 
@@ -110,15 +112,25 @@ def to_world_frame(si, frame_si):
     return frame_world
 
 
-def wrapper_base(zero_pdf_on_wrong_side):
-    """The active variant's ``mi.BSDF`` with the steps both map wrappers share
-    (eval, pdf, eval_pdf, sample of ``nested_bsdf`` in the frame the subclass's
-    ``frame(si, active)`` gives, times the shadowing factor where
-    ``use_shadowing_function``). *zero_pdf_on_wrong_side*: Mitsuba's
+def wrapper_base(plugin, zero_pdf_on_wrong_side):
+    """The active variant's ``mi.BSDF`` with what both map wrappers share: the
+    reads of the nested BSDF and of the declared ``flip_invalid_normals`` and
+    ``use_shadowing_function`` of plugin *plugin*, and eval, pdf, eval_pdf,
+    sample of ``nested_bsdf`` in the frame the subclass's ``frame(si,
+    active)`` gives, times the shadowing factor where
+    ``use_shadowing_function``. *zero_pdf_on_wrong_side*: Mitsuba's
     ``normalmap`` zeroes the pdf of a sample whose direction changes side,
     ``bumpmap`` does not."""
 
     class PerturbedWrapper(mi.BSDF):
+        def __init__(self, props):
+            super().__init__(props)
+            self.nested_bsdf = read.single_nested(props, plugin, mi.BSDF)
+            self.flip_invalid_normals = read.declared(props, plugin, "flip_invalid_normals")
+            self.use_shadowing_function = read.declared(props, plugin, "use_shadowing_function")
+            self.m_components = [self.nested_bsdf.flags(i)
+                                 for i in range(self.nested_bsdf.component_count())]
+
         def eval(self, ctx, si, wo, active=True):
             return eval_pdf(self.nested_bsdf, ctx, si, wo, active, *self.frame(si, active),
                             self.use_shadowing_function, want_pdf=False)[0]

@@ -15,7 +15,7 @@ variant; :func:`mitsuba_pbrdf.registry.plugin_class` keeps one per variant and
 :data:`mitsuba_pbrdf.registry.PLUGINS` registers it. :mod:`mitsuba_pbrdf.mueller`
 (emitted Stokes vectors as Mueller matrices, the Stokes basis of emitted
 light), :mod:`.sky_models` (the sky's polarization pattern), :mod:`mitsuba_pbrdf.properties`
-(reading and checking every plugin's parameters) and :mod:`.wrapped` (the Emitter methods
-that hand the wrapped emitter's sampling on) are plain modules shared by the
+(reading and checking every plugin's parameters) and :mod:`.wrapped` (the
+base class that hands the wrapped emitter's sampling on) are shared by the
 plugins.
 """

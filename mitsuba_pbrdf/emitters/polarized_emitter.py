@@ -17,22 +17,17 @@
      - ``emitter.*``
    * - ``angle``
      - float
-     - The polarizer's transmission axis in degrees, from the local x axis
-       towards the local y axis of ``to_world``.
+     - The polarizer's transmission axis in degrees, from the local x axis towards the local y axis of ``to_world``.
      - 0
      - --
    * - ``degree``
      - float
-     - Degree of linear polarization the filter gives unpolarized light, in
-       [0, 1] (1: an ideal polarizer; less: a leaky one).
+     - Degree of linear polarization the filter gives unpolarized light (1: an ideal polarizer; less: a leaky one). Valid: in [0, 1].
      - 1
      - --
    * - ``transmittance``
      - float
-     - Fraction of an unpolarized lamp's radiance the filter passes, in
-       [0, 1]. An ideal polarizer passes 0.5; the default keeps the lamp's
-       radiance and polarizes it (and so doubles light already polarized
-       along its axis, see below).
+     - Fraction of an unpolarized lamp's radiance the filter passes. An ideal polarizer passes 0.5; the default keeps the lamp's radiance and polarizes it (and so doubles light already polarized along its axis, see below). Valid: in [0, 1].
      - 1
      - --
    * - ``to_world``
@@ -99,7 +94,6 @@ import mitsuba as mi
 from . import wrapped
 from .. import properties as read
 from ..mueller import basis, linear_diattenuator, times
-from ..schema import setting
 
 
 _NAME = "polarized_emitter"
@@ -112,9 +106,9 @@ def _configure(props):
         raise ValueError(f"{_NAME}: exactly one nested emitter (the lamp) must be given, "
                          f"found {len(nested)}")
     lamp = next(iter(nested.values()))
-    angle = math.radians(read.declared(props, setting(_NAME, "angle")))
-    degree = read.declared(props, setting(_NAME, "degree"))
-    transmittance = read.declared(props, setting(_NAME, "transmittance"))
+    angle = math.radians(read.declared(props, _NAME, "angle"))
+    degree = read.declared(props, _NAME, "degree")
+    transmittance = read.declared(props, _NAME, "transmittance")
     m = read.transform(props, _NAME, "to_world")
     local = (math.cos(angle), math.sin(angle), 0.0)
     axis = read.unit_vector(_NAME, "to_world",
@@ -126,15 +120,11 @@ def _configure(props):
 
 def build_class():
     """``PolarizedEmitter`` on the active variant's base class (registry.plugin_class)."""
-    class PolarizedEmitter(mi.Emitter):
+    class PolarizedEmitter(wrapped.emitter_base(_configure)):
         """A lamp behind a linear polarizer (module docstring)."""
 
         def __init__(self, props):
-            # checked before the base class registers the instance with Dr.Jit
-            config = _configure(props)
             super().__init__(props)
-            for key, value in config.items():
-                setattr(self, key, value)
             self.m_flags = self.inner.flags()
             self.m_needs_sample_2 = self.inner.needs_sample_2()
             self.m_needs_sample_3 = self.inner.needs_sample_3()
@@ -156,13 +146,6 @@ def build_class():
             w = si.to_world(si.wi) if self.surface else si.wi
             return self.light(wrapped.nested(self).eval(si, active), w)
 
-        eval_direction = wrapped.eval_direction
-        sample_direction = wrapped.sample_direction
-        pdf_direction = wrapped.pdf_direction
-        sample_ray = wrapped.sample_ray
-        sample_position = wrapped.sample_position
-        bbox = wrapped.bbox
-
         def pdf_position(self, ps, active=True):
             return wrapped.nested(self).pdf_position(ps, active)
 
@@ -173,9 +156,6 @@ def build_class():
         def set_shape(self, shape):
             super().set_shape(shape)
             self.inner.set_shape(shape)
-
-        def is_environment(self):
-            return self.inner.is_environment()
 
         def traverse(self, callback):
             callback.put("emitter", self.inner, mi.ParamFlags.Differentiable)

@@ -19,51 +19,91 @@
        its gradient: its own misses the moving sun disk).
      - (required)
      - |exposed|, |differentiable| (JIT variants); read-only with a date
-   * - ``year``, ``month``, ``day``
-     - integer
-     - Instead of ``sun_direction``, with the time and place below: the date
-       that Mitsuba 3.9.1's ``sunsky`` takes.
-     - ``sunsky``'s: 2010-07-10
-     - ``intensity.*`` (not differentiable)
-   * - ``hour``, ``minute``, ``second``, ``latitude``, ``longitude``, ``timezone``
-     - float
-     - The local time, place (degrees, north and east positive) and time zone
-       (hours from UTC) that ``sunsky`` takes; with the date, handed to the
-       internal ``sunsky``, whose sun (+X south, +Y west in its frame,
-       measured) the pattern follows. Only with the ``sunsky`` intensity; the
-       sun must be above the horizon.
-     - ``sunsky``'s: 15:00:00, 35.6894, 139.6917, 9
-     - ``intensity.*`` (not differentiable)
    * - ``model``
      - string
-     - ``rayleigh``: single scattering, DoLP = ``dolp_max`` sin²γ/(1 + cos²γ)
-       (γ: angle between the viewing direction and the sun), polarized
-       perpendicular to the plane through the sun and the viewing direction.
-       ``berry``: the neutral points of the real sky (Babinet, Brewster,
-       Arago and the fourth), Berry, Dennis and Lee, New J. Phys. 6 (2004) 162.
+     - ``rayleigh``: single scattering, DoLP = ``dolp_max`` sin²γ/(1 + cos²γ) (γ: angle between the viewing direction and the sun), polarized perpendicular to the plane through the sun and the viewing direction. ``berry``: the neutral points of the real sky (Babinet, Brewster, Arago and the fourth), Berry, Dennis and Lee, New J. Phys. 6 (2004) 162. Valid: ``rayleigh`` or ``berry``.
      - ``rayleigh``
      - --
    * - ``dolp_max``
      - float
-     - Degree of linear polarization at 90° from the sun (Rayleigh), in
-       [0, 1]; clear skies reach 0.7-0.8.
+     - Degree of linear polarization at 90° from the sun (Rayleigh); clear skies reach 0.7-0.8. Valid: in [0, 1].
      - 0.8
      - |exposed|, |differentiable| (JIT variants)
    * - ``neutral_point_separation``
      - float
-     - ``berry`` only: the angle in degrees, in [0, 90], between the Babinet
-       point (above the sun) and the Brewster point (below it); each lies
-       half of it from the sun. The Babinet point is typically observed
-       15-20° above the sun.
+     - ``berry`` only: the angle in degrees between the Babinet point (above the sun) and the Brewster point (below it); each lies half of it from the sun. The Babinet point is typically observed 15-20° above the sun. Valid: in [0, 90].
      - 35
      - --
-   * - ``turbidity``, ``albedo``, ``sun_scale``, ``sky_scale``, ``sun_aperture``
-     - float, spectrum
-     - The intensity's ``sunsky`` parameters (Hosek-Wilkie sky and sun),
-       handed to an internal ``sunsky`` at the same sun direction; turbidity
-       in [1, 10], albedo in [0, 1].
-     - ``sunsky``'s: 3, 0.3, 1, 1, 0.5358
+   * - ``turbidity``
+     - float
+     - Turbidity of the ``sunsky`` intensity (Hosek-Wilkie sky and sun), handed to the internal ``sunsky`` as the rows below. Valid: in [1, 10].
+     - ``sunsky``'s: 3
      - ``intensity.*``
+   * - ``sun_scale``
+     - float
+     - Factor on the ``sunsky`` intensity's sun. Valid: >= 0.
+     - ``sunsky``'s: 1
+     - ``intensity.*``
+   * - ``sky_scale``
+     - float
+     - Factor on the ``sunsky`` intensity's sky. Valid: >= 0.
+     - ``sunsky``'s: 1
+     - ``intensity.*``
+   * - ``sun_aperture``
+     - float
+     - Apparent diameter of the ``sunsky`` intensity's sun, degrees. Valid: in [0.001, 179.9].
+     - ``sunsky``'s: 0.5358
+     - ``intensity.*``
+   * - ``albedo``
+     - float
+     - Ground albedo of the ``sunsky`` intensity: a number, or a spectrum as ``sunsky`` takes it. Valid: in [0, 1].
+     - ``sunsky``'s: 0.3
+     - ``intensity.*``
+   * - ``year``
+     - integer
+     - Instead of ``sun_direction``, with the rest of the date, the time and the place: the sun ``sunsky`` puts there (+X south, +Y west in its frame, measured), which must be above the horizon. Only with the ``sunsky`` intensity.
+     - ``sunsky``'s: 2010
+     - ``intensity.*`` (not differentiable)
+   * - ``month``
+     - integer
+     - Month of the date. Valid: in [1, 12].
+     - ``sunsky``'s: 7
+     - ``intensity.*`` (not differentiable)
+   * - ``day``
+     - integer
+     - Day of the month. Valid: in [1, 31].
+     - ``sunsky``'s: 10
+     - ``intensity.*`` (not differentiable)
+   * - ``hour``
+     - float
+     - Local time: hours. Valid: in [0, 24].
+     - ``sunsky``'s: 15
+     - ``intensity.*`` (not differentiable)
+   * - ``minute``
+     - float
+     - Local time: minutes. Valid: in [0, 60].
+     - ``sunsky``'s: 0
+     - ``intensity.*`` (not differentiable)
+   * - ``second``
+     - float
+     - Local time: seconds. Valid: in [0, 60].
+     - ``sunsky``'s: 0
+     - ``intensity.*`` (not differentiable)
+   * - ``latitude``
+     - float
+     - Latitude of the place, degrees north. Valid: in [-90, 90].
+     - ``sunsky``'s: 35.6894
+     - ``intensity.*`` (not differentiable)
+   * - ``longitude``
+     - float
+     - Longitude of the place, degrees east. Valid: in [-180, 180].
+     - ``sunsky``'s: 139.6917
+     - ``intensity.*`` (not differentiable)
+   * - ``timezone``
+     - float
+     - Time zone of the local time, hours from UTC. Valid: in [-12, 14].
+     - ``sunsky``'s: 9
+     - ``intensity.*`` (not differentiable)
    * - ``radiance``
      - spectrum or texture
      - A sky radiance replacing the ``sunsky`` intensity, sampled uniformly
@@ -138,39 +178,23 @@ import mitsuba as mi
 
 from . import wrapped
 from .. import properties as read
-from ..schema import setting
+from ..schema import parameter
 from .sky_models import berry, neutral_points, rayleigh
 from ..mueller import emitted, intensity
 
 
 _NAME = "polarized_sky"
-#: Parameters handed to the internal ``sunsky``, with their bounds.
-SUNSKY_PARAMETERS = {"turbidity": (1.0, 10.0), "sun_scale": (0.0, None),
-                     "sky_scale": (0.0, None), "sun_aperture": (1e-3, 179.9)}
+#: Parameters handed to the internal ``sunsky`` (declared in schema.py).
+SUNSKY_PARAMETERS = ("turbidity", "sun_scale", "sky_scale", "sun_aperture", "albedo")
 #: The date, time and place that Mitsuba 3.9.1's ``sunsky`` takes instead of a
-#: sun direction (its defaults: Tokyo, 2010-07-10 15:00), with their bounds;
-#: ``year``, ``month`` and ``day`` are integers.
-SUN_POSITION = {"year": (None, None), "month": (1, 12), "day": (1, 31), "hour": (0.0, 24.0),
-                "minute": (0.0, 60.0), "second": (0.0, 60.0), "latitude": (-90.0, 90.0),
-                "longitude": (-180.0, 180.0), "timezone": (-12.0, 14.0)}
-_INTEGERS = ("year", "month", "day")
-#: sunsky's default sun aperture in Mitsuba 3.9.1 (degrees; its SUN_HALF_APERTURE).
-SUN_APERTURE = 0.5358
+#: sun direction (declared in schema.py).
+SUN_POSITION = ("year", "month", "day", "hour", "minute", "second", "latitude", "longitude",
+                "timezone")
 
 
 def _sun_position(props):
     """``{key: value}`` of the date, time and place keys given, checked."""
-    when = {}
-    for key, (low, high) in SUN_POSITION.items():
-        if key in props:
-            value = read.number(props, _NAME, key, low=low, high=high)
-            if key in _INTEGERS:
-                if value != int(value):
-                    raise ValueError(f"{_NAME}: parameter '{key}' must be a whole number, "
-                                     f"got {value:g}")
-                value = int(value)
-            when[key] = value
-    return when
+    return {key: read.declared(props, _NAME, key) for key in SUN_POSITION if key in props}
 
 
 def _texture(props):
@@ -201,7 +225,7 @@ def _intensity_emitter(props, up, sun, when):
     (checked), and the sun (a unit tuple: the given one, or where ``sunsky``
     puts it at the given date, time and place)."""
     nested = read.nested_objects(props, mi.Emitter)
-    sunsky_keys = [k for k in (*SUNSKY_PARAMETERS, "albedo", *when) if k in props]
+    sunsky_keys = [k for k in (*SUNSKY_PARAMETERS, *when) if k in props]
     given = [what for what, present in (("a nested emitter", bool(nested)),
                                         ("'radiance'", "radiance" in props)) if present]
     if len(nested) > 1 or len(given) > 1:
@@ -239,14 +263,12 @@ def _intensity_emitter(props, up, sun, when):
                          f"{-_elevation(sun, up):.3g}° below the horizon, where sunsky's sky "
                          "is black; raise it or give 'radiance'")
     config = dict(when) if when else {"sun_direction": mi.ScalarVector3f(sun)}
-    for key, (low, high) in SUNSKY_PARAMETERS.items():
-        if key in props:
-            config[key] = read.number(props, _NAME, key, low=low, high=high)
-    if "albedo" in props:
-        if props.type("albedo") in (mi.Properties.Type.Float, mi.Properties.Type.Integer):
-            config["albedo"] = read.number(props, _NAME, "albedo", low=0.0, high=1.0)
-        else:
-            config["albedo"] = props["albedo"]
+    for key in SUNSKY_PARAMETERS:
+        if key == "albedo" and key in props and props.type(key) not in (
+                mi.Properties.Type.Float, mi.Properties.Type.Integer):
+            config[key] = props[key]    # a spectrum: sunsky checks it
+        elif key in props:
+            config[key] = read.declared(props, _NAME, key)
     if "to_world" in props:
         config["to_world"] = read.as_transform(read.rotation(props, _NAME, "to_world"))
     try:
@@ -261,8 +283,10 @@ def _intensity_emitter(props, up, sun, when):
             raise ValueError(f"{_NAME}: the date, time and place ({', '.join(when)}) put the "
                              f"sun {-_elevation(sun, up):.3g}° below the horizon, where "
                              "sunsky's sky is black")
-    half = math.radians(config.get("sun_aperture", SUN_APERTURE)) / 2.0
-    return emitter, "sunsky", half if config.get("sun_scale", 1.0) > 0 else None, None, sun
+    given = {key: config.get(key, parameter(key, _NAME).default)
+             for key in ("sun_aperture", "sun_scale")}
+    half = math.radians(given["sun_aperture"]) / 2.0
+    return emitter, "sunsky", half if given["sun_scale"] > 0 else None, None, sun
 
 
 def _floats(value):
@@ -273,9 +297,9 @@ def _floats(value):
 
 def _configure(props):
     """The checked parameters of a ``polarized_sky``, as attributes."""
-    model = read.declared(props, setting(_NAME, "model"))
-    dolp_max = read.declared(props, setting(_NAME, "dolp_max"))
-    separation = read.declared(props, setting(_NAME, "neutral_point_separation"))
+    model = read.declared(props, _NAME, "model")
+    dolp_max = read.declared(props, _NAME, "dolp_max")
+    separation = read.declared(props, _NAME, "neutral_point_separation")
     if model != "berry" and "neutral_point_separation" in props:
         raise ValueError(f"{_NAME}: parameter 'neutral_point_separation' applies to "
                          "model 'berry' only")
@@ -302,18 +326,12 @@ def _configure(props):
 
 def build_class():
     """``PolarizedSky`` on the active variant's base class (registry.plugin_class)."""
-    class PolarizedSky(mi.Emitter):
+    class PolarizedSky(wrapped.emitter_base(_configure)):
         """A sky whose light carries the polarization of :mod:`.sky_models`
         (module docstring)."""
 
         def __init__(self, props):
-            # Everything is read and checked before the base class registers the
-            # instance with Dr.Jit: a half-built emitter left registered after an
-            # error would break every later render of the session.
-            config = _configure(props)
             super().__init__(props)
-            for key, value in config.items():
-                setattr(self, key, value)
             self.sun_direction = mi.Vector3f(self.sun)
             self._set_sun_disk()
             self._set_pattern()
@@ -372,20 +390,9 @@ def build_class():
 
         # -------------------------------------------------------------- Emitter API
 
-        eval = wrapped.eval
-        eval_direction = wrapped.eval_direction
-        sample_direction = wrapped.sample_direction
-        pdf_direction = wrapped.pdf_direction
-        sample_ray = wrapped.sample_ray
-        sample_position = wrapped.sample_position
-        bbox = wrapped.bbox
-
         def sample_wavelengths(self, si, sample, active=True):
             wavelengths, weight = self.inner.sample_wavelengths(si, sample, active)
             return wavelengths, self.light(weight, si.wi, wavelengths)
-
-        def is_environment(self):
-            return True
 
         # -------------------------------------------------------------- parameters
 
@@ -403,10 +410,10 @@ def build_class():
 
         def parameters_changed(self, keys):
             if not keys or "dolp_max" in keys:
-                value, declared = _floats(self.dolp_max), setting(_NAME, "dolp_max")
-                if len(value) != 1 or not (declared.low <= value[0] <= declared.high):
+                value, declared = _floats(self.dolp_max), parameter("dolp_max", _NAME)
+                if len(value) != 1 or not (declared.lower <= value[0] <= declared.upper):
                     raise ValueError(f"{_NAME}: parameter 'dolp_max' must be "
-                                     f"{read.bounds(declared.low, declared.high)}, got "
+                                     f"{declared.bound_doc}, got "
                                      f"{value if len(value) != 1 else value[0]}")
             if not keys or "sun_direction" in keys:
                 # a new sun: checked, handed to the sunsky intensity without its

@@ -21,7 +21,7 @@
      - --
    * - ``scale``
      - float
-     - Factor on the radiance (>= 0).
+     - Factor on the radiance. Valid: >= 0.
      - 1
      - ``intensity.scale``
    * - ``to_world``
@@ -80,7 +80,6 @@ import numpy as np
 from . import wrapped
 from .. import properties as read
 from ..mueller import basis, emitted, intensity
-from ..schema import setting
 
 
 _NAME = "stokes_envmap"
@@ -124,7 +123,7 @@ def _configure(props):
     path = str(mi.file_resolver().resolve(filename))
     if not os.path.isfile(path):
         raise ValueError(f"{_NAME}: parameter 'filename': {filename}: no such file")
-    scale = read.declared(props, setting(_NAME, "scale"))
+    scale = read.declared(props, _NAME, "scale")
     m = np.array(read.rotation(props, _NAME, "to_world"), np.float64)
     s0, stokes = load_stokes_map(path)
     config = {"bitmap": mi.Bitmap(s0), "scale": scale}
@@ -139,16 +138,11 @@ def _configure(props):
 
 def build_class():
     """``StokesEnvmap`` on the active variant's base class (registry.plugin_class)."""
-    class StokesEnvmap(mi.Emitter):
+    class StokesEnvmap(wrapped.emitter_base(_configure)):
         """An environment map of Stokes vectors (module docstring)."""
 
         def __init__(self, props):
-            # Read and checked before the base class registers the instance with
-            # Dr.Jit (a half-built emitter left registered breaks later renders).
-            config = _configure(props)
             super().__init__(props)
-            for key, value in config.items():
-                setattr(self, key, value)
             self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
 
         # -------------------------------------------------------------- polarization
@@ -206,20 +200,9 @@ def build_class():
 
         # -------------------------------------------------------------- Emitter API
 
-        eval = wrapped.eval
-        eval_direction = wrapped.eval_direction
-        sample_direction = wrapped.sample_direction
-        pdf_direction = wrapped.pdf_direction
-        sample_ray = wrapped.sample_ray
-        sample_position = wrapped.sample_position
-        bbox = wrapped.bbox
-
         def sample_wavelengths(self, si, sample, active=True):
             # envmap draws wavelengths from a texture coordinate, not a direction
             return self.inner.sample_wavelengths(si, sample, active)
-
-        def is_environment(self):
-            return True
 
         def traverse(self, callback):
             callback.put("intensity", self.inner, mi.ParamFlags.Differentiable)

@@ -1,15 +1,14 @@
-"""The ``mi.Emitter`` methods the three polarized emitters share. Each wraps
-one emitter, ``self.inner`` (``polarized_sky``'s intensity,
+"""The base class of the three polarized emitters, :func:`emitter_base`.
+Each wraps one emitter, ``self.inner`` (``polarized_sky``'s intensity,
 ``stokes_envmap``'s ``envmap``, ``polarized_emitter``'s lamp), keeps its
 radiance, sampling and pdf, and changes only what it returns through
 ``self.light(value, w, wavelengths)``: ``value`` the inner emitter's
 radiance or sample weight, ``w`` the world-space direction the light
 propagates in (the Stokes basis of :func:`mitsuba_pbrdf.mueller.basis`).
 
-Plain functions, named in each class body (``sample_direction =
-wrapped.sample_direction``): nanobind refuses a Python mix-in base beside
-``mi.Emitter`` ("invalid number of bases"). ``mi.*`` is looked up when
-called, so one module serves every variant.
+The base is built on the active variant's ``mi.Emitter`` each time a
+plugin's ``build_class()`` runs, as :func:`mitsuba_pbrdf.bsdfs.perturbed.wrapper_base`
+is for the BSDFs: nanobind takes one base, so no mix-in beside ``mi.Emitter``.
 
 **No** ``set_scene``: Mitsuba 3.9.1 never calls a Python emitter's
 ``set_scene`` (measured: an override that prints is never reached), so an
@@ -52,43 +51,58 @@ def nested(self):
     return inner
 
 
-def eval(self, si, active=True):
-    """An infinite emitter seen along ``-si.wi``: its light propagates along
-    ``si.wi`` (world space)."""
-    return self.light(nested(self).eval(si, active), si.wi, si.wavelengths)
+def emitter_base(configure):
+    """The active variant's ``mi.Emitter`` with what the three emitters share:
+    a constructor that sets the attributes ``configure(props)`` returns (a
+    dict; everything read and checked first), and the Emitter methods that
+    hand the call to ``self.inner`` and its value to ``self.light``."""
 
+    class WrappedEmitter(mi.Emitter):
+        def __init__(self, props):
+            # Checked before the base class registers the instance with Dr.Jit:
+            # a half-built emitter left registered after an error would break
+            # every later render of the session.
+            config = configure(props)
+            super().__init__(props)
+            for key, value in config.items():
+                setattr(self, key, value)
 
-def eval_direction(self, it, ds, active=True):
-    return self.light(nested(self).eval_direction(it, ds, active), -ds.d, it.wavelengths)
+        def eval(self, si, active=True):
+            """An infinite emitter seen along ``-si.wi``: its light propagates
+            along ``si.wi`` (world space)."""
+            return self.light(nested(self).eval(si, active), si.wi, si.wavelengths)
 
+        def eval_direction(self, it, ds, active=True):
+            return self.light(nested(self).eval_direction(it, ds, active), -ds.d, it.wavelengths)
 
-def sample_direction(self, it, sample, active=True):
-    """The inner emitter's sample, named as this emitter's (an adjoint pass
-    that re-evaluates ``ds.emitter`` then sees the polarization); an infinite
-    one's point :data:`FAR` away (module docstring)."""
-    ds, weight = nested(self).sample_direction(it, sample, active)
-    ds.emitter = mi.EmitterPtr(self)
-    if nested(self).is_environment():
-        ds.p = dr.fma(ds.d, FAR, it.p)
-        ds.dist = FAR
-    return ds, self.light(weight, -ds.d, it.wavelengths)
+        def sample_direction(self, it, sample, active=True):
+            """The inner emitter's sample, named as this emitter's (an adjoint
+            pass that re-evaluates ``ds.emitter`` then sees the polarization);
+            an infinite one's point :data:`FAR` away (module docstring)."""
+            ds, weight = nested(self).sample_direction(it, sample, active)
+            ds.emitter = mi.EmitterPtr(self)
+            if nested(self).is_environment():
+                ds.p = dr.fma(ds.d, FAR, it.p)
+                ds.dist = FAR
+            return ds, self.light(weight, -ds.d, it.wavelengths)
 
+        def pdf_direction(self, it, ds, active=True):
+            return nested(self).pdf_direction(it, ds, active)
 
-def pdf_direction(self, it, ds, active=True):
-    return nested(self).pdf_direction(it, ds, active)
+        def sample_ray(self, time, sample1, sample2, sample3, active=True):
+            ray, weight = nested(self).sample_ray(time, sample1, sample2, sample3, active)
+            return ray, self.light(weight, ray.d, ray.wavelengths)
 
+        def sample_position(self, time, sample, active=True):
+            return nested(self).sample_position(time, sample, active)
 
-def sample_ray(self, time, sample1, sample2, sample3, active=True):
-    ray, weight = nested(self).sample_ray(time, sample1, sample2, sample3, active)
-    return ray, self.light(weight, ray.d, ray.wavelengths)
+        def bbox(self):
+            return self.inner.bbox()
 
+        def is_environment(self):
+            return self.inner.is_environment()
 
-def sample_position(self, time, sample, active=True):
-    return nested(self).sample_position(time, sample, active)
-
-
-def bbox(self):
-    return self.inner.bbox()
+    return WrappedEmitter
 
 
 def max_dop(emitter, n=64):

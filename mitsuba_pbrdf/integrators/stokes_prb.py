@@ -8,20 +8,22 @@ gradients at the memory of a primal render.
      - Type
      - Description
      - Default
+     - Flags
    * - ``max_depth``
      - integer
-     - Longest path, as in ``path`` (1: emitters seen directly, 2: direct
-       illumination, ...). Between 0 and 64: the replay stores each vertex of
-       a sample in local memory, so the depth must be finite.
+     - Longest path, as in ``path`` (1: emitters seen directly, 2: direct illumination, ...); the replay stores each vertex of a sample in local memory, so the depth must be finite. Valid: in [0, 64].
      - 6
+     - --
    * - ``rr_depth``
      - integer
-     - Depth at which Russian roulette starts, as in ``path``.
+     - Depth at which Russian roulette starts, as in ``path``. Valid: > 0.
      - 5
+     - --
    * - ``hide_emitters``
      - boolean
      - Hide directly visible emitters, as in ``path``.
      - false
+     - --
 
 ``<integrator type="stokes_prb"/>`` renders what
 ``<integrator type="stokes"><integrator type="path"/></integrator>`` renders,
@@ -65,6 +67,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..schema import parameter
 from .film import develop_stokes, has_nonsmooth_bsdf, sensor_and_film
 from .support import MAX_DEPTH_LIMIT, STOKES_CHANNELS, usable_variant
 from .replay import VertexStore, replay, trace
@@ -85,7 +88,7 @@ def build_class():
                 raise RuntimeError(
                     f"stokes_prb needs a polarized JIT variant such as llvm_ad_spectral_polarized, "
                     f"not {variant!r}")
-            max_depth = props.get("max_depth", 6)
+            max_depth = props.get("max_depth", parameter("max_depth", "stokes_prb").default)
             if not 0 <= max_depth <= MAX_DEPTH_LIMIT:
                 raise ValueError(
                     f"stokes_prb: max_depth must be between 0 and {MAX_DEPTH_LIMIT} (path replay "

@@ -9,6 +9,8 @@ import re
 
 import mitsuba as mi
 
+from ..schema import parameter
+
 __all__ = ["STOKES_CHANNELS", "MAX_DEPTH_LIMIT", "usable_variant", "supports_scene", "from_path",
            "integrator_class"]
 
@@ -16,7 +18,7 @@ __all__ = ["STOKES_CHANNELS", "MAX_DEPTH_LIMIT", "usable_variant", "supports_sce
 STOKES_CHANNELS = [f"S{i}.{c}" for i in range(4) for c in "RGB"]
 #: Largest ``max_depth``: each vertex costs up to 92 floats of local memory per lane
 #: (:class:`.replay.VertexStore`).
-MAX_DEPTH_LIMIT = 64
+MAX_DEPTH_LIMIT = parameter("max_depth", "stokes_prb").upper
 
 
 def usable_variant(variant):

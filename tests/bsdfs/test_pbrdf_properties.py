@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from bsdf_harness import as_numpy, hemisphere_pairs, make_si, to_vector
-from mitsuba_pbrdf import schema
+from mitsuba_pbrdf import schema, schema_tables
 from tests.bsdfs.test_pbrdf_textured import MATCHED, checker, s0, tiles
 
 SQRT2 = math.sqrt(2.0)
@@ -87,6 +87,6 @@ def test_updating_alpha_changes_the_lobe_as_loading_it_does():
 
 
 def test_the_docs_tables_name_each_alias():
-    table = schema.markdown_table()
+    table = schema_tables.markdown_table()
     for name, p in schema.ALIASES.items():
         assert f"| `{name}` |" in table and f"sqrt(2) {p.stands_for}" in p.doc
