@@ -50,8 +50,10 @@ run() {   # print the command, run it, remember a failure but go on
 
 if [ "${SKIP_TESTS:-0}" != 1 ]; then
     echo "== 1. fast tests in the ${BACKEND}_ad_* variants"
-    run env PBRDF_TEST_BACKEND="$BACKEND" "$PY" -m pytest -q -m "not slow" -p no:cacheprovider \
-        tests/test_schema.py tests/bsdfs/test_pbrdf_vs_reference.py tests/bsdfs/test_pbrdf_roughconductor.py \
+    # -n 4, not pyproject's -n auto: every xdist worker compiles its own kernels and, with
+    # cuda, holds its own context on the one GPU; auto would start one per core (16 there)
+    run env PBRDF_TEST_BACKEND="$BACKEND" "$PY" -m pytest -q -n 4 -m "not slow" \
+        -p no:cacheprovider tests/test_schema.py tests/bsdfs/test_pbrdf_vs_reference.py tests/bsdfs/test_pbrdf_roughconductor.py \
         tests/bsdfs/test_sampling.py tests/bsdfs/test_mixture_sampling.py tests/integrators/test_stokes_prb.py \
         tests/test_mueller.py
 fi

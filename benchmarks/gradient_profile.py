@@ -239,6 +239,8 @@ def load_baseline(root):
         loaded.__file__ = path
         sys.modules[module_name] = loaded
         exec(compile(source, path, "exec"), loaded.__dict__)
+    if not hasattr(loaded, "StokesPRBIntegrator"):  # plugin modules build their class per variant
+        loaded.StokesPRBIntegrator = loaded.build_class()
     return loaded
 
 

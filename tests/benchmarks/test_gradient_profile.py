@@ -34,6 +34,17 @@ def test_ir_counts_count_call_sites_in_llvm_ir():
                       "lines": 11}
 
 
+def test_baseline_is_another_checkouts_integrator():
+    """--baseline DIR: DIR's stokes_prb module builds its class (in the suite's
+    variant) and its methods run on this checkout's integrator."""
+    import mitsuba as mi
+
+    module = gradient_profile.load_baseline(ROOT)
+    assert module.__file__ == os.path.join(ROOT, "mitsuba_pbrdf", "integrators", "stokes_prb.py")
+    assert issubclass(module.StokesPRBIntegrator, mi.ad.integrators.common.ADIntegrator)
+    assert callable(module.StokesPRBIntegrator.render_backward)
+
+
 def run(args, **kw):
     return subprocess.run(args, cwd=ROOT, capture_output=True, text=True, timeout=600,
                           env=dict(os.environ, PYTHONPATH=ROOT), **kw)
