@@ -1,0 +1,128 @@
+"""The named choices of the fit's and the readers' options, as records that
+know their behaviour: the fit's models (:data:`MODELS`) and the layouts of a
+measurement CSV file (:data:`LAYOUTS`). The library reads its options through
+them and ``pbrdf fit`` takes its ``choices`` and help from them.
+
+Standard library and :mod:`mitsuba_pbrdf.schema` only, so that building the
+command line's parser loads neither NumPy nor the readers: a layout's
+behaviour imports its reader when it runs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Mapping, Optional, Sequence, Tuple, TypeVar
+
+from . import schema
+
+__all__ = ["Model", "MODELS", "BOTH", "model_names", "preferred", "Layout", "LAYOUTS", "AUTO",
+           "LAYOUT_CHOICES", "layout_of"]
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class Model:
+    """A model the fit can fit: its *name* (``model=``, ``--model``), the
+    report's *title*, the lobe it lacks (*off_lobe*: that lobe's weight is
+    held at 0 and its parameters are neither fitted nor reported; None: every
+    lobe) and the line style of its curves in the fit's plots."""
+    name: str
+    title: str
+    off_lobe: Optional[str]
+    line_style: str
+
+    @property
+    def fixed(self) -> Tuple[str, ...]:
+        """The parameters the model holds fixed, the lobe's weight first
+        (``("kdd", "sigma_dd")``; empty for a model with every lobe)."""
+        if self.off_lobe is None:
+            return ()
+        return tuple(name for name in schema.LOBES[self.off_lobe] if name)
+
+    @property
+    def why_fixed(self) -> str:
+        """Why the model lacks the parameters of :attr:`fixed`."""
+        return f"it is the three-component model with {self.fixed[0]} = 0" if self.fixed else ""
+
+
+#: Model name -> :class:`Model`, richest first (the one :func:`preferred` keeps).
+MODELS = {m.name: m for m in (
+    Model("three", "three-component (specular + directional diffuse + ideal diffuse)", None, "-"),
+    Model("two", "two-component (specular + ideal diffuse, kdd = 0)", "directional_diffuse",
+          "--"),
+)}
+
+#: ``--model both``: every model of :data:`MODELS`.
+BOTH = "both"
+
+
+def model_names(choice: str) -> Tuple[str, ...]:
+    """The models ``--model`` *choice* fits: one of :data:`MODELS`, or all for :data:`BOTH`."""
+    return tuple(MODELS) if choice == BOTH else (choice,)
+
+
+def preferred(results: Mapping[str, T]) -> T:
+    """Of fits by model name, the fit of the richest model present (the
+    three-component one, else the one fitted): the one a scene or a table's
+    hemisphere map shows."""
+    return next(results[name] for name in (*MODELS, *results) if name in results)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A layout of measurement CSV files: its *name* (``layout=``,
+    ``--layout``), a *summary* for ``--help``, the *columns* its header names
+    (for the message about a file without a header), whether a header (names
+    stripped, lower case) is in this layout (*detects*; None: the layout of
+    a file no other layout detects) and its reader (*read*: path, header,
+    rows -> :class:`~mitsuba_pbrdf.measured.Measurements`)."""
+    name: str
+    summary: str
+    columns: str
+    detects: Optional[Callable[[Sequence[str]], bool]]
+    read: Callable[..., object]
+
+
+def _is_nist_header(header):
+    from .measured.nist_layout import is_nist_header
+
+    return is_nist_header(header)
+
+
+def _read_nist(path, header, rows):
+    from .measured.nist_layout import read_nist
+
+    return read_nist(path, header, rows)
+
+
+def _read_goniometer(path, header, rows):
+    from .measured.measurements import read_goniometer
+
+    return read_goniometer(path, header, rows)
+
+
+#: Layout name -> :class:`Layout`: this project's goniometer CSV
+#: (:mod:`mitsuba_pbrdf.measured.measurements`) and NIST's published
+#: Mueller-matrix BRDF layout (:mod:`mitsuba_pbrdf.measured.nist_layout`).
+LAYOUTS = {lay.name: lay for lay in (
+    Layout("goniometer", "this project's", "theta_i, phi_i, theta_r, phi_r, wavelength, m00 ...",
+           None, _read_goniometer),
+    Layout("nist", "NIST's Mueller BRDF files: lambda in um, signed thetai, f_r11 and "
+                   "f_rIJ/f_r11", "NIST's lambda, thetai, phi, thetar, phir, f_r11 ...",
+           _is_nist_header, _read_nist),
+)}
+
+#: ``layout="auto"``: the layout told by the header (:func:`layout_of`).
+AUTO = "auto"
+#: The values of a reader's ``layout`` parameter and of ``--layout``.
+LAYOUT_CHOICES = (AUTO,) + tuple(LAYOUTS)
+
+
+def layout_of(header: Sequence[str], layout: str = AUTO) -> Layout:
+    """The :class:`Layout` of a file with *header* (names stripped, lower
+    case): *layout* where one is named, else the first that detects the
+    header, else the one that detects none."""
+    if layout != AUTO:
+        return LAYOUTS[layout]
+    return (next((lay for lay in LAYOUTS.values() if lay.detects and lay.detects(header)), None)
+            or next(lay for lay in LAYOUTS.values() if lay.detects is None))
