@@ -13,8 +13,6 @@ from typing import Optional, Sequence
 
 from ..choices import AUTO, BOTH, LAYOUT_CHOICES, LAYOUTS, MODELS, model_names, preferred
 from ..interrupts import release
-from ..outputs import together
-from ..outputs import atomic_path, escape_text, write_json
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..errors import one_line
 from .arguments import check_outputs, float_list, positive_int, require_file
@@ -119,37 +117,15 @@ def run(args) -> int:
             print(undetermined_warning(r), file=sys.stderr)
         for warning in r.warnings:
             print(warning, file=sys.stderr)
-    with together():  # the plot, the JSON and the scene, or none (mitsuba_pbrdf.outputs)
-        kept = _write_outputs(args, table, data, results)
+    fitted.save(plot=args.plot, json=args.json, scene=args.scene_out, material=args.material)
     if args.plot:
         print(f"\nplot: {args.plot}")
     if args.json:
         print(f"results: {args.json}")
     if args.scene_out:
-        print(f"scene: {args.scene_out} (the {kept.model}-component fit as a pbrdf BSDF)")
+        print(f"scene: {args.scene_out} (the {preferred(results).model}-component fit as a "
+              f"pbrdf BSDF)")
     return 0
-
-
-def _write_outputs(args, table, data, results):
-    """Write the plot, the JSON and the scene; returns the fit the scene holds."""
-    from ..fitting import plot_fit
-
-    if args.plot:
-        title = escape_text(os.path.basename(args.data), "line")
-        with atomic_path(args.plot) as tmp:
-            if table is not None:
-                from ..fitting.table_plots import plot_table_fit
-                plot_table_fit(table, results, tmp, title=title)
-            else:
-                plot_fit(data, results, tmp, title=title)
-    if args.json:
-        write_json(args.json, {m: r.as_dict() for m, r in results.items()})
-    kept = preferred(results)
-    if args.scene_out:
-        from ..fitting.scene_out import write_fitted_scene
-        write_fitted_scene(kept, args.scene_out, material=args.material,
-                           source=os.path.basename(args.data))
-    return kept
 
 
 def add_parser(subparsers):

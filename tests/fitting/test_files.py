@@ -3,6 +3,7 @@ mitsuba_pbrdf.fitting.files): docs/python.md's section runs, the calls give
 what the steps they stand for give, and ``pbrdf fit``'s choices are the
 library's records."""
 
+import json
 import re
 from pathlib import Path
 
@@ -22,13 +23,30 @@ def _section(page, heading):
     return re.findall(r"```python\n(.*?)```", body, re.S)
 
 
-def test_python_md_reading_and_fitting_runs(monkeypatch, capsys):
+def test_python_md_reading_and_fitting_runs(tmp_path, monkeypatch, capsys):
     blocks = _section("python.md", "Reading and fitting a file")
     assert blocks
-    monkeypatch.chdir(ROOT)
+    (tmp_path / "tests").mkdir()
+    (tmp_path / "tests" / "data").symlink_to(ROOT / "tests" / "data")
+    monkeypatch.chdir(tmp_path)    # the block's outputs go here, its inputs are the repository's
     for code in blocks:
         exec(compile(code, "docs/python.md", "exec"), {})
     assert capsys.readouterr().out.split()[1] == "None"   # a CSV file has no table
+    assert json.loads((tmp_path / "fit.json").read_text())["two"]["model"] == "two"
+    assert 'name="kdd" value="0"' in (tmp_path / "fit.xml").read_text()
+
+
+def test_save_writes_what_pbrdf_fit_writes(tmp_path):
+    """FileFit.save is the command's writer: the picture of a CSV fit, and no
+    file at all when one of them cannot be written."""
+    fit = fitting.fit_file(ROOT / "tests" / "data" / "fit_example.csv", models=["two"],
+                           material="Al", distribution="beckmann", starts=1,
+                           observables=["m00", "dolp"])
+    fit.save(plot=str(tmp_path / "fit.svg"))
+    assert "fit_example.csv" in (tmp_path / "fit.svg").read_text()   # the title: the file
+    with pytest.raises(OSError):
+        fit.save(json=str(tmp_path / "new.json"), scene=str(tmp_path / "fit.svg" / "x.xml"))
+    assert not (tmp_path / "new.json").exists()
 
 
 def test_read_is_the_reader_then_the_selection():
