@@ -16,7 +16,7 @@ from typing import Optional
 
 from ..outputs import together
 from .arguments import (check_outputs, chosen_variant, parse_defines, progress_options,
-                        show_progress, variant_help)
+                        scene_file, show_progress, variant_help)
 from .errors import PROG, CliError
 from .pictures import (picture_kwargs, picture_options, report_quality,
                        warn_unused_picture_options)
@@ -30,18 +30,6 @@ def _out_stem(out: Optional[str], scene_path: str) -> str:
         return os.path.join(out, stem)
     base, ext = os.path.splitext(out)
     return base if ext.lower() in (".exr", ".png") else out
-
-
-def _scene(path: str) -> str:
-    """The scene file, or the packaged scene of that name (with a notice)."""
-    from ..rendering.scene_files import find_scene
-
-    if os.path.isfile(path):
-        return path
-    found = str(find_scene(path))  # FileNotFoundError naming the packaged scenes
-    print(f"{PROG} render: {path} is not here; rendering the packaged scene {found}",
-          file=sys.stderr)
-    return found
 
 
 @contextmanager
@@ -65,7 +53,7 @@ def run(args) -> int:
     from ..rendering.render import check_render, render_request
     from ..stokes.exr import write_stokes_exr
 
-    scene = _scene(args.scene)
+    scene = scene_file(args.scene, "render", "rendering")
     params = parse_defines(args.define)
     picture = picture_kwargs(args)
     warn_unused_picture_options(args, picture["panels"], "render")

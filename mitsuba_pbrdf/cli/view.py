@@ -37,10 +37,8 @@ def polcam_siblings(path: str) -> list:
 
 def run(args) -> int:
     """``pbrdf view``."""
-    from ..stokes.exr import read_stokes_exr
+    from ..camera.raw_frames import read_viewable_exr
     from ..visualization.panels import save_overview_png
-    from ..stokes.image import StokesChannelError
-
     from ..visualization.cube_sheet import DOLP_SCALES
 
     require_file(args.exr, "EXR file")
@@ -53,20 +51,9 @@ def run(args) -> int:
     check_outputs(("--out", out, ("png",)), ("--out", csv, ("csv",)),
                   inputs=[("STOKES.exr", args.exr)] + polcam_siblings(args.exr))
     existed = os.path.exists(out)
-    polcam = False
     try:
-        image = read_stokes_exr(args.exr)
-    except StokesChannelError as e:  # a file of pbrdf polcam? its Stokes image
-        from ..camera.raw_frames import read_polcam_exr
-
-        try:
-            image = read_polcam_exr(args.exr)
-        except (FileNotFoundError, ValueError) as polcam_error:
-            raise CliError(one_line(polcam_error)) from e
-        if image is None:
-            raise CliError(one_line(e)) from e
-        polcam = True
-    except ValueError as e:
+        image, polcam = read_viewable_exr(args.exr)
+    except (FileNotFoundError, ValueError) as e:
         raise CliError(one_line(e)) from e
     release()  # read: drawing is plain Python, Ctrl-C stops it at once (mitsuba_pbrdf.interrupts)
     if args.cube or args.spectrum is not None:
