@@ -20,7 +20,8 @@ from .backends import BACKENDS
 from ..choices import MODELS
 from .vector import absent_parameters, parse_assignments
 
-__all__ = ["check_model", "check_arguments", "check_data", "assignments_by_model", "index_from", "with_index"]
+__all__ = ["check_model", "check_arguments", "check_data", "assignments_by_model", "index_from",
+           "with_index"]
 
 
 def check_data(data):
