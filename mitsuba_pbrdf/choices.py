@@ -4,13 +4,13 @@ measurement CSV file (:data:`LAYOUTS`). The library reads its options through
 them and ``pbrdf fit`` takes its ``choices`` and help from them.
 
 Standard library and :mod:`mitsuba_pbrdf.schema` only, so that building the
-command line's parser loads neither NumPy nor the readers: a layout's
-behaviour imports its reader when it runs."""
+command line's parser loads neither NumPy nor the readers (which import this
+module: :mod:`mitsuba_pbrdf.measured.formats`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Mapping, Optional, Sequence, Tuple, TypeVar
+from typing import FrozenSet, Mapping, Optional, Sequence, Tuple, TypeVar
 
 from . import schema
 
@@ -72,44 +72,29 @@ def preferred(results: Mapping[str, T]) -> T:
 class Layout:
     """A layout of measurement CSV files: its *name* (``layout=``,
     ``--layout``), a *summary* for ``--help``, the *columns* its header names
-    (for the message about a file without a header), whether a header (names
-    stripped, lower case) is in this layout (*detects*; None: the layout of
-    a file no other layout detects) and its reader (*read*: path, header,
-    rows -> :class:`~mitsuba_pbrdf.measured.Measurements`)."""
+    (for the message about a file without a header), and the column sets
+    that tell it (*signatures*: a header holding all of one of them is in this
+    layout; none: the layout of a file that no other layout's signature
+    fits). Its reader is :data:`mitsuba_pbrdf.measured.formats.READERS`."""
     name: str
     summary: str
     columns: str
-    detects: Optional[Callable[[Sequence[str]], bool]]
-    read: Callable[..., object]
+    signatures: Tuple[FrozenSet[str], ...] = ()
 
-
-def _is_nist_header(header):
-    from .measured.nist_layout import is_nist_header
-
-    return is_nist_header(header)
-
-
-def _read_nist(path, header, rows):
-    from .measured.nist_layout import read_nist
-
-    return read_nist(path, header, rows)
-
-
-def _read_goniometer(path, header, rows):
-    from .measured.measurements import read_goniometer
-
-    return read_goniometer(path, header, rows)
+    def detects(self, header: Sequence[str]) -> bool:
+        """Whether a header (names stripped, lower case) is in this layout."""
+        return any(signature <= set(header) for signature in self.signatures)
 
 
 #: Layout name -> :class:`Layout`: this project's goniometer CSV
 #: (:mod:`mitsuba_pbrdf.measured.measurements`) and NIST's published
-#: Mueller-matrix BRDF layout (:mod:`mitsuba_pbrdf.measured.nist_layout`).
+#: Mueller-matrix BRDF layout (:mod:`mitsuba_pbrdf.measured.nist_layout`: its
+#: angle columns ``thetai`` and ``thetar``, or its 1-indexed ``f_r11``).
 LAYOUTS = {lay.name: lay for lay in (
-    Layout("goniometer", "this project's", "theta_i, phi_i, theta_r, phi_r, wavelength, m00 ...",
-           None, _read_goniometer),
+    Layout("goniometer", "this project's", "theta_i, phi_i, theta_r, phi_r, wavelength, m00 ..."),
     Layout("nist", "NIST's Mueller BRDF files: lambda in um, signed thetai, f_r11 and "
                    "f_rIJ/f_r11", "NIST's lambda, thetai, phi, thetar, phir, f_r11 ...",
-           _is_nist_header, _read_nist),
+           (frozenset({"thetai", "thetar"}), frozenset({"f_r11"}))),
 )}
 
 #: ``layout="auto"``: the layout told by the header (:func:`layout_of`).
@@ -124,5 +109,5 @@ def layout_of(header: Sequence[str], layout: str = AUTO) -> Layout:
     header, else the one that detects none."""
     if layout != AUTO:
         return LAYOUTS[layout]
-    return (next((lay for lay in LAYOUTS.values() if lay.detects and lay.detects(header)), None)
-            or next(lay for lay in LAYOUTS.values() if lay.detects is None))
+    return (next((lay for lay in LAYOUTS.values() if lay.detects(header)), None)
+            or next(lay for lay in LAYOUTS.values() if not lay.signatures))

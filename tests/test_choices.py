@@ -50,7 +50,10 @@ def test_the_layout_is_told_by_the_header_unless_named(header, layout, expected)
     assert choices.layout_of(header, layout).name == expected
 
 
-def test_the_goniometer_layouts_columns_are_the_readers():
+def test_every_layout_has_a_reader():
+    from mitsuba_pbrdf.measured.formats import READERS
+
+    assert set(READERS) == set(choices.LAYOUTS)
     assert choices.LAYOUTS["goniometer"].columns.startswith(", ".join(ANGLES) + ", wavelength")
 
 

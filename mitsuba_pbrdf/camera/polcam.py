@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, replace
-from typing import Dict, List, Optional
+from typing import Dict, Optional
 
 import numpy as np
 
@@ -45,8 +45,7 @@ from ..stokes.quality import require_usable
 __all__ = ["ANGLES", "MONO_LAYOUT", "BAYER_LAYOUT", "COLOUR_CUBE_REFUSAL", "polarizer_images",
            "stokes_from_intensities",
            "malus", "mono_layout", "colour_layout", "mono_mosaic", "colour_mosaic", "SensorModel",
-           "write_png16", "is_cube", "polcam_outputs", "polcam_file_names", "write_polcam_files",
-           "PolcamFiles", "polcam_files"]
+           "write_png16", "is_cube", "polcam_outputs", "polcam_file_names", "write_polcam_files"]
 
 #: Polarizer angles of the four channels, degrees.
 ANGLES = (0, 45, 90, 135)
@@ -341,79 +340,3 @@ def write_polcam_files(outputs: dict, folder, stem: str, metadata=None) -> list:
             write_exr(path, value, dict(metadata or {}, polcam=suffix))
     return list(names.values())
 
-
-@dataclass(frozen=True)
-class PolcamFiles:
-    """What ``pbrdf polcam`` writes for one Stokes EXR, computed and not yet
-    written (:func:`polcam_files`): the camera's images (:func:`polcam_outputs`)
-    as ``<stem>_<suffix>`` files in *folder* with *metadata*, and the 8-bit
-    previews of its raw frames (file name -> pixels,
-    :func:`~.raw_frames.mosaic_previews`)."""
-    folder: str
-    stem: str
-    outputs: dict
-    previews: Dict[str, np.ndarray]
-    metadata: dict
-
-    @property
-    def paths(self) -> List[str]:
-        """Every file :meth:`write` writes: the images, then the previews."""
-        return [os.path.join(self.folder, name) for name in
-                [*polcam_file_names(self.outputs, self.stem).values(), *self.previews]]
-
-    def write(self) -> List[str]:
-        """Write every file of :attr:`paths`, or none (each atomically; the
-        folder is created if missing). Returns :attr:`paths`."""
-        from ..outputs import together
-        from ..visualization.png import write_pixels_png
-
-        with together():  # all the files or none (mitsuba_pbrdf.outputs)
-            write_polcam_files(self.outputs, self.folder, self.stem, self.metadata)
-            for name, picture in self.previews.items():
-                write_pixels_png(os.path.join(self.folder, name), picture)
-        return self.paths
-
-
-def polcam_files(path, folder, sensor: str = "mono", band: Optional[str] = None,
-                 model: Optional[SensorModel] = None) -> PolcamFiles:
-    """A polarization camera's images of a Stokes EXR, as ``pbrdf polcam`` writes them.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        A Stokes EXR (``pbrdf render``'s).
-    folder : str or os.PathLike
-        Where the files go, named after *path*'s stem (``<stem>_I0.exr`` ...).
-    sensor, band, model
-        As :func:`polcam_outputs` takes them.
-
-    Returns
-    -------
-    PolcamFiles
-        Everything computed; :meth:`PolcamFiles.write` writes it.
-
-    Raises
-    ------
-    ParameterError
-        An option the image cannot take (``sensor``), naming it.
-    ValueError
-        The file is no usable Stokes image, naming it; or a bad *band*.
-
-    Example
-    -------
-    >>> from mitsuba_pbrdf.camera.polcam import SensorModel, polcam_files
-    >>> files = polcam_files("out/default.exr", "out/cam",
-    ...                      model=SensorModel(bits=12))  # doctest: +SKIP
-    >>> files.write()  # doctest: +SKIP
-    """
-    from ..stokes.exr import read_stokes_exr
-    from .raw_frames import mosaic_previews
-
-    image = read_stokes_exr(path)
-    outputs = polcam_outputs(image, sensor=sensor, band=band, model=model)
-    stem = os.path.splitext(os.path.basename(os.fspath(path)))[0]
-    bits = model.bits if model is not None and model.enabled else None
-    metadata = {k: v for k, v in image.metadata.items() if not k.startswith("time_")}
-    metadata["source"] = os.path.basename(os.fspath(path))
-    return PolcamFiles(os.fspath(folder), stem, outputs, mosaic_previews(outputs, stem, bits),
-                       metadata)

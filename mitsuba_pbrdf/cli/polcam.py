@@ -43,7 +43,7 @@ def sensor_model(args):
 
 def run(args) -> int:
     """``pbrdf polcam``."""
-    from ..camera.polcam import polcam_files
+    from ..visualization.polcam_files import polcam_files
     from ..stokes.image import StokesChannelError
 
     require_file(args.exr, "EXR file")

@@ -7,13 +7,17 @@ from __future__ import annotations
 import os
 
 from ..choices import LAYOUT_CHOICES, LAYOUTS as _LAYOUTS, layout_of
-from .measurements import MeasurementError, Measurements, read_table
+from .measurements import MeasurementError, Measurements, read_goniometer, read_table
+from .nist_layout import read_nist
 
-__all__ = ["LAYOUTS", "read_measurements"]
+__all__ = ["LAYOUTS", "READERS", "read_measurements"]
 
 #: The values of :func:`read_measurements`' ``layout``: ``auto`` (told by the
 #: header) and the layouts of :data:`mitsuba_pbrdf.choices.LAYOUTS`.
 LAYOUTS = LAYOUT_CHOICES
+#: Each layout's reader: (path, header, rows) -> :class:`Measurements`, from
+#: :func:`~.measurements.read_table`'s header and rows.
+READERS = {"goniometer": read_goniometer, "nist": read_nist}
 
 
 def read_measurements(path, layout="auto") -> Measurements:
@@ -27,4 +31,4 @@ def read_measurements(path, layout="auto") -> Measurements:
     first, *others = _LAYOUTS.values()
     _, header, rows = read_table(
         path, first.columns + "".join(f" (or {lay.columns})" for lay in others))
-    return layout_of(header, layout).read(os.fspath(path), header, rows)
+    return READERS[layout_of(header, layout).name](os.fspath(path), header, rows)
