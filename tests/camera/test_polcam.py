@@ -331,20 +331,3 @@ def test_view_reads_what_read_viewable_exr_reads(tmp_path):
     with pytest.raises(StokesChannelError):
         read_viewable_exr(plain)
 
-
-def test_python_md_camera_section_runs(tmp_path, monkeypatch, capsys):
-    """docs/python.md's section on the camera's files runs as written."""
-    import re
-    from pathlib import Path
-
-    text = (Path(__file__).resolve().parents[2] / "docs" / "python.md").read_text("utf-8")
-    body = text.split("## A polarization camera's files\n", 1)[1].split("\n## ", 1)[0]
-    blocks = re.findall(r"```python\n(.*?)```", body, re.S)
-    assert blocks
-    (tmp_path / "out").mkdir()
-    write_stokes_exr(tmp_path / "out" / "default.exr", random_stokes(4, 6, seed=8))
-    monkeypatch.chdir(tmp_path)
-    for code in blocks:
-        exec(compile(code, "docs/python.md", "exec"), {})
-    assert capsys.readouterr().out.strip() == "['Y'] True"
-    assert (tmp_path / "out" / "cam" / "default_mosaic_preview.png").is_file()
