@@ -20,7 +20,6 @@ import sys
 
 from ..errors import one_line
 from ..interrupts import release
-from ..outputs import together
 from .arguments import check_outputs, require_file
 from .errors import PROG, CliError
 from .pictures import (picture_kwargs, picture_options, report_quality,
@@ -75,8 +74,7 @@ def run(args) -> int:
 
 def _cube_sheet(args, image, out: str, existed: bool) -> int:
     """``--cube`` / ``--spectrum``: the contact sheet (and the spectrum CSV)."""
-    from ..visualization.cube_sheet import (parse_region, region_spectrum, save_cube_sheet,
-                                       write_spectrum_csv)
+    from ..visualization.cube_sheet import parse_region, region_spectrum, save_cube_sheet
     from ..stokes.quality import UnusableImageError, require_usable
 
     if args.band is not None:
@@ -94,18 +92,16 @@ def _cube_sheet(args, image, out: str, existed: bool) -> int:
             raise
     # the unusable-pixel rule, for every band the sheet draws
     report_quality(image, None, args.exr, "view", bands=image.bands)
-    csv = os.path.splitext(out)[0] + ".csv"
     if not image.metadata.get("title"):
         image.metadata["title"] = os.path.basename(args.exr)
     dolp_limit = args.dolp_limit if args.dolp_limit == "auto" else float(args.dolp_limit)
-    with together():  # the sheet and the CSV, or neither (mitsuba_pbrdf.interrupts)
-        path = save_cube_sheet(out, image, region=region, dolp_limit=dolp_limit,
-                               min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap,
-                               dolp_scale=args.dolp_scale)
-        written = write_spectrum_csv(csv, image, region) if region is not None else None
+    csv = os.path.splitext(out)[0] + ".csv" if region is not None else None
+    path = save_cube_sheet(out, image, region=region, csv=csv, dolp_limit=dolp_limit,
+                           min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap,
+                           dolp_scale=args.dolp_scale)   # the sheet and the CSV, or neither
     print(f"{'replaced' if existed else 'wrote'} {path} ({len(image.bands)} bands)")
     if region is not None:
-        print(f"wrote {written} (Stokes spectrum, {region.describe()})")
+        print(f"wrote {csv} (Stokes spectrum, {region.describe()})")
     return 0
 
 
