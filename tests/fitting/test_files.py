@@ -4,7 +4,6 @@ what the steps they stand for give, and ``pbrdf fit``'s choices are the
 library's records."""
 
 import json
-import re
 from pathlib import Path
 
 import numpy as np
@@ -12,25 +11,17 @@ import pytest
 
 from mitsuba_pbrdf import fitting, measured
 from mitsuba_pbrdf.errors import ParameterError
+from proof.doc_sections import run_section
 
 ROOT = Path(__file__).resolve().parents[2]
 NIST = ROOT / "tests" / "data" / "nist_ptfe_subset.csv"
 
 
-def _section(page, heading):
-    text = (ROOT / "docs" / page).read_text(encoding="utf-8")
-    body = text.split(f"## {heading}\n", 1)[1].split("\n## ", 1)[0]
-    return re.findall(r"```python\n(.*?)```", body, re.S)
-
-
 def test_python_md_reading_and_fitting_runs(tmp_path, monkeypatch, capsys):
-    blocks = _section("python.md", "Reading and fitting a file")
-    assert blocks
     (tmp_path / "tests").mkdir()
     (tmp_path / "tests" / "data").symlink_to(ROOT / "tests" / "data")
     monkeypatch.chdir(tmp_path)    # the block's outputs go here, its inputs are the repository's
-    for code in blocks:
-        exec(compile(code, "docs/python.md", "exec"), {})
+    assert run_section("python.md", "Reading and fitting a file")
     assert capsys.readouterr().out.split()[1] == "None"   # a CSV file has no table
     assert json.loads((tmp_path / "fit.json").read_text())["two"]["model"] == "two"
     assert 'name="kdd" value="0"' in (tmp_path / "fit.xml").read_text()

@@ -2,7 +2,6 @@
 docs/python.md's section runs, and the files are the command's, written all
 or none."""
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -13,8 +12,7 @@ from mitsuba_pbrdf.cli import main
 from mitsuba_pbrdf.stokes.exr import write_stokes_exr
 from mitsuba_pbrdf.stokes.image import StokesImage
 from mitsuba_pbrdf.visualization.polcam_files import polcam_files
-
-ROOT = Path(__file__).resolve().parents[2]
+from proof.doc_sections import run_section
 
 
 def stokes_image(h=4, w=6, seed=8):
@@ -27,15 +25,10 @@ def stokes_image(h=4, w=6, seed=8):
 
 
 def test_python_md_camera_section_runs(tmp_path, monkeypatch, capsys):
-    text = (ROOT / "docs" / "python.md").read_text("utf-8")
-    body = text.split("## A polarization camera's files\n", 1)[1].split("\n## ", 1)[0]
-    blocks = re.findall(r"```python\n(.*?)```", body, re.S)
-    assert blocks
     (tmp_path / "out").mkdir()
     write_stokes_exr(tmp_path / "out" / "default.exr", stokes_image())
     monkeypatch.chdir(tmp_path)
-    for code in blocks:
-        exec(compile(code, "docs/python.md", "exec"), {})
+    assert run_section("python.md", "A polarization camera's files")
     assert capsys.readouterr().out.strip() == "['Y'] True"
     assert (tmp_path / "out" / "cam" / "default_mosaic_preview.png").is_file()
 
