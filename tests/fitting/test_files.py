@@ -28,15 +28,15 @@ def test_python_md_reading_and_fitting_runs(tmp_path, monkeypatch, capsys):
 
 
 def test_save_writes_what_pbrdf_fit_writes(tmp_path):
-    """FileFit.save is the command's writer: the picture of a CSV fit, and no
-    file at all when one of them cannot be written."""
+    """FileFit.save is the command's writer: the scene names the file fitted,
+    and no file is left when one of them cannot be written."""
     fit = fitting.fit_file(ROOT / "tests" / "data" / "fit_example.csv", models=["two"],
                            material="Al", distribution="beckmann", starts=1,
                            observables=["m00", "dolp"])
-    fit.save(plot=str(tmp_path / "fit.svg"))
-    assert "fit_example.csv" in (tmp_path / "fit.svg").read_text()   # the title: the file
+    fit.save(scene=str(tmp_path / "fit.xml"))
+    assert "pbrdf fit to fit_example.csv" in (tmp_path / "fit.xml").read_text()
     with pytest.raises(OSError):
-        fit.save(json=str(tmp_path / "new.json"), scene=str(tmp_path / "fit.svg" / "x.xml"))
+        fit.save(json=str(tmp_path / "new.json"), scene=str(tmp_path / "fit.xml" / "x.xml"))
     assert not (tmp_path / "new.json").exists()
 
 
