@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-from ..rendering.render import RenderRequest, RenderTimings, render_request
+from ..rendering.render import RenderRequest, RenderTimings
 from ..stokes.image import StokesImage
 from ..stokes.quality import StokesQuality, require_usable
 
@@ -75,7 +75,9 @@ def render_files(request: RenderRequest, exr, png, seed: int = 0, progress=False
     >>> request = check_render("scenes/default.xml", spp=4, size="32x24")  # doctest: +SKIP
     >>> render_files(request, "out/default.exr", "out/default.png").quality  # doctest: +SKIP
     """
+    # looked up when called, where the work starts (the tests stub it there)
     from ..outputs import together
+    from ..rendering.render import render_request
     from ..stokes.exr import write_stokes_exr
     from .panels import save_overview_png
 
