@@ -22,7 +22,8 @@ from typing import Optional
 from ..errors import describe_error
 from .errors import PROG, CliError
 
-__all__ = ["parse_defines", "require_file", "scene_file", "positive_int", "float_list", "finite_float",
+__all__ = ["parse_defines", "require_file", "scene_file", "positive_int", "float_list",
+           "finite_float",
            "check_outputs", "show_progress", "progress_options", "chosen_variant",
            "variant_help", "RenamedOption", "typed_option"]
 

@@ -17,7 +17,8 @@ from .. import schema
 from ..choices import MODELS
 from ..errors import ParameterError
 
-__all__ = ["PER_WAVELENGTH", "SHARED", "ANISOTROPIC", "shared_names", "DEFAULTS", "BOUNDS", "SCALE_FLOORS", "PLUGIN_NAMES",
+__all__ = ["PER_WAVELENGTH", "SHARED", "ANISOTROPIC", "shared_names", "DEFAULTS", "BOUNDS",
+           "SCALE_FLOORS", "PLUGIN_NAMES",
            "TWO_COMPONENT_FIXED", "LOBE_PARAMETERS", "absent_parameters", "parse_assignments",
            "ParameterVector"]
 

@@ -21,7 +21,8 @@ __all__ = ["PolcamFiles", "polcam_files"]
 @dataclass(frozen=True)
 class PolcamFiles:
     """What ``pbrdf polcam`` writes for one Stokes EXR, computed and not yet
-    written (:func:`polcam_files`): the camera's images (:func:`~mitsuba_pbrdf.camera.polcam.polcam_outputs`)
+    written (:func:`polcam_files`): the camera's images
+    (:func:`~mitsuba_pbrdf.camera.polcam.polcam_outputs`)
     as ``<stem>_<suffix>`` files in *folder* with *metadata*, and the 8-bit
     previews of its raw frames (file name -> pixels,
     :func:`~mitsuba_pbrdf.camera.raw_frames.mosaic_previews`)."""
