@@ -1,6 +1,6 @@
 """The named choices of the fit's and the readers' options, as records that
-know their behaviour: the fit's models (:data:`MODELS`) and the layouts of a
-measurement CSV file (:data:`LAYOUTS`). The library reads its options through
+know their behaviour: the fit's models (:data:`MODELS`, and the formats of its
+picture) and the layouts of a measurement CSV file (:data:`LAYOUTS`). The library reads its options through
 them and ``pbrdf fit`` takes its ``choices`` and help from them.
 
 Standard library and :mod:`mitsuba_pbrdf.schema` only, so that building the
@@ -14,8 +14,8 @@ from typing import FrozenSet, Mapping, Optional, Sequence, Tuple, TypeVar
 
 from . import schema
 
-__all__ = ["Model", "MODELS", "BOTH", "model_names", "preferred", "Layout", "LAYOUTS", "AUTO",
-           "LAYOUT_CHOICES", "layout_of"]
+__all__ = ["Model", "MODELS", "BOTH", "model_names", "preferred", "PLOT_FORMATS", "Layout",
+           "LAYOUTS", "AUTO", "LAYOUT_CHOICES", "layout_of"]
 
 T = TypeVar("T")
 
@@ -66,6 +66,11 @@ def preferred(results: Mapping[str, T]) -> T:
     three-component one, else the one fitted): the one a scene or a table's
     hemisphere map shows."""
     return next(results[name] for name in (*MODELS, *results) if name in results)
+
+
+#: The formats of the fit's picture (``FileFit.save(plot=...)``, ``pbrdf fit
+#: --plot``), told by the file's extension (Matplotlib's writers).
+PLOT_FORMATS = ("png", "pdf", "svg")
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,8 @@ import os
 import sys
 from typing import Optional, Sequence
 
-from ..choices import AUTO, BOTH, LAYOUT_CHOICES, LAYOUTS, MODELS, model_names, preferred
+from ..choices import (AUTO, BOTH, LAYOUT_CHOICES, LAYOUTS, MODELS, PLOT_FORMATS, model_names,
+                       preferred)
 from ..interrupts import release
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..errors import one_line
@@ -19,10 +20,6 @@ from .arguments import check_outputs, float_list, positive_int, require_file
 from .errors import CliError, option_message
 from .fit_progress import FitProgressDisplay
 from .model_options import add_model_arguments
-
-
-#: what ``--plot`` writes, told by its extension (Matplotlib's formats)
-PLOT_FORMATS = ("png", "pdf", "svg")
 
 
 def _check_options(args):
@@ -225,7 +222,9 @@ def _table_arguments(p):
 
 def _output_arguments(p):
     """The files the command writes besides its report."""
-    p.add_argument("--plot", help="write a picture of fit versus data (.png, .pdf or .svg)")
+    p.add_argument("--plot", help="write a picture of fit versus data ("
+                                  + ", ".join(f".{f}" for f in PLOT_FORMATS[:-1])
+                                  + f" or .{PLOT_FORMATS[-1]})")
     p.add_argument("--json", help="write the results as JSON")
     p.add_argument("--scene-out", metavar="FILE.xml",
                    help="write a Mitsuba scene with the fitted pbrdf BSDF (the three-component "

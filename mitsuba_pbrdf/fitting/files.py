@@ -9,7 +9,7 @@ import os
 from dataclasses import dataclass
 from typing import Callable, Dict, Optional, Sequence
 
-from ..choices import preferred
+from ..choices import PLOT_FORMATS, preferred
 from ..measured import Measurements, PbsdfTable, read_file
 from ..measured.reading import PathLike
 from .solver import FitResult, fit_models
@@ -46,6 +46,9 @@ class FileFit:
 
         Raises
         ------
+        OutputPlanError
+            Before anything is written: a file in a format its writer does not
+            give, or one that is the file fitted or another of them, naming it.
         OSError
             A file cannot be written; none of them is then left.
 
@@ -53,8 +56,10 @@ class FileFit:
         -------
         >>> fit.save(json="fit.json", scene="fit.xml")  # doctest: +SKIP
         """
-        from ..outputs import atomic_path, escape_text, together, write_json
+        from ..outputs import atomic_path, check_plan, escape_text, together, write_json
 
+        check_plan([("plot", plot, PLOT_FORMATS), ("json", json, None), ("scene", scene, ("xml",))],
+                   inputs=[("path", self.path)])
         name = os.path.basename(self.path) if self.path is not None else None
         with together():   # the files given, or none of them (mitsuba_pbrdf.outputs)
             if plot is not None:

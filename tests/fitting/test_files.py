@@ -4,6 +4,7 @@ what the steps they stand for give, and ``pbrdf fit``'s choices are the
 library's records."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -90,3 +91,18 @@ def test_entry_points_examples_run():
     for module in (solver, files, reading):
         failed, attempted = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
         assert attempted and not failed, module.__name__
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"plot": "fit.txt"}, "plot: cannot write a .txt file (fit.txt); it writes .png or .pdf"),
+    ({"json": "data.csv"}, "json and path name the same file data.csv: an output never replaces"),
+    ({"json": "a.xml", "scene": "a.xml"}, "scene and json name the same file a.xml"),
+])
+def test_save_checks_its_files_before_writing_any(kwargs, message, tmp_path, monkeypatch):
+    from mitsuba_pbrdf.outputs import OutputPlanError
+
+    monkeypatch.chdir(tmp_path)
+    fit = fitting.FileFit(data=None, table=None, results={}, path="data.csv")
+    with pytest.raises(OutputPlanError, match=re.escape(message)):
+        fit.save(**kwargs)
+    assert list(tmp_path.iterdir()) == []
