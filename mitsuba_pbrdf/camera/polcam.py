@@ -339,3 +339,4 @@ def write_polcam_files(outputs: dict, folder, stem: str, metadata=None) -> list:
         else:
             write_exr(path, value, dict(metadata or {}, polcam=suffix))
     return list(names.values())
+

@@ -12,7 +12,8 @@ images that ``pbrdf view`` draws, and 8-bit previews of its raw frames.
 * :func:`stokes_of_polarizer_images`: the same from the four full-resolution
   polarizer images ``<stem>_I0.exr`` ... ``<stem>_I135.exr``.
 * :func:`read_polcam_exr`: either of these from a file that ``pbrdf polcam``
-  wrote (its ``pbrdf:polcam`` header attribute says which).
+  wrote (its ``pbrdf:polcam`` header attribute says which);
+  :func:`read_viewable_exr`: a Stokes EXR or such a file, what ``pbrdf view`` reads.
 * :func:`mosaic_preview`: a raw frame as an 8-bit greyscale picture: the ADC
   counts of an N-bit frame scaled so full scale is white (a 12-bit frame in a
   16-bit PNG uses 1/16 of the range and looks black), or the frame's own
@@ -23,14 +24,15 @@ from __future__ import annotations
 
 import os
 import re
-from typing import Optional
+from typing import Optional, Tuple
 
 import numpy as np
 
 from ..stokes.image import StokesImage
 from .polcam import ANGLES, colour_layout, mono_layout, stokes_from_intensities
 
-__all__ = ["demosaic", "stokes_of_polarizer_images", "read_polcam_exr", "polarizer_siblings",
+__all__ = ["demosaic", "stokes_of_polarizer_images", "read_polcam_exr", "read_viewable_exr",
+           "polarizer_siblings",
            "mosaic_preview", "mosaic_previews"]
 
 _POLARIZER_FILE = re.compile(r"^(?P<stem>.*)_I(?P<angle>0|45|90|135)\.exr$")
@@ -127,6 +129,47 @@ def read_polcam_exr(path) -> Optional[StokesImage]:
     image.metadata = dict(metadata, title=f"{os.path.basename(path)}: the Stokes image of "
                                           f"the polarization camera ({how}; S3 unseen)")
     return image
+
+
+def read_viewable_exr(path) -> Tuple[StokesImage, bool]:
+    """The Stokes image of a Stokes EXR, or of a file ``pbrdf polcam`` wrote.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A Stokes EXR (channels ``S0.<band>`` ... ``S3.<band>``), or a raw
+        frame or polarizer image of ``pbrdf polcam`` (:func:`read_polcam_exr`).
+
+    Returns
+    -------
+    image : StokesImage
+    from_camera : bool
+        Whether *image* is what the polarization camera measures (no S3).
+
+    Raises
+    ------
+    ValueError
+        Neither kind of file (the Stokes reader's error,
+        :class:`~mitsuba_pbrdf.stokes.image.StokesChannelError`), or an
+        unreadable one, naming the file.
+    FileNotFoundError
+        A polarizer image without the other three beside it.
+
+    Example
+    -------
+    >>> from mitsuba_pbrdf.camera.raw_frames import read_viewable_exr
+    >>> image, from_camera = read_viewable_exr("out/plate_mosaic.exr")  # doctest: +SKIP
+    """
+    from ..stokes.exr import read_stokes_exr
+    from ..stokes.image import StokesChannelError
+
+    try:
+        return read_stokes_exr(path), False
+    except StokesChannelError:
+        image = read_polcam_exr(path)
+        if image is None:
+            raise
+        return image, True
 
 
 def _polarizer_files(path: str, match) -> list:

@@ -1,5 +1,5 @@
 """Arguments that several ``pbrdf`` subcommands share, checked after parsing:
-files (:func:`require_file`), counts (:func:`positive_int`), numbers
+files (:func:`require_file`, :func:`scene_file`), counts (:func:`positive_int`), numbers
 (:func:`finite_float`, :func:`float_list`), ``-D key=value``
 (:func:`parse_defines`), the outputs (:func:`check_outputs`), and the
 ``--variant`` and ``--progress`` options, and an option's former spelling
@@ -20,9 +20,10 @@ import sys
 from typing import Optional
 
 from ..errors import describe_error
-from .errors import CliError
+from .errors import PROG, CliError
 
-__all__ = ["parse_defines", "require_file", "positive_int", "float_list", "finite_float",
+__all__ = ["parse_defines", "require_file", "scene_file", "positive_int", "float_list",
+           "finite_float",
            "check_outputs", "show_progress", "progress_options", "chosen_variant",
            "variant_help", "RenamedOption", "typed_option"]
 
@@ -46,6 +47,22 @@ def require_file(path: str, what: str):
         raise CliError(f"{what} not found: {path}")
     if not os.path.isfile(path):
         raise CliError(f"{what} is not a file: {path}")
+
+
+def scene_file(path: str, command: str, doing: str) -> str:
+    """The scene file *path*, or the packaged scene of that name with a line
+    on stderr that says so (``pbrdf render: x is not here; rendering the
+    packaged scene ...``; *doing*: ``rendering``); ``FileNotFoundError``
+    naming the packaged scenes when there is neither
+    (:func:`mitsuba_pbrdf.rendering.scene_files.find_scene`)."""
+    from ..rendering.scene_files import find_scene
+
+    if os.path.isfile(path):
+        return path
+    found = str(find_scene(path))
+    print(f"{PROG} {command}: {path} is not here; {doing} the packaged scene {found}",
+          file=sys.stderr)
+    return found
 
 
 def positive_int(name: str, value: Optional[int]):

@@ -11,19 +11,15 @@ import os
 import sys
 from typing import Optional, Sequence
 
+from ..choices import (AUTO, BOTH, LAYOUT_CHOICES, LAYOUTS, MODELS, PLOT_FORMATS, model_names,
+                       preferred)
 from ..interrupts import release
-from ..outputs import together
-from ..outputs import atomic_path, escape_text, write_json
 from ..schema import DD_DISTRIBUTIONS as DISTRIBUTIONS
 from ..errors import one_line
 from .arguments import check_outputs, float_list, positive_int, require_file
 from .errors import CliError, option_message
 from .fit_progress import FitProgressDisplay
 from .model_options import add_model_arguments
-
-
-#: what ``--plot`` writes, told by its extension (Matplotlib's formats)
-PLOT_FORMATS = ("png", "pdf", "svg")
 
 
 def _check_options(args):
@@ -87,7 +83,7 @@ def run(args) -> int:
     nk = _index_table(args)
     require_file(args.data, "measurement file")
     wavelengths = _wavelengths(args)
-    models = ("three", "two") if args.model == "both" else (args.model,)
+    models = model_names(args.model)
     fits = len(models) * (2 if args.distribution == "auto" else 1)
     try:
         with FitProgressDisplay(fits) as shown:
@@ -118,37 +114,15 @@ def run(args) -> int:
             print(undetermined_warning(r), file=sys.stderr)
         for warning in r.warnings:
             print(warning, file=sys.stderr)
-    with together():  # the plot, the JSON and the scene, or none (mitsuba_pbrdf.outputs)
-        kept = _write_outputs(args, table, data, results)
+    fitted.save(plot=args.plot, json=args.json, scene=args.scene_out, material=args.material)
     if args.plot:
         print(f"\nplot: {args.plot}")
     if args.json:
         print(f"results: {args.json}")
     if args.scene_out:
-        print(f"scene: {args.scene_out} (the {kept.model}-component fit as a pbrdf BSDF)")
+        print(f"scene: {args.scene_out} (the {preferred(results).model}-component fit as a "
+              f"pbrdf BSDF)")
     return 0
-
-
-def _write_outputs(args, table, data, results):
-    """Write the plot, the JSON and the scene; returns the fit the scene holds."""
-    from ..fitting import plot_fit
-
-    if args.plot:
-        title = escape_text(os.path.basename(args.data), "line")
-        with atomic_path(args.plot) as tmp:
-            if table is not None:
-                from ..fitting.table_plots import plot_table_fit
-                plot_table_fit(table, results, tmp, title=title)
-            else:
-                plot_fit(data, results, tmp, title=title)
-    if args.json:
-        write_json(args.json, {m: r.as_dict() for m, r in results.items()})
-    kept = results["three"] if "three" in results else next(iter(results.values()))
-    if args.scene_out:
-        from ..fitting.scene_out import write_fitted_scene
-        write_fitted_scene(kept, args.scene_out, material=args.material,
-                           source=os.path.basename(args.data))
-    return kept
 
 
 def add_parser(subparsers):
@@ -159,15 +133,27 @@ def add_parser(subparsers):
                     "wavelength (nm), m00..m33 and/or dolp, optional <quantity>_err), to a "
                     "file in NIST's Mueller BRDF layout (see docs/fitting.md) or to a "
                     ".pbsdf table (KAIST database format; see docs/measured-data.md).")
+    for group in (_file_arguments, _model_arguments, _objective_arguments, _shape_arguments,
+                  _solver_arguments, _table_arguments, _output_arguments):
+        group(p)
+    p.set_defaults(func=run)
+
+
+def _file_arguments(p):
+    """The file, and what of it to read (:func:`mitsuba_pbrdf.measured.read`)."""
     p.add_argument("data", metavar="FILE", help="measurements (.csv) or a pBRDF table (.pbsdf)")
-    p.add_argument("--layout", choices=("auto", "goniometer", "nist"), default="auto",
-                   help="CSV layout: goniometer (this project's), nist (NIST's Mueller BRDF "
-                        "files: lambda in um, signed thetai, f_r11 and f_rIJ/f_r11) or auto "
-                        "(told by the header; default)")
+    p.add_argument("--layout", choices=LAYOUT_CHOICES, default=AUTO,
+                   help="CSV layout: " + ", ".join(f"{lay.name} ({lay.summary})"
+                                                   for lay in LAYOUTS.values())
+                        + f" or {AUTO} (told by the header; default)")
     p.add_argument("--wavelength", default="",
                    help="fit only the rows at these wavelengths (nm, comma-separated, "
                         "within 0.5 nm), e.g. 532")
-    p.add_argument("--model", choices=("three", "two", "both"), default="both")
+
+
+def _model_arguments(p):
+    """Which models, evaluated how, and where n, k come from."""
+    p.add_argument("--model", choices=tuple(MODELS) + (BOTH,), default=BOTH)
     p.add_argument("--backend", choices=("reference", "drjit"), default="reference",
                    help="reference: NumPy float64 with scipy (default); drjit: the plugin")
     p.add_argument("--material", help="take n, k from this tabulated conductor (e.g. Al, Cu) "
@@ -176,6 +162,10 @@ def add_parser(subparsers):
     p.add_argument("--nk", metavar="FILE",
                    help="take n, k from this table instead (columns wavelength,n,k in nm, or "
                         "refractiveindex.info's CSV export: wl,n and wl,k blocks in um)")
+
+
+def _objective_arguments(p):
+    """What the fit minimizes, from where, with what held fixed."""
     p.add_argument("--objective", default="auto",
                    help="the residual minimized for m00 (other quantities: linear): auto "
                         "(default: linear when the file gives uncertainties, log when m00 "
@@ -187,6 +177,10 @@ def add_parser(subparsers):
                         "the median positive m00)")
     p.add_argument("--init", default="", help="starting values, e.g. sigma=0.1,n=1.2")
     p.add_argument("--fix", default="", help="fixed values, e.g. n=1.2,k=7 or kid=0")
+
+
+def _shape_arguments(p):
+    """The lobes' shadowing and distributions, and anisotropy."""
     add_model_arguments(p, kinds=("choice",), skip=("distribution", "dd_distribution"))
     p.add_argument("--distribution", choices=("auto",) + DISTRIBUTIONS, default="auto",
                    help="normal distribution of the microfacet lobes: auto (default: fit "
@@ -198,6 +192,10 @@ def add_parser(subparsers):
                    help="fit sigma_u and sigma_v (the RMS slopes along the surface's x and y "
                         "axes, azimuth 0 and 90 deg) instead of sigma; the report says whether "
                         "the measurements resolve them")
+
+
+def _solver_arguments(p):
+    """The starts, and the uncertainties assumed where the file gives none."""
     p.add_argument("--starts", type=int, default=None,
                    help="number of starting points (default: the initial values and a grid "
                         "of roughness scales per lobe, 7 for the three-component model)")
@@ -206,6 +204,10 @@ def add_parser(subparsers):
     p.add_argument("--abs-uncertainty", type=float, default=0.005,
                    help="assumed absolute floor, times the column's largest value (CSV) or "
                         "the entry's M00 (.pbsdf, NIST layout) (default 0.005)")
+
+
+def _table_arguments(p):
+    """What of a .pbsdf table is fitted (:func:`mitsuba_pbrdf.measured.read`)."""
     p.add_argument("--cells", type=int, default=3000,
                    help=".pbsdf: number of table cells to fit (default 3000)")
     p.add_argument("--max-angle", type=float, default=80.0,
@@ -216,12 +218,17 @@ def add_parser(subparsers):
                         "m00..m33, a CSV file's columns; dolp is derived from m00, m10, m20 "
                         "when the file has no dolp column)")
     p.add_argument("--seed", type=int, default=0, help=".pbsdf: seed of the cell sample")
-    p.add_argument("--plot", help="write a picture of fit versus data (.png, .pdf or .svg)")
+
+
+def _output_arguments(p):
+    """The files the command writes besides its report."""
+    p.add_argument("--plot", help="write a picture of fit versus data ("
+                                  + ", ".join(f".{f}" for f in PLOT_FORMATS[:-1])
+                                  + f" or .{PLOT_FORMATS[-1]})")
     p.add_argument("--json", help="write the results as JSON")
     p.add_argument("--scene-out", metavar="FILE.xml",
                    help="write a Mitsuba scene with the fitted pbrdf BSDF (the three-component "
                         "fit, else the one fitted), ready to render in a polarized variant")
-    p.set_defaults(func=run)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -6,24 +6,10 @@ each with its ``<default>`` value and what it sets (for a property of a
 from __future__ import annotations
 
 import os
-import sys
 import textwrap
 
-from .errors import PROG, CliError
-
-
-def _scene(path: str) -> str:
-    """The scene file, or the packaged scene of that name (as ``render`` finds it)."""
-    from ..rendering.scene_files import find_scene
-
-    if os.path.isdir(path):
-        raise CliError(f"{path} is a folder, not a scene file")
-    if os.path.isfile(path):
-        return path
-    found = str(find_scene(path))  # FileNotFoundError naming the packaged scenes
-    print(f"{PROG} params: {path} is not here; listing the packaged scene {found}",
-          file=sys.stderr)
-    return found
+from .arguments import scene_file
+from .errors import CliError
 
 
 def format_parameters(scene: str, parameters, width: int = 100) -> str:
@@ -49,7 +35,9 @@ def run(args) -> int:
     """``pbrdf params``."""
     from ..rendering.scene_params import scene_parameters
 
-    scene = _scene(args.scene)
+    if os.path.isdir(args.scene):
+        raise CliError(f"{args.scene} is a folder, not a scene file")
+    scene = scene_file(args.scene, "params", "listing")
     print(format_parameters(args.scene, scene_parameters(scene)))
     return 0
 

@@ -24,6 +24,7 @@ from .arguments import RenamedOption, finite_float, typed_option
 from .errors import PROG, CliError
 
 __all__ = ["picture_options", "picture_kwargs", "parse_panels", "scale_value", "report_quality",
+           "warn_quality",
            "unused_picture_options", "unused_cube_sheet_options", "warn_unused_picture_options"]
 
 def picture_options(parser, panels_default: str):
@@ -104,13 +105,19 @@ def report_quality(image, band, source: str, command: str, bands=None):
         quality = require_usable(image, source, bands=bands, band=band)
     except UnusableImageError as e:
         raise CliError(str(e)) from None
+    warn_quality(quality, source, command)
+    return quality
+
+
+def warn_quality(quality, source: str, command: str) -> None:
+    """One line on stderr about an image's unusable pixels (*quality*:
+    :func:`~mitsuba_pbrdf.stokes.quality.assess`), or its being black."""
     if quality.count:
         print(f"{PROG} {command}: warning: {source}: {quality.summary()}; marked in the "
               "picture (see its legend)", file=sys.stderr)
     elif quality.black:
         print(f"{PROG} {command}: warning: {source}: the image is black (S0 = 0 everywhere)",
               file=sys.stderr)
-    return quality
 
 
 #: picture option -> (argparse dest, its default, the panel functions' keyword);

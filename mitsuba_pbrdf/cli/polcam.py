@@ -17,7 +17,6 @@ import os
 
 from ..errors import ParameterError, one_line
 from ..interrupts import release
-from ..outputs import together
 from .arguments import check_outputs, finite_float, require_file
 from .errors import CliError, option_message
 
@@ -44,10 +43,7 @@ def sensor_model(args):
 
 def run(args) -> int:
     """``pbrdf polcam``."""
-    from ..stokes.exr import read_stokes_exr
-    from ..camera.polcam import polcam_file_names, polcam_outputs, write_polcam_files
-    from ..camera.raw_frames import mosaic_previews
-    from ..visualization.png import write_pixels_png
+    from ..visualization.polcam_files import polcam_files
     from ..stokes.image import StokesChannelError
 
     require_file(args.exr, "EXR file")
@@ -56,30 +52,17 @@ def run(args) -> int:
         raise CliError("--band is for the mono sensor; the colour sensor sees R, G, B")
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"--out: {args.out} is not a folder")
-    stem = os.path.splitext(os.path.basename(args.exr))[0]
     release()  # checked: what follows is NumPy, Ctrl-C stops it at once (mitsuba_pbrdf.interrupts)
     try:
-        image = read_stokes_exr(args.exr)
-        outputs = polcam_outputs(image, sensor=args.sensor, band=args.band, model=model)
+        files = polcam_files(args.exr, args.out, sensor=args.sensor, band=args.band, model=model)
     except ParameterError as e:  # of an option (sensor -> --sensor), not of the file
         raise CliError(option_message(e, args)) from e
     except (StokesChannelError, ValueError, KeyError) as e:
         raise CliError(f"{args.exr}: {one_line(e).removeprefix(args.exr + ': ')}") from e
-    names = polcam_file_names(outputs, stem)
-    paths = {suffix: os.path.join(args.out, name) for suffix, name in names.items()}
-    previews = {os.path.join(args.out, name): picture for name, picture
-                in mosaic_previews(outputs, stem, model.bits if model.enabled else None).items()}
-    check_outputs(*[("--out", p) for p in [*paths.values(), *previews]],
-                  inputs=[("STOKES.exr", args.exr)])
-    metadata = {k: v for k, v in image.metadata.items() if not k.startswith("time_")}
-    metadata["source"] = os.path.basename(args.exr)
-    with together():  # all the files or none (mitsuba_pbrdf.interrupts)
-        write_polcam_files(outputs, args.out, stem, metadata)
-        for path, picture in previews.items():
-            write_pixels_png(path, picture)
-    paths.update({path: path for path in previews})
-    print(f"wrote {len(paths)} files in {args.out}: "
-          + ", ".join(os.path.basename(p) for p in paths.values()))
+    check_outputs(*[("--out", p) for p in files.paths], inputs=[("STOKES.exr", args.exr)])
+    written = files.write()  # all the files or none
+    print(f"wrote {len(written)} files in {args.out}: "
+          + ", ".join(os.path.basename(p) for p in written))
     return 0
 
 

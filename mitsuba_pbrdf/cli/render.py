@@ -14,11 +14,10 @@ import sys
 from contextlib import contextmanager
 from typing import Optional
 
-from ..outputs import together
 from .arguments import (check_outputs, chosen_variant, parse_defines, progress_options,
-                        show_progress, variant_help)
+                        scene_file, show_progress, variant_help)
 from .errors import PROG, CliError
-from .pictures import (picture_kwargs, picture_options, report_quality,
+from .pictures import (picture_kwargs, picture_options, warn_quality,
                        warn_unused_picture_options)
 
 
@@ -30,18 +29,6 @@ def _out_stem(out: Optional[str], scene_path: str) -> str:
         return os.path.join(out, stem)
     base, ext = os.path.splitext(out)
     return base if ext.lower() in (".exr", ".png") else out
-
-
-def _scene(path: str) -> str:
-    """The scene file, or the packaged scene of that name (with a notice)."""
-    from ..rendering.scene_files import find_scene
-
-    if os.path.isfile(path):
-        return path
-    found = str(find_scene(path))  # FileNotFoundError naming the packaged scenes
-    print(f"{PROG} render: {path} is not here; rendering the packaged scene {found}",
-          file=sys.stderr)
-    return found
 
 
 @contextmanager
@@ -61,11 +48,12 @@ def _wrote(path: str, existed: bool, detail: str = "") -> str:
 
 def run(args) -> int:
     """``pbrdf render``."""
-    from ..visualization.panels import save_overview_png
-    from ..rendering.render import check_render, render_request
-    from ..stokes.exr import write_stokes_exr
+    from ..rendering.render import check_render
+    from ..rendering.scene_params import scene_inputs
+    from ..stokes.quality import UnusableImageError
+    from ..visualization.render_files import render_files
 
-    scene = _scene(args.scene)
+    scene = scene_file(args.scene, "render", "rendering")
     params = parse_defines(args.define)
     picture = picture_kwargs(args)
     warn_unused_picture_options(args, picture["panels"], "render")
@@ -79,8 +67,6 @@ def run(args) -> int:
         raise CliError(f"no band {picture['band']!r} in a render; bands are {', '.join(written)}")
     stem = _out_stem(args.out, scene)
     exr_path, png_path = stem + ".exr", stem + ".png"
-    from ..rendering.scene_params import scene_inputs
-
     check_outputs(("--out", exr_path, ("exr",)), ("--out", png_path, ("png",)),
                   inputs=[("SCENE.xml", scene)]
                   + [("a file the scene reads", path) for path in scene_inputs(scene, params)])
@@ -89,23 +75,18 @@ def run(args) -> int:
         print(f"{PROG} render: {request.notice} (--no-auto-stokes refuses instead)",
               file=sys.stderr)
 
-    with _loading(scene):
-        image, timings = render_request(request, seed=args.seed, progress=show_progress(args))
-    quality = report_quality(image, picture["band"], f"the render of {scene}", "render")
-
-    name = os.path.splitext(os.path.basename(scene))[0]
-    passes = int(image.metadata.get("passes", 1))
-    mode = request.mode.describe()
-    image.metadata["title"] = (f"{name}: {request.variant}, {image.metadata['spp']} spp"
-                               + (f" in {passes} passes" if passes > 1 else "")
-                               + (f", {mode}" if mode else ""))
-    with together():  # both outputs or neither (mitsuba_pbrdf.interrupts)
-        exr = write_stokes_exr(exr_path, image)
-        png = save_overview_png(png_path, image, quality=quality, **picture)
-    print(_wrote(exr, existed[0],
+    try:
+        with _loading(scene):
+            done = render_files(request, exr_path, png_path, seed=args.seed,
+                                progress=show_progress(args), **picture)
+    except UnusableImageError as e:
+        raise CliError(str(e)) from None
+    warn_quality(done.quality, f"the render of {scene}", "render")
+    image = done.image
+    print(_wrote(done.exr, existed[0],
                  f" ({image.width}x{image.height}, Stokes bands {','.join(image.bands)})"))
-    print(_wrote(png, existed[1]))
-    print(f"timings: {timings.summary()}")
+    print(_wrote(done.png, existed[1]))
+    print(f"timings: {done.timings.summary()}")
     return 0
 
 

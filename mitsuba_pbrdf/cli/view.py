@@ -20,7 +20,6 @@ import sys
 
 from ..errors import one_line
 from ..interrupts import release
-from ..outputs import together
 from .arguments import check_outputs, require_file
 from .errors import PROG, CliError
 from .pictures import (picture_kwargs, picture_options, report_quality,
@@ -37,10 +36,8 @@ def polcam_siblings(path: str) -> list:
 
 def run(args) -> int:
     """``pbrdf view``."""
-    from ..stokes.exr import read_stokes_exr
+    from ..camera.raw_frames import read_viewable_exr
     from ..visualization.panels import save_overview_png
-    from ..stokes.image import StokesChannelError
-
     from ..visualization.cube_sheet import DOLP_SCALES
 
     require_file(args.exr, "EXR file")
@@ -53,20 +50,9 @@ def run(args) -> int:
     check_outputs(("--out", out, ("png",)), ("--out", csv, ("csv",)),
                   inputs=[("STOKES.exr", args.exr)] + polcam_siblings(args.exr))
     existed = os.path.exists(out)
-    polcam = False
     try:
-        image = read_stokes_exr(args.exr)
-    except StokesChannelError as e:  # a file of pbrdf polcam? its Stokes image
-        from ..camera.raw_frames import read_polcam_exr
-
-        try:
-            image = read_polcam_exr(args.exr)
-        except (FileNotFoundError, ValueError) as polcam_error:
-            raise CliError(one_line(polcam_error)) from e
-        if image is None:
-            raise CliError(one_line(e)) from e
-        polcam = True
-    except ValueError as e:
+        image, polcam = read_viewable_exr(args.exr)
+    except (FileNotFoundError, ValueError) as e:
         raise CliError(one_line(e)) from e
     release()  # read: drawing is plain Python, Ctrl-C stops it at once (mitsuba_pbrdf.interrupts)
     if args.cube or args.spectrum is not None:
@@ -88,8 +74,7 @@ def run(args) -> int:
 
 def _cube_sheet(args, image, out: str, existed: bool) -> int:
     """``--cube`` / ``--spectrum``: the contact sheet (and the spectrum CSV)."""
-    from ..visualization.cube_sheet import (parse_region, region_spectrum, save_cube_sheet,
-                                       write_spectrum_csv)
+    from ..visualization.cube_sheet import parse_region, region_spectrum, save_cube_sheet
     from ..stokes.quality import UnusableImageError, require_usable
 
     if args.band is not None:
@@ -107,18 +92,16 @@ def _cube_sheet(args, image, out: str, existed: bool) -> int:
             raise
     # the unusable-pixel rule, for every band the sheet draws
     report_quality(image, None, args.exr, "view", bands=image.bands)
-    csv = os.path.splitext(out)[0] + ".csv"
     if not image.metadata.get("title"):
         image.metadata["title"] = os.path.basename(args.exr)
     dolp_limit = args.dolp_limit if args.dolp_limit == "auto" else float(args.dolp_limit)
-    with together():  # the sheet and the CSV, or neither (mitsuba_pbrdf.interrupts)
-        path = save_cube_sheet(out, image, region=region, dolp_limit=dolp_limit,
-                               min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap,
-                               dolp_scale=args.dolp_scale)
-        written = write_spectrum_csv(csv, image, region) if region is not None else None
+    csv = os.path.splitext(out)[0] + ".csv" if region is not None else None
+    path = save_cube_sheet(out, image, region=region, csv=csv, dolp_limit=dolp_limit,
+                           min_dolp=args.min_dolp, dolp_cmap=args.dolp_cmap,
+                           dolp_scale=args.dolp_scale)   # the sheet and the CSV, or neither
     print(f"{'replaced' if existed else 'wrote'} {path} ({len(image.bands)} bands)")
     if region is not None:
-        print(f"wrote {written} (Stokes spectrum, {region.describe()})")
+        print(f"wrote {csv} (Stokes spectrum, {region.describe()})")
     return 0
 
 

@@ -22,7 +22,8 @@ as a scene). The CSV format is
 in :mod:`mitsuba_pbrdf.measured.measurements`.
 """
 
-from .vector import BOUNDS, DEFAULTS, MODELS, SHARED
+from ..choices import MODELS
+from .vector import BOUNDS, DEFAULTS, SHARED
 from .observables import model_observables, synthetic_measurements
 from .plots import plot_fit
 from .report import report

@@ -17,9 +17,11 @@ from .. import reference as ref
 from ..errors import ParameterError
 from ..measured.index_table import IndexTable, read_index_table
 from .backends import BACKENDS
-from .vector import MODELS, absent_parameters, parse_assignments
+from ..choices import MODELS
+from .vector import absent_parameters, parse_assignments
 
-__all__ = ["check_arguments", "check_data", "assignments_by_model", "index_from", "with_index"]
+__all__ = ["check_model", "check_arguments", "check_data", "assignments_by_model", "index_from",
+           "with_index"]
 
 
 def check_data(data):
@@ -37,8 +39,7 @@ def check_data(data):
 def check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertainty,
                     start_rows=None):
     """The options of one fit, and the data (:func:`check_data`)."""
-    if model not in MODELS:
-        raise ParameterError("model", f"must be one of {', '.join(MODELS)}, not {model!r}")
+    check_model(model)
     if backend not in BACKENDS:
         raise ParameterError("backend", f"must be one of {', '.join(BACKENDS)}, not {backend!r}")
     for name, v in (("starts", starts), ("start_rows", start_rows)):
@@ -54,12 +55,20 @@ def check_arguments(data, model, backend, starts, rel_uncertainty, abs_uncertain
     check_data(data)
 
 
+def check_model(model):
+    """A :class:`ParameterError` unless *model* is one of :data:`mitsuba_pbrdf.choices.MODELS`."""
+    if model not in MODELS:
+        raise ParameterError("model", f"must be one of {', '.join(MODELS)}, not {model!r}")
+
+
 def assignments_by_model(models, init, fix):
     """``{model: (init, fix, notes)}``: each of *models*' share of the values
     ``init`` and ``fix`` give (parsed, :func:`.layout.parse_assignments`). A
     value of a parameter that a model lacks (:func:`.layout.absent_parameters`)
     is dropped from that model's share with a note saying so; one that every
     model lacks is refused."""
+    for m in models:
+        check_model(m)
     init, fix = parse_assignments(init, "init"), parse_assignments(fix, "fix")
     absent = {m: absent_parameters(m, fix) for m in models}
     for what, source in (("init", init), ("fix", fix)):

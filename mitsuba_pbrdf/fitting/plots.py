@@ -21,6 +21,7 @@ from typing import Dict
 
 import numpy as np
 
+from ..choices import MODELS
 from ..measured.measurements import Measurements
 from .objectives import OBJECTIVES, make_terms
 from .observables import model_observables
@@ -30,7 +31,6 @@ __all__ = ["plot_fit", "MAP_ROWS"]
 
 #: Incidence angles drawn as hemisphere maps, at most.
 MAP_ROWS = 4
-STYLES = {"three": "-", "two": "--"}
 
 
 def _in_plane_series(data):
@@ -78,9 +78,9 @@ def _in_plane_panels(fig, grid, data, fitted, band, series, colors, legend_at):
             top.plot(x[ok], y[ok], ".", ms=2.5, color=color, alpha=0.8, zorder=1,
                      label=f"data {label}")
             for model, values in fitted.items():
-                top.plot(x, values[q][rows], STYLES.get(model, "-"), color=color, lw=1.1,
+                top.plot(x, values[q][rows], MODELS[model].line_style, color=color, lw=1.1,
                          zorder=3, label=f"{model}-component" if g == 0 else None)
-                bottom.plot(x, _residual(q, values[q][rows], y), STYLES.get(model, "-"),
+                bottom.plot(x, _residual(q, values[q][rows], y), MODELS[model].line_style,
                             color=color, lw=0.9)
         if log:
             top.set_yscale("log")

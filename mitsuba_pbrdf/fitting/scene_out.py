@@ -22,6 +22,7 @@ import re
 
 import numpy as np
 
+from ..choices import MODELS
 from ..outputs import atomic_path, escape_text
 from ..rendering.narrowband import CIE_RANGE
 from ..rendering.scene_files import scenes_dir
@@ -76,11 +77,11 @@ def bsdf_xml(result, material=None, bsdf_id="fitted", indent="    ") -> str:
         if name in v:
             lines.append(f'    <float name="{name}" value="{float(v[name]):.9g}"/>')
     lines.append(f'    <spectrum name="ks" value="{float(v["ks"]):.9g}"/>')
-    if result.model == "three":
+    if "kdd" in MODELS[result.model].fixed:     # the lobe off: no width to give
+        lines.append('    <spectrum name="kdd" value="0"/>')
+    else:
         lines.append(f'    <spectrum name="kdd" value="{float(v["kdd"]):.9g}"/>')
         lines.append(f'    <float name="sigma_dd" value="{float(v["sigma_dd"]):.9g}"/>')
-    else:
-        lines.append('    <spectrum name="kdd" value="0"/>')
     lines.append(f'    <spectrum name="kid" value="{float(v["kid"]):.9g}"/>')
     lines.append(f'    <string name="shadowing" value="{result.shadowing}"/>')
     lines.append(f'    <string name="distribution" value="{result.distribution}"/>')

@@ -205,7 +205,7 @@ def fit_model(data: Measurements, model: str = "three", backend: str = "referenc
     data : Measurements
         What to fit (:func:`mitsuba_pbrdf.measured.read`).
     model : str
-        ``"three"`` or ``"two"`` (:data:`.vector.MODELS`).
+        ``"three"`` or ``"two"`` (:data:`mitsuba_pbrdf.choices.MODELS`).
     backend : str
         ``"reference"`` (NumPy float64) or ``"drjit"`` (the plugin).
     shadowing, dd_distribution, distribution : str

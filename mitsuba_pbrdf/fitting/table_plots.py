@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import reference as ref
+from ..choices import MODELS, preferred
 from ..measured.lookup import lookup
 from ..measured.pbsdf import PbsdfTable
 from .vector import SHARED
@@ -53,7 +54,6 @@ def plot_table_fit(table: PbsdfTable, results, path, title=None):
     axes = fig.subplots(2, 3)
     colors = matplotlib.colormaps["tab10"]
     signed = np.linspace(-85.0, 85.0, 171)
-    styles = {"three": "-", "two": "--"}
     for c, ti in enumerate(INCIDENCE):
         tr = np.abs(signed)
         pr = np.where(signed >= 0, 180.0, 0.0)
@@ -64,7 +64,7 @@ def plot_table_fit(table: PbsdfTable, results, path, title=None):
             for name, r in results.items():
                 F = _model(r, j, ti, 0.0, tr, pr)
                 f = F[:, 0, 0] if q == "m00" else ref.dop_unpolarized(F)
-                ax.plot(signed, f, styles.get(name, "-"), color=colors(c), lw=1.1,
+                ax.plot(signed, f, MODELS[name].line_style, color=colors(c), lw=1.1,
                         label=f"{name}-component" if c == 0 else None)
     for ax, q in zip(axes[0, :2], ("M00 (1/sr)", "DoLP")):
         ax.set_xlabel("reflection angle θr (deg, + = specular side)")
@@ -78,8 +78,7 @@ def plot_table_fit(table: PbsdfTable, results, path, title=None):
                [r.relative_rms.get("m00", np.nan), _dolp_rms(r, table, j, wavelength)],
                alpha=0.7)
     ax.set_title("RMS residual (M00 relative; DoLP absolute)")
-    _hemisphere(axes[1], table, results.get("three") or next(iter(results.values())), j,
-                wavelength)
+    _hemisphere(axes[1], table, preferred(results), j, wavelength)
     if title:
         fig.suptitle(title)
     fig.tight_layout()

@@ -14,9 +14,11 @@ import math
 import numpy as np
 
 from .. import schema
+from ..choices import MODELS
 from ..errors import ParameterError
 
-__all__ = ["PER_WAVELENGTH", "SHARED", "ANISOTROPIC", "shared_names", "DEFAULTS", "BOUNDS", "SCALE_FLOORS", "PLUGIN_NAMES", "MODELS",
+__all__ = ["PER_WAVELENGTH", "SHARED", "ANISOTROPIC", "shared_names", "DEFAULTS", "BOUNDS",
+           "SCALE_FLOORS", "PLUGIN_NAMES",
            "TWO_COMPONENT_FIXED", "LOBE_PARAMETERS", "absent_parameters", "parse_assignments",
            "ParameterVector"]
 
@@ -46,10 +48,8 @@ def shared_names(anisotropic=False):
     return tuple(p for p in SHARED if p not in dropped)
 
 
-MODELS = {"three": "three-component (specular + directional diffuse + ideal diffuse)",
-          "two": "two-component (specular + ideal diffuse, kdd = 0)"}
 #: What the two-component model fixes: the directional diffuse lobe's parameters (kdd = 0).
-TWO_COMPONENT_FIXED = tuple(name for name in schema.LOBES["directional_diffuse"] if name)
+TWO_COMPONENT_FIXED = MODELS["two"].fixed
 #: Each lobe's weight -> the fitted parameters that act through that lobe alone
 #: (the index n, k through the specular lobe's Fresnel factor): with the
 #: weight fixed at 0 the model has none of them.
@@ -64,10 +64,7 @@ def absent_parameters(model, fix=None):
     *fix* holds: the two-component model's directional diffuse lobe (kdd = 0),
     and the parameters of a lobe whose weight is fixed at 0."""
     fix = fix or {}
-    absent = {}
-    if model == "two":
-        absent.update({name: "it is the three-component model with kdd = 0"
-                       for name in TWO_COMPONENT_FIXED})
+    absent = {name: MODELS[model].why_fixed for name in MODELS[model].fixed}
     for weight, names in LOBE_PARAMETERS.items():
         if weight not in absent and fix.get(weight) == 0:
             absent.update({name: f"{weight} is fixed at 0, so its lobe is off" for name in names
@@ -120,9 +117,10 @@ class ParameterVector:
         self.fixed = set()
         #: parameters the model lacks (:func:`absent_parameters`): neither fitted nor reported
         self.absent = absent_parameters(model, fix)
-        if model == "two":
-            self.values[TWO_COMPONENT_FIXED[0]] = 0.0       # the lobe's weight
-            self.fixed |= set(TWO_COMPONENT_FIXED)
+        off = MODELS[model].fixed
+        if off:
+            self.values[off[0]] = 0.0       # the lobe's weight
+            self.fixed |= set(off)
         for source, is_fix in ((init, False), (fix, True)):
             for key, v in source.items():
                 name, _, at = key.partition("@")

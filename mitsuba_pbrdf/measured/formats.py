@@ -6,27 +6,29 @@ from __future__ import annotations
 
 import os
 
-from . import nist_layout
-from .measurements import ANGLES, MeasurementError, Measurements, read_goniometer, read_table
+from ..choices import LAYOUT_CHOICES, LAYOUTS as _LAYOUTS, layout_of
+from .measurements import MeasurementError, Measurements, read_goniometer, read_table
+from .nist_layout import read_nist
 
-__all__ = ["LAYOUTS", "read_measurements"]
+__all__ = ["LAYOUTS", "READERS", "read_measurements"]
 
-#: The file layouts :func:`read_measurements` reads: ``goniometer`` (this
-#: module's CSV) and ``nist`` (NIST's published Mueller-matrix BRDF layout,
-#: :mod:`.nist_layout`); ``auto`` tells them apart by the header.
-LAYOUTS = ("auto", "goniometer", "nist")
+#: The values of :func:`read_measurements`' ``layout``: ``auto`` (told by the
+#: header) and the layouts of :data:`mitsuba_pbrdf.choices.LAYOUTS`.
+LAYOUTS = LAYOUT_CHOICES
+#: Each layout's reader: (path, header, rows) -> :class:`Measurements`, from
+#: :func:`~.measurements.read_table`'s header and rows.
+READERS = {"goniometer": read_goniometer, "nist": read_nist}
 
 
 def read_measurements(path, layout="auto") -> Measurements:
-    """Read and check a measurement file: the goniometer CSV of the module
-    docstring, or NIST's Mueller-matrix BRDF layout (:mod:`.nist_layout`).
-    ``layout="auto"`` recognises the layout from the header; ``"goniometer"``
-    or ``"nist"`` force one."""
+    """Read and check a measurement file in one of the layouts of
+    :data:`mitsuba_pbrdf.choices.LAYOUTS`: the goniometer CSV
+    (:mod:`.measurements`) or NIST's Mueller-matrix BRDF layout
+    (:mod:`.nist_layout`). ``layout="auto"`` recognises the layout from the
+    header; ``"goniometer"`` or ``"nist"`` force one."""
     if layout not in LAYOUTS:
         raise MeasurementError(f"layout must be one of {', '.join(LAYOUTS)}, not {layout!r}")
+    first, *others = _LAYOUTS.values()
     _, header, rows = read_table(
-        path, f"{', '.join(ANGLES)}, wavelength, m00 ... (or NIST's lambda, thetai, phi, "
-              "thetar, phir, f_r11 ...)")
-    if layout == "nist" or (layout == "auto" and nist_layout.is_nist_header(header)):
-        return nist_layout.read_nist(os.fspath(path), header, rows)
-    return read_goniometer(os.fspath(path), header, rows)
+        path, first.columns + "".join(f" (or {lay.columns})" for lay in others))
+    return READERS[layout_of(header, layout).name](os.fspath(path), header, rows)

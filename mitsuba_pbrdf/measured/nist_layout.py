@@ -49,7 +49,7 @@ import numpy as np
 
 from .measurements import MeasurementError, Measurements, check_measurements, number_cell
 
-__all__ = ["NIST_ANGLES", "is_nist_header", "read_nist", "nist_to_project"]
+__all__ = ["NIST_ANGLES", "read_nist", "nist_to_project"]
 
 #: The angle and wavelength columns of the layout.
 NIST_ANGLES = ("lambda", "thetai", "phi", "thetar", "phir")
@@ -59,12 +59,6 @@ ELEMENT = re.compile(r"^(f_r|m)([1-4])([1-4])(?:\s*/\s*(f_r|m)11)?$")
 MICROMETRES = (0.1, 20.0)
 #: SCATMECH's circular sign against the project's (Mitsuba's).
 D = np.diag([1.0, 1.0, 1.0, -1.0])
-
-
-def is_nist_header(header) -> bool:
-    """Whether a header (names stripped, lower case) is NIST's layout: its
-    angle columns ``thetai``, ``thetar`` or a 1-indexed ``f_r11`` column."""
-    return ("thetai" in header and "thetar" in header) or "f_r11" in header
 
 
 def nist_to_project(M, theta_i, phi_i, theta_r, phi_r):

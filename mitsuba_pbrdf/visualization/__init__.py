@@ -15,7 +15,8 @@ Pictures of Stokes images:
 Figures built on them: the model's pBRDF plotted from the NumPy reference
 evaluator (:mod:`.pbrdf_plots`, ``pbrdf plot``), the scene gallery that README
 shows (:mod:`.gallery`, ``pbrdf gallery``), the polarization-camera figure
-(:mod:`.polcam_figure`), recover-normals' recovery picture
+(:mod:`.polcam_figure`), ``pbrdf polcam``'s and ``pbrdf render``'s files
+(:mod:`.polcam_files`, :mod:`.render_files`), recover-normals' recovery picture
 (:mod:`.normal_recovery`) and the gallery plate's normal map
 (:mod:`.normalmap_plate`).
 """

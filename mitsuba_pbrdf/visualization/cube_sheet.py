@@ -237,9 +237,19 @@ def cube_sheet_figure(image: StokesImage, region: Optional[Region] = None,
 
 def save_cube_sheet(path, image: StokesImage, region: Optional[Region] = None,
                     title: Optional[str] = None, dpi: int = 100, dolp_scale: str = "shared",
-                    **options) -> str:
-    """Write :func:`cube_sheet_figure` as a PNG (atomically); returns the path."""
+                    csv=None, **options) -> str:
+    """Write :func:`cube_sheet_figure` as a PNG (atomically), and with *csv*
+    the *region*'s Stokes spectrum there (:func:`write_spectrum_csv`): both
+    files or neither (``pbrdf view --spectrum``). Returns the PNG's path."""
+    from ..outputs import together
+
     if title is None:
         title = image.metadata.get("title")
-    return save_png(cube_sheet_figure(image, region, title, dolp_scale=dolp_scale, **options),
-                    path, dpi=dpi)
+    if csv is not None and region is None:
+        raise ParameterError("csv", "the spectrum is a region's: give region too")
+    with together():
+        png = save_png(cube_sheet_figure(image, region, title, dolp_scale=dolp_scale, **options),
+                       path, dpi=dpi)
+        if csv is not None:
+            write_spectrum_csv(csv, image, region)
+    return png

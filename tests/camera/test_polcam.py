@@ -307,3 +307,27 @@ def test_view_draws_polcams_files_as_the_stokes_image_the_camera_measures(tmp_pa
     err = capfd.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "scene_I90.exr" in err and "needs all four" in err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_view_reads_what_read_viewable_exr_reads(tmp_path):
+    """``pbrdf view``'s reader in one call: a Stokes EXR as it is, a file of
+    ``pbrdf polcam`` as the camera's Stokes image, anything else the Stokes
+    reader's error."""
+    from mitsuba_pbrdf.camera.raw_frames import read_polcam_exr, read_viewable_exr
+    from mitsuba_pbrdf.stokes.exr import write_exr
+    from mitsuba_pbrdf.stokes.image import StokesChannelError
+
+    image = random_stokes(4, 6, seed=7)
+    src = write_stokes_exr(tmp_path / "scene.exr", image)
+    assert main(["polcam", src, "--out", str(tmp_path)]) == 0
+    read, from_camera = read_viewable_exr(src)
+    assert not from_camera
+    np.testing.assert_array_equal(read.stokes, image.stokes)
+    read, from_camera = read_viewable_exr(tmp_path / "scene_mosaic.exr")
+    assert from_camera
+    np.testing.assert_array_equal(read.stokes,
+                                  read_polcam_exr(tmp_path / "scene_mosaic.exr").stokes)
+    plain = write_exr(tmp_path / "plain.exr", {"Z": np.zeros((2, 2), np.float32)})
+    with pytest.raises(StokesChannelError):
+        read_viewable_exr(plain)
+

@@ -23,7 +23,7 @@ import pytest
 
 from mitsuba_pbrdf import reference as ref
 from mitsuba_pbrdf.measured import MeasurementError, read_measurements
-from mitsuba_pbrdf.measured.nist_layout import is_nist_header
+from mitsuba_pbrdf.choices import layout_of
 from mitsuba_pbrdf.measured.selection import select_observables, select_wavelengths
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir, os.pardir))
@@ -149,7 +149,7 @@ def test_ptfe_file_reads_as_published():
     with open(PTFE) as f:
         header = [h.strip().lower() for h in f.readline().split(",")]
         first = [float(v) for v in f.readline().split(",")]
-    assert is_nist_header(header)
+    assert layout_of(header).name == "nist"
     data = read_measurements(PTFE)
     assert len(data) == 325 and data.wavelengths.tolist() == [532.0, 633.0]
     assert np.all(data.phi_i == -180.0) and data.theta_i.min() == pytest.approx(0.001)

@@ -68,6 +68,20 @@ def test_cli_view_cube_sheet_and_spectrum_csv(tmp_path, capsys):
     assert not (tmp_path / "x.png").exists()
 
 
+def test_the_sheet_and_its_spectrum_are_written_together(tmp_path):
+    """save_cube_sheet with a CSV writes both files (the command's test above),
+    or neither when one cannot be written."""
+    from mitsuba_pbrdf.visualization.cube_sheet import save_cube_sheet
+
+    image, region = known_cube(), parse_region("3,2,2,2")
+    (tmp_path / "dir.csv").mkdir()
+    with pytest.raises(OSError):
+        save_cube_sheet(tmp_path / "t.png", image, region=region, csv=tmp_path / "dir.csv")
+    assert not (tmp_path / "t.png").exists()
+    with pytest.raises(ParameterError, match="csv"):
+        save_cube_sheet(tmp_path / "u.png", image, csv=tmp_path / "u.csv")
+
+
 def test_polcam_of_a_cube_gives_one_mosaic_per_band(tmp_path):
     image = known_cube()
     outputs = polcam_outputs(image)
