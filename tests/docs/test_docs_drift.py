@@ -53,7 +53,7 @@ def anchors(doc):
 
 @pytest.mark.parametrize("doc", DOCS)
 def test_links_resolve(doc):
-    bad = [f"{file}#{anchor}" for file, anchor in links(doc)
+    bad = [f"{file}#{anchor}".rstrip("#") for file, anchor in links(doc)
            if not os.path.exists(os.path.join(ROOT, file))
            or anchor and file.endswith(".md") and anchor not in anchors(file)]
     if doc == "README.md":  # README is the index of docs/
