@@ -224,6 +224,17 @@ def test_gallery_help_names_every_gallery_item():
     assert [i for i in GALLERY_ITEMS if i not in only.help] == []
 
 
+def test_the_checks_read_every_form_a_doc_uses():
+    """Not vacuous: commands in code blocks, inline, in cli.md's table, continued
+    by ``[`` or a ``\\``; figures as written or rounded, not inside other numbers."""
+    found = {(d, c, w) for d in DOCS for _, c, args, _ in commands(d) for w in args}
+    assert {("README.md", "plot", "--theta-i"), ("README.md", "render", "-D"),
+            ("docs/cli.md", "polcam", "--full-well"), ("docs/batch.md", "batch", "--walltime"),
+            ("docs/fitting.md", "fit", "[--abs-uncertainty")} <= found
+    assert FIGURE.findall("1.60 s, 11.6 min; 236 MiB") == ["1.60", "11.6", "236"]
+    assert quoted("1.60", "| 1.604 |") and not quoted("1.6", "11.6 s") and quoted("3", "2.9")
+
+
 # ---------------------------------------------------------------- README's commands
 
 def test_readme_test_command_is_ci_and_its_install_brings_dask():
