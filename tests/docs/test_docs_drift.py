@@ -1,333 +1,273 @@
-"""Docs that cannot drift: every measured time or memory figure a doc quotes
-is in a report its paragraph links (``tests/doc_figures.py``), and every
-option a doc gives a ``pbrdf`` command is one that command's ``--help``
-lists (the argparse parser is built in-process; nothing is rendered)."""
+"""README.md and docs/*.md against what they describe: links and anchors
+resolve; Python snippets import names that exist; every option a page gives
+exists; every full ``pbrdf`` command parses and names files and ``-D`` keys
+that exist; a measured time or memory figure is in a report its block links;
+tables copied from code match it. README's commands run in order (slow)."""
 
+import ast
+import glob
+import importlib
+import importlib.util
 import os
 import re
+import shlex
+import textwrap
 
 import pytest
 
 from mitsuba_pbrdf.cli import build_parser
 from mitsuba_pbrdf.rendering.scene_params import declared_parameters
 
-from doc_figures import doc_files, prose_lines, read, unsourced
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir, os.pardir))
+DOCS = ["README.md"] + sorted(f"docs/{n}" for n in os.listdir(os.path.join(ROOT, "docs"))
+                              if n.endswith(".md"))
 
-DOCS = doc_files()
+
+def read(path):
+    with open(os.path.join(ROOT, path), encoding="utf-8") as f:
+        return f.read()
 
 
-# ---------------------------------------------------------------- figures
+def prose(text):
+    """*text* with its fenced code blocks blanked (line numbers kept)."""
+    return re.sub(r"^[ \t]*```.*?^[ \t]*```", lambda m: "\n" * m.group(0).count("\n"),
+                  text, flags=re.S | re.M)
+
+
+# ---------------------------------------------------------------- links, snippets, code map
+
+def links(doc):
+    """``(file relative to the root, anchor)`` of each relative link outside code."""
+    for target in re.findall(r"\]\(([^)\s]+)\)", re.sub(r"`[^`\n]*`", "", prose(read(doc)))):
+        if not re.match(r"[a-z]+:", target):
+            file, _, anchor = target.partition("#")
+            yield (os.path.normpath(os.path.join(os.path.dirname(doc), file)) if file else doc,
+                   anchor)
+
+
+def anchors(doc):
+    """The anchors GitHub gives *doc*'s headings."""
+    return {re.sub(r"[^\w\- ]", "", re.sub(r"[`*]", "", h.strip().lower())).replace(" ", "-")
+            for h in re.findall(r"^#{1,6} (.+)$", prose(read(doc)), flags=re.M)}
+
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_links_resolve(doc):
+    bad = [f"{file}#{anchor}".rstrip("#") for file, anchor in links(doc)
+           if not os.path.exists(os.path.join(ROOT, file))
+           or anchor and file.endswith(".md") and anchor not in anchors(file)]
+    assert not bad, f"{doc}: links to no such file or heading: {bad}"
+    if doc == "README.md":  # README is the index of docs/
+        assert sorted(set(DOCS[1:]) - {f for f, _ in links(doc)}) == [], "unlinked from README"
+
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_python_snippets_parse_and_import_what_exists(doc):
+    """Running them is for examples/ and by hand: some render for minutes."""
+    for code in re.findall(r"^[ \t]*```python\n(.*?)^[ \t]*```", read(doc), flags=re.S | re.M):
+        for node in ast.walk(ast.parse(textwrap.dedent(code))):
+            if isinstance(node, ast.ImportFrom) and node.module.startswith("mitsuba_pbrdf"):
+                module = importlib.import_module(node.module)
+                for a in node.names:
+                    assert hasattr(module, a.name) or importlib.util.find_spec(
+                        f"{node.module}.{a.name}"), f"{doc}: {node.module}.{a.name}"
+            elif isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.startswith("mitsuba_pbrdf"):
+                        importlib.import_module(a.name)
+
+
+def test_layout_page_names_every_subpackage_and_module():
+    text, package = read("docs/layout.md"), os.path.join(ROOT, "mitsuba_pbrdf")
+    missing = [n for n in os.listdir(package) if n != "__pycache__" and (
+        n.endswith(".py") and n not in text
+        or os.path.isdir(os.path.join(package, n)) and f"  {n}/" not in text)]
+    assert not missing, f"docs/layout.md's tree lacks mitsuba_pbrdf/{missing}"
+
+
+# ---------------------------------------------------------------- commands and options
+
+PARSER = build_parser()
+SUBPARSERS = {None: PARSER, **next(a for a in PARSER._actions
+                                   if a.__class__.__name__ == "_SubParsersAction").choices}
+OPTIONS = {c: {s for a in p._actions for s in a.option_strings} for c, p in SUBPARSERS.items()}
+#: Commands that take a file first: ``render --bands 450:650:50`` inline is a fragment.
+POSITIONAL = {c for c, p in SUBPARSERS.items() if any(
+    a.required and not a.option_strings for a in p._actions)}
+PLACEHOLDER = re.compile(r"[A-Z]{3}|[<>{}\[\]|]|\.\.\.|…")
+
+
+def commands(doc):
+    """``(line, command, args, in_block)`` of each ``pbrdf`` command that starts
+    a line of a code block (a line after ``\\``, or starting ``[`` or ``-``,
+    continues it), an inline code span or a table row's first cell (cli.md),
+    or follows ``&&``; ``pbrdf-fit`` is ``fit``, ``None`` the top-level command."""
+    pieces, fenced = [], False
+    for i, line in enumerate(read(doc).splitlines(), 1):
+        if line.lstrip().startswith("```"):
+            fenced = not fenced
+        elif fenced and pieces and pieces[-1][0] == i - 1 and (
+                pieces[-1][1].endswith("\\") or line.lstrip().startswith(("[", "-"))):
+            pieces[-1] = (i, pieces[-1][1].rstrip("\\") + " " + line.split(" #")[0].strip(), True)
+        elif fenced:
+            pieces.append((i, line.split(" #")[0].rstrip(), True))
+        else:
+            spans = re.findall(r"`([^`]+)`", line.replace("\\|", "|"))
+            if line.startswith("| `") and spans and spans[0].split()[0] in OPTIONS:
+                spans[0] = "pbrdf " + spans[0]
+            pieces += [(i, s, False) for s in spans]
+    for i, text, block in pieces:
+        for part in re.split(r"&&|;", text):
+            try:
+                words = shlex.split(part)
+            except ValueError:  # an unpaired quote: prose, not a command
+                words = part.split()
+            if words[:1] == ["pbrdf-fit"]:
+                words = ["pbrdf", "fit"] + words[1:]
+            elif words[1:3] == ["-m", "mitsuba_pbrdf"]:
+                words = ["pbrdf"] + words[3:]
+            if words[:1] == ["pbrdf"] and words[1:] and (words[1] in OPTIONS or words[1][0] == "-"):
+                c = words[1] if words[1] in OPTIONS else None
+                yield i, c, words[2 if c else 1:], block
+
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_every_option_a_page_names_exists(doc):
+    """An option given to a ``pbrdf`` command is that command's; any other
+    ``--option`` is some command's, a study or benchmark script's, install.sh's."""
+    bad = [f"line {i}: pbrdf {c or ''} {o}" for i, c, args, _ in commands(doc) for word in args
+           for o in re.findall(r"(?<![\w-])--?[a-zA-Z][\w-]*", word)
+           if (o.startswith("--") or o in ("-D", "-h")) and o not in OPTIONS[c]]
+    known = set().union(*OPTIONS.values(), {"--collect-only"}, re.findall(
+        r"^\s*(--[\w-]+)\)", read("install.sh"), flags=re.M))
+    for script in glob.glob(f"{ROOT}/validation/*.py") + glob.glob(f"{ROOT}/benchmarks/*.py"):
+        known.update(re.findall(r"add_argument\(\s*[\"'](--[\w-]+)", read(script)))
+    bad += sorted(set(re.findall(r"(?<![\w-])--[a-zA-Z][\w-]*", read(doc))) - known)
+    assert not bad, f"{doc}: options that no --help lists: {bad}"
+
+
+def full_commands(doc):
+    """The commands of *doc* given in full: no placeholder (``SCENE.xml``,
+    ``[--x]``, ``...``) and not an inline fragment (``render --bands 450:650:50``)."""
+    return [(i, [c] + args if c else args) for i, c, args, block in commands(doc)
+            if not any(PLACEHOLDER.search(w) and not os.path.exists(f"{ROOT}/{w}") for w in args)
+            and (block or any(not w.startswith("-") for w in args)
+                 and (c not in POSITIONAL or not args[0].startswith("-")))]
+
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_every_full_command_parses_and_names_what_exists(doc):
+    """Each parses (argparse, in-process); the repository files it names exist;
+    each ``-D`` key of a render is one of its scene's parameters."""
+    bad = []
+    for i, argv in full_commands(doc):
+        try:
+            PARSER.parse_args(argv)
+        except SystemExit as e:
+            bad += [f"line {i}: {argv} does not parse"] if e.code else []
+        files = [w for w in argv if w.startswith(("scenes/", "validation/", "tests/", "examples/"))]
+        bad += [f"line {i}: no {f}" for f in files if not os.path.exists(os.path.join(ROOT, f))]
+        keys = {argv[k + 1].partition("=")[0] for k, w in enumerate(argv[:-1]) if w == "-D"}
+        if keys and os.path.isfile(os.path.join(ROOT, argv[1])):
+            bad += [f"line {i}: {argv[1]} has no -D {k}" for k in
+                    keys - declared_parameters(os.path.join(ROOT, argv[1]))]
+    assert not bad, f"{doc}:\n" + "\n".join(bad)
+
+
+# ---------------------------------------------------------------- figures and tables
+
+NUMBER = r"(?<![\w.])\d[\d,]*(?:\.\d+)?"
+FIGURE = re.compile(rf"({NUMBER})\s?(?:ms|s|min|h|MiB|GiB|kB|MB|GB)\b")
+
+
+def quoted(figure, report):
+    """Whether *report* holds *figure* as written or rounded to its decimals
+    (``1.60`` quotes 1.604; ``1.6`` is not in 11.6)."""
+    value, places = float(figure.replace(",", "")), len(figure.partition(".")[2])
+    return any(round(float(n.replace(",", "")), places) == value
+               for n in re.findall(NUMBER, report))
+
 
 @pytest.mark.parametrize("doc", DOCS)
 def test_every_measured_figure_is_in_a_linked_report(doc):
-    bad = unsourced(doc)
-    assert not bad, ("time/memory figures that no report linked from their paragraph holds "
-                     "(link the report, or write a setting as code):\n" + "\n".join(bad))
+    """A time or memory figure in prose (code spans are settings) is in a
+    ``benchmarks/*.md`` or ``validation/*.md`` report linked from its block
+    (paragraph, list item, table), which gives the command that produced it."""
+    bad = []
+    for block in re.split(r"\n[ \t]*\n", prose(read(doc))):
+        reports = [os.path.normpath(os.path.join(os.path.dirname(doc), r))
+                   for r in re.findall(r"\]\(([^)#\s]+\.md)", block)]
+        reports = [read(r) for r in reports if r.startswith(("benchmarks/", "validation/"))
+                   and os.path.isfile(os.path.join(ROOT, r))]
+        for m in FIGURE.finditer(re.sub(r"`[^`]*`|\]\([^)\s]*\)", "", block)):
+            if not any(quoted(m.group(1), r) for r in reports):
+                bad.append(f"{m.group(0)!r} ({'not in the' if reports else 'no'} linked report) "
+                           f"in: {block.strip()[:80]}")
+    assert not bad, f"{doc}: link the report, or write a setting as code:\n" + "\n".join(bad)
 
 
-def test_the_figure_check_can_fail(tmp_path, monkeypatch):
-    """Not vacuous: a figure its linked report lacks, and a figure with no
-    report linked, are reported; a rounded figure, a setting in code and a
-    figure of a code block are not."""
-    import doc_figures
+def test_stokes_prb_parameter_table_is_the_integrators():
+    """docs/path-replay.md's table has the names and defaults of the
+    integrator's docstring table."""
+    from mitsuba_pbrdf.integrators import stokes_prb
 
-    reports = tmp_path / "benchmarks"  # a made-up report folder
-    reports.mkdir()
-    (tmp_path / "notes").mkdir()
-    (reports / "r.md").write_text("| drjit | 1.604 s |\n")
-    (tmp_path / "notes" / "page.md").write_text(
-        f"drjit 1.60 s, reference 3.52 s ([r](../{reports.name}/r.md)).\n\n"
-        "took 9 s here, timeout `20 s`.\n\n```\ncode 5 s\n```\n")
-    monkeypatch.setattr(doc_figures, "ROOT", str(tmp_path))
-    assert doc_figures.unsourced(os.path.join("notes", "page.md")) == [
-        "notes/page.md:1: 3.52 s (in none of the linked reports)",
-        "notes/page.md:3: 9 s (no report linked)"]
+    rows = re.findall(r"\* - ``(\w+)``\n\s+- \w+\n(?:.*\n)*?\s+- (\S+)\n", stokes_prb.__doc__)
+    assert {name for name, _ in rows} == {"max_depth", "rr_depth", "hide_emitters"}
+    assert dict(re.findall(r"^\| `(\w+)` \| \w+ \| (\S+) \|", read("docs/path-replay.md"),
+                           flags=re.M)) == dict(rows)
 
 
-# ---------------------------------------------------------------- options
-
-COMMAND = re.compile(r"(?:\bpbrdf(?:-fit)?|python -m mitsuba_pbrdf)\s+(?P<rest>.*)")
-
-
-def subcommand_options():
-    """``{command: set of option strings}`` from the argparse parser itself
-    (``None``: the top-level options)."""
-    parser = build_parser()
-    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
-    options = {None: {s for a in parser._actions for s in a.option_strings}}
-    for name, p in sub.choices.items():
-        options[name] = {s for a in p._actions for s in a.option_strings}
-    return options
-
-
-def command_spans(doc):
-    """``(line, text)`` of every piece of a doc that gives a ``pbrdf`` command:
-    each line of a code block (indented lines continue the command above)
-    and each inline code span that starts with ``pbrdf``, ``pbrdf-fit`` or
-    ``python -m mitsuba_pbrdf``; in a table whose rows start with a
-    subcommand (docs/cli.md), that first cell."""
-    text = read(doc)
-    lines = text.splitlines()
-    prose = prose_lines(text)
-    spans = []
-    fenced = False
-    for i, line in enumerate(lines):
-        if line.lstrip().startswith("```"):
-            fenced = not fenced
-            continue
-        if fenced:
-            if line.startswith((" ", "\t")) and spans and spans[-1][0] == i:
-                spans[-1] = (i + 1, spans[-1][1] + " " + line.strip())
-            else:
-                spans.append((i + 1, line))
-    for i, line in enumerate(prose):
-        for span in re.findall(r"`([^`]+)`", line.replace("\\|", "|")):
-            spans.append((i + 1, span))
-        row = re.match(r"^\|\s*`(?P<cell>[a-z]+ [^`]*)`\s*\|", line)
-        if row:
-            spans.append((i + 1, "pbrdf " + row.group("cell").replace("\\|", "|")))
-    return spans
-
-
-def named_options(doc, commands):
-    """``(line, command, option)`` of every ``--option`` given to a ``pbrdf``
-    command in *doc* (``pbrdf-fit`` is ``pbrdf fit``)."""
-    for line, span in command_spans(doc):
-        for m in COMMAND.finditer(span):
-            words = m.group("rest").split()
-            if "pbrdf-fit" in m.group(0):
-                command, args = "fit", words
-            elif words and words[0] in commands:
-                command, args = words[0], words[1:]
-            elif words and words[0].startswith("-"):
-                command, args = None, words
-            else:
-                continue
-            # stop at the next command in the same span, or a shell comment
-            for word in args:
-                if word.startswith("#") or word in ("pbrdf", "&&", ";"):
-                    break
-                for option in re.findall(r"(?<![\w-])--?[a-zA-Z][\w-]*", word):
-                    if option.startswith("--") or option in ("-D", "-h"):
-                        yield line, command, option
-
-
-@pytest.mark.parametrize("doc", DOCS)
-def test_every_option_a_doc_names_is_in_the_help(doc):
-    options = subcommand_options()
-    commands = {c for c in options if c}
-    named = list(named_options(doc, commands))
-    bad = [f"{doc}:{line}: pbrdf {command or ''} {option}" for line, command, option in named
-           if option not in options[command] and option != "-D" or
-           option == "-D" and command not in ("render", None)]
-    assert not bad, "options that `--help` does not list:\n" + "\n".join(bad)
-
-
-def test_the_option_check_reads_the_docs():
-    """The option check is not vacuous: it finds the options of README's and
-    cli.md's commands (table rows, code blocks, continued lines)."""
-    commands = {c for c in subcommand_options() if c}
-    readme = {(c, o) for _, c, o in named_options("README.md", commands)}
-    assert {("plot", "--theta-i"), ("batch", "--workers"), ("render", "-D")} <= readme
-    cli = {(c, o) for _, c, o in named_options("docs/cli.md", commands)}
-    assert {("polcam", "--full-well"), ("export", "--grid"), ("gallery", "--only")} <= cli
-    fitting = {(c, o) for _, c, o in named_options("docs/fitting.md", commands)}
-    assert ("fit", "--abs-uncertainty") in fitting  # on the continued usage line
-
-
-def test_gallery_help_lists_every_gallery_item():
+def test_gallery_help_names_every_gallery_item():
     from mitsuba_pbrdf.visualization.gallery import GALLERY_ITEMS
 
-    parser = build_parser()
-    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
-    only = next(a for a in sub.choices["gallery"]._actions if "--only" in a.option_strings)
+    only = next(a for a in SUBPARSERS["gallery"]._actions if "--only" in a.option_strings)
     assert [i for i in GALLERY_ITEMS if i not in only.help] == []
 
 
-def test_stokes_prb_parameter_table_matches_the_integrator():
-    """docs/path-replay.md's parameter table lists exactly the parameters and
-    defaults of the integrator's own docstring table."""
-    from mitsuba_pbrdf.integrators import stokes_prb
-
-    doc = stokes_prb.__doc__
-    rows = re.findall(r"\* - ``(\w+)``\n\s+- (\w+)\n(?:.*\n)*?\s+- (\S+)\n", doc)
-    assert {r[0] for r in rows} == {"max_depth", "rr_depth", "hide_emitters"}
-    page = read("docs/path-replay.md")
-    documented = dict(re.findall(r"^\| `(\w+)` \| \w+ \| (\S+) \|", page, flags=re.M))
-    assert documented == {name: default for name, _, default in rows}
-
-
-def rendered_and_read(doc, commands):
-    """``(line, kind, path)`` in the order of *doc*: ``("writes", out/x.exr)``
-    for each ``pbrdf render`` and ``("reads", x.exr)`` for each ``pbrdf view``
-    or ``pbrdf polcam`` of a concrete (not upper-case placeholder) EXR; a
-    ``polcam`` with ``--out`` also writes its EXRs in that folder."""
-    for line, span in sorted(command_spans(doc), key=lambda s: s[0]):
-        for m in COMMAND.finditer(span):
-            words = m.group("rest").split()
-            if not words or words[0] not in ("render", "view", "polcam") or len(words) < 2:
-                continue
-            target = words[1]
-            if words[0] == "render":
-                out = words[words.index("--out") + 1] if "--out" in words[:-1] else None
-                stem = out or "out/" + os.path.splitext(os.path.basename(target))[0]
-                yield line, "writes", stem.removesuffix(".exr") + ".exr"
-            elif target.endswith(".exr") and not re.search(r"[A-Z]{3}|[<>{}]", target):
-                yield line, "reads", target
-                if words[0] == "polcam" and "--out" in words[:-1]:  # what polcam writes
-                    folder = words[words.index("--out") + 1]
-                    stem = os.path.splitext(os.path.basename(target))[0]
-                    for suffix in ("I0", "I45", "I90", "I135", "mosaic", "mosaic_rgb"):
-                        yield line, "writes", f"{folder}/{stem}_{suffix}.exr"
-
-
-@pytest.mark.parametrize("doc", DOCS)
-def test_every_exr_a_doc_views_is_rendered_first(doc):
-    """A doc that views or feeds ``out/x.exr`` to ``polcam`` runs the render
-    that writes it first (in the same doc, or README's quick start)."""
-    commands = {c for c in subcommand_options() if c}
-    written = {p for _, kind, p in rendered_and_read("README.md", commands)
-               if kind == "writes"} if doc != "README.md" else set()
-    missing = []
-    for line, kind, path in rendered_and_read(doc, commands):
-        if kind == "writes":
-            written.add(path)
-        elif path not in written:
-            missing.append(f"{doc}:{line}: {path}")
-    assert not missing, "EXRs read before any render writes them:\n" + "\n".join(missing)
-
-
-def script_options():
-    """Options that the repository's validation and benchmark scripts define
-    (their ``add_argument("--x", ...)`` calls), and those ``install.sh`` takes."""
-    import glob
-
-    from doc_figures import ROOT
-
-    found = set()
-    install = os.path.join(ROOT, "install.sh")
-    if os.path.isfile(install):
-        with open(install, encoding="utf-8") as f:
-            found.update(re.findall(r"^\s*(--[\w-]+)\)", f.read(), flags=re.M))  # case arms
-    for path in glob.glob(os.path.join(ROOT, "validation", "*.py")) + glob.glob(
-            os.path.join(ROOT, "benchmarks", "*.py")):
-        with open(path, encoding="utf-8") as f:
-            found.update(re.findall(r"add_argument\(\s*[\"'](--[\w-]+)", f.read()))
-    return found
-
-
-@pytest.mark.parametrize("doc", DOCS)
-def test_every_option_anywhere_in_a_doc_exists(doc):
-    """Options the docs mention outside a ``pbrdf`` command line (in prose,
-    or for a study script) are options of some ``pbrdf`` command, of a
-    validation or benchmark script, or pytest's ``--collect-only``."""
-    known = set().union(*subcommand_options().values()) | script_options() | {"--collect-only"}
-    named = set(re.findall(r"(?<![\w-])--[a-zA-Z][\w-]*", read(doc)))
-    assert sorted(named - known) == []
+def test_the_checks_read_every_form_a_doc_uses():
+    """Not vacuous: commands in code blocks, inline, in cli.md's table, continued
+    by ``[`` or a ``\\``; figures as written or rounded, not inside other numbers."""
+    found = {(d, c, w) for d in DOCS for _, c, args, _ in commands(d) for w in args}
+    assert {("README.md", "plot", "--theta-i"), ("README.md", "render", "-D"),
+            ("docs/cli.md", "polcam", "--full-well"), ("docs/batch.md", "batch", "--walltime"),
+            ("docs/fitting.md", "fit", "[--abs-uncertainty")} <= found
+    assert FIGURE.findall("1.60 s, 11.6 min; 236 MiB") == ["1.60", "11.6", "236"]
+    assert quoted("1.60", "| 1.604 |") and not quoted("1.6", "11.6 s") and quoted("3", "2.9")
 
 
 # ---------------------------------------------------------------- README's commands
 
-def readme_commands():
-    """``(line, argv)`` of every ``pbrdf`` command README gives in full, in
-    order: each one in a code block, and each inline one that names
-    something (a scene, a file, a value), not the fragments that only name
-    options (``pbrdf render --bands``); usage templates (``SCENE.xml``,
-    ``...``) are left out."""
-    commands = {c for c in subcommand_options() if c}
-    text = read("README.md")
-    fenced_lines, fenced = set(), False
-    for i, line in enumerate(text.splitlines()):
-        if line.lstrip().startswith("```"):
-            fenced = not fenced
-        elif fenced:
-            fenced_lines.add(i + 1)
-    found = []
-    for line, span in command_spans("README.md"):
-        for m in COMMAND.finditer(span):
-            words = m.group("rest").split(" #")[0].split()
-            if not words or words[0] not in commands:
-                continue
-            args = words[1:]
-            if "..." in args or any(re.search(r"[A-Z]{3}|[<>{}]", w) for w in args):
-                continue  # a usage template
-            if line not in fenced_lines and all(w.startswith("-") for w in args):
-                continue  # prose naming a command or its options
-            found.append((line, words))
-    return sorted(found, key=lambda f: f[0])
+def test_readme_test_command_is_ci_and_its_install_brings_dask():
+    """``.ci/run`` ends with README's test command; README's install (no
+    extra) brings Dask, which its ``pbrdf batch`` example needs."""
+    import tomllib
+
+    blocks = re.findall(r"```bash\n(.*?)\n```", read("README.md"), flags=re.S)
+    assert [b for b in blocks if "pytest" in b] == [read(".ci/run").strip().splitlines()[-1]]
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
+        assert "dask[distributed]" in tomllib.load(f)["project"]["dependencies"]
+    assert any(argv[0] == "batch" for _, argv in full_commands("README.md"))
 
 
-def test_every_command_readme_gives_parses_and_names_files_that_exist():
-    """Each full ``pbrdf`` command of README parses (argparse, in-process)
-    and the scene and sweep files it names are in the repository."""
-    from doc_figures import ROOT
-
-    commands = readme_commands()
-    assert len(commands) >= 15, commands  # the check reads README's commands
-    parser = build_parser()
-    bad = []
-    for line, argv in commands:
-        try:
-            parser.parse_args(argv)
-        except SystemExit:
-            bad.append(f"README.md:{line}: pbrdf {' '.join(argv)} does not parse")
-        for word in argv[1:]:
-            if word.endswith((".xml", ".toml")) and not os.path.isfile(os.path.join(ROOT, word)):
-                bad.append(f"README.md:{line}: {word} is not in the repository")
-        if argv[0] == "render":  # each -D key is one of the scene's parameters
-            declared = declared_parameters(os.path.join(ROOT, argv[1]))
-            keys = [argv[i + 1].partition("=")[0] for i, w in enumerate(argv[:-1]) if w == "-D"]
-            bad += [f"README.md:{line}: {argv[1]} has no parameter {k!r}" for k in keys
-                    if k not in declared]
-    assert not bad, "\n".join(bad)
-
-
-#: What README's commands become in :func:`test_readme_commands_run_in_order`:
-#: renders shrunk to 32 x 24 pixels at 4 spp (every scene README renders has
+#: Renders shrunk to 32 x 24 pixels at 4 spp (every scene README renders has
 #: width and height defaults); the gallery and the sweeps are left out (minutes
 #: of rendering; ``pbrdf gallery`` and ``batch`` have tests of their own).
 SHRINK = ["-D", "width=32", "-D", "height=24", "--spp", "4"]
-NOT_RUN = ("gallery", "batch")
 
 
 @pytest.mark.slow
 def test_readme_commands_run_in_order(tmp_path, monkeypatch, capsys):
-    """README's commands, in README's order, from a folder holding only the
-    repository's scenes: each exits 0 (renders shrunk, see :data:`SHRINK`)
-    and the files that later commands read are there."""
-    from doc_figures import ROOT
-
-    from mitsuba_pbrdf import variant as variant_module
+    """From a folder holding only the repository's scenes, README's commands
+    exit 0 in README's order and write the files later ones read."""
+    from mitsuba_pbrdf import variant
     from mitsuba_pbrdf.cli import main
 
-    monkeypatch.setattr(variant_module, "cuda_available", lambda: False)
+    monkeypatch.setattr(variant, "cuda_available", lambda: False)
     monkeypatch.chdir(tmp_path)
     os.symlink(os.path.join(ROOT, "scenes"), tmp_path / "scenes")
-    ran = []
-    for line, argv in readme_commands():
-        if argv[0] in NOT_RUN:
-            continue
-        argv = argv + SHRINK if argv[0] == "render" else argv
-        status = main(argv)
-        assert status == 0, f"README.md:{line}: pbrdf {' '.join(argv)}: {capsys.readouterr().err}"
-        ran.append(argv[0])
-    assert {"render", "view", "plot", "polcam"} <= set(ran)
+    for line, argv in full_commands("README.md"):
+        if argv[0] not in ("gallery", "batch"):
+            argv += SHRINK if argv[0] == "render" else []
+            assert main(argv) == 0, f"README.md:{line}: {argv}: {capsys.readouterr().err}"
     for name in ("out/default.png", "out/polarizer45.exr", "cu.png", "out/cam"):
         assert os.path.exists(name), name
-
-
-def test_readme_install_brings_what_readme_commands_use():
-    """README's install (``pip install -e .``, no extra) brings Dask, which
-    README's ``pbrdf batch`` example needs."""
-    from doc_figures import ROOT
-
-    try:
-        import tomllib
-    except ImportError:  # Python < 3.11
-        import tomli as tomllib
-    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
-        dependencies = tomllib.load(f)["project"]["dependencies"]
-    assert "dask[distributed]" in dependencies
-    assert any(argv[0] == "batch" for _, argv in readme_commands())
-    readme = read("README.md")
-    assert "./install.sh && " in readme and "[batch]" not in readme
