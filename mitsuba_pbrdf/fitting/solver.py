@@ -165,14 +165,8 @@ def _stated(layout, order, z_best, x_best, values, sd, undetermined, cov, lo, hi
     """``(errors, at_bound, anisotropy)`` of :class:`FitResult` from the
     standard uncertainties *sd* of the free parameters."""
     W = len(layout.wavelengths)
-    errors = {"n": np.full(W, np.nan), "k": np.full(W, np.nan)}
-    errors.update({p: math.nan for p in layout.shared})
-    for name, s in zip(layout.free, sd):
-        p, _, j = name.partition("@")
-        if j:
-            errors[p][int(j)] = s
-        else:
-            errors[p] = float(s)
+    errors = layout.place(sd, {**{p: np.full(W, np.nan) for p in PER_WAVELENGTH},
+                               **{p: math.nan for p in layout.shared}})
     at_bound = [layout.label(n) for n, x, a, b in zip(layout.free, x_best, lo, hi)
                 if x <= a * (1 + 1e-6) + 1e-12 or x >= b * (1 - 1e-6)]
     if order.at_bound(z_best):

@@ -192,12 +192,19 @@ class ParameterVector:
         return lo, hi
 
     def unpack(self, x):
+        """The model's values, {name: value or per-wavelength array}, the free
+        ones taken from *x* (in the order of ``free``)."""
         values = {p: self.values[p].copy() for p in PER_WAVELENGTH}
         values.update({p: self.values[p] for p in self.shared})
+        return self.place(x, values)
+
+    def place(self, x, into):
+        """*into* ({name: value or per-wavelength array}) with each free
+        parameter's entry set from *x* (in the order of ``free``)."""
         for name, v in zip(self.free, x):
             p, _, j = name.partition("@")
             if j:
-                values[p][int(j)] = v
+                into[p][int(j)] = v
             else:
-                values[p] = float(v)
-        return values
+                into[p] = float(v)
+        return into
