@@ -284,61 +284,64 @@ def replay(integrator, scene, ray, store, count, valid, differentiate_delta):
     tangent = dr.zeros(mi.SpectrumEntry, width)
     # One index for all lanes (a scalar loop variable): local memory is then
     # read a packet at a time instead of gathered; lanes whose path is
-    # shorter skip the first iterations (`here`).
+    # shorter skip the first iterations (`here`). The body is a symbolic
+    # `if`: on the CPU a SIMD packet none of whose paths is that long skips
+    # it whole (about a third of the iterations in benchmarks/gradient_profile.md).
     k = mi.UInt32(store.size)
 
     while dr.hint(k > 0, label="stokes_prb replay"):
         k -= 1
         here = k < count
-        rec = store.read(k)
-        ray_k = mi.Ray3f(ray)
-        ray_k.o = rec["o"]
-        ray_k.d = rec["d"]
-        pi = _preliminary(rec)
-        pi.valid &= here
-        em_ok = (rec["em_ok"] != 0) & here
-        has_next = (rec["next"] != 0) & here
-        smooth = rec["smooth"] != 0
-        mis_bsdf = dr.select(here, rec["mis_bsdf"], 0.0)
+        if here:
+            rec = store.read(k)
+            ray_k = mi.Ray3f(ray)
+            ray_k.o = rec["o"]
+            ray_k.d = rec["d"]
+            pi = _preliminary(rec)
+            pi.valid &= here
+            em_ok = (rec["em_ok"] != 0) & here
+            has_next = (rec["next"] != 0) & here
+            smooth = rec["smooth"] != 0
+            mis_bsdf = dr.select(here, rec["mis_bsdf"], 0.0)
 
-        with dr.resume_grad():
-            si = pi.compute_surface_interaction(ray_k, mi.RayFlags.All)
-            bsdf = si.bsdf(ray_k)
+            with dr.resume_grad():
+                si = pi.compute_surface_interaction(ray_k, mi.RayFlags.All)
+                bsdf = si.bsdf(ray_k)
 
-            # emission (this vertex's emitter, MIS weight from the trace)
-            emitter = si.emitter(scene)
-            E = column0(emitter.eval(si, mis_bsdf > 0)) * mis_bsdf
-            # emitter sample again from its random numbers (derivatives of
-            # the emitter's radiance); visibility and MIS weight as traced
-            ds, em_weight = scene.sample_emitter_direction(si, rec["em_sample"], False, em_ok)
-            wo_em = si.to_local(ds.d)
-            le_em = column0(em_weight)
+                # emission (this vertex's emitter, MIS weight from the trace)
+                emitter = si.emitter(scene)
+                E = column0(emitter.eval(si, mis_bsdf > 0)) * mis_bsdf
+                # emitter sample again from its random numbers (derivatives of
+                # the emitter's radiance); visibility and MIS weight as traced
+                ds, em_weight = scene.sample_emitter_direction(si, rec["em_sample"], False, em_ok)
+                wo_em = si.to_local(ds.d)
+                le_em = column0(em_weight)
 
-            # the BSDF towards the emitter sample and along the sampled
-            # direction (f(theta) / pdf: detached sampling) ...
-            wo = rec["wo"]
-            pdf = rec["pdf"]
-            f_em = bsdf.eval(ctx, si, wo_em, em_ok)
-            f = bsdf.eval(ctx, si, wo, has_next & smooth)
-            E[em_ok] = E + world_mueller_times(si, f_em, -wo_em, si.wi, le_em) * rec["mis_em"]
-            scale = dr.select(has_next & smooth & (pdf > 0), rec["rr"] / pdf, 0.0)
-            TL = world_mueller_times(si, f, -wo, si.wi, L * scale)
-            if dr.hint(differentiate_delta, mode="scalar"):
-                # ... or, for delta and null lobes, the sampled weight itself
-                use = has_next & ~smooth
-                _, w = bsdf.sample(ctx, si, rec["bsdf_s1"], rec["bsdf_s2"], use)
-                TL[use] = world_mueller_times(si, w, -wo, si.wi, L * rec["rr"])
-            contribution = E + TL
+                # the BSDF towards the emitter sample and along the sampled
+                # direction (f(theta) / pdf: detached sampling) ...
+                wo = rec["wo"]
+                pdf = rec["pdf"]
+                f_em = bsdf.eval(ctx, si, wo_em, em_ok)
+                f = bsdf.eval(ctx, si, wo, has_next & smooth)
+                E[em_ok] = E + world_mueller_times(si, f_em, -wo_em, si.wi, le_em) * rec["mis_em"]
+                scale = dr.select(has_next & smooth & (pdf > 0), rec["rr"] / pdf, 0.0)
+                TL = world_mueller_times(si, f, -wo, si.wi, L * scale)
+                if dr.hint(differentiate_delta, mode="scalar"):
+                    # ... or, for delta and null lobes, the sampled weight itself
+                    use = has_next & ~smooth
+                    _, w = bsdf.sample(ctx, si, rec["bsdf_s1"], rec["bsdf_s2"], use)
+                    TL[use] = world_mueller_times(si, w, -wo, si.wi, L * rec["rr"])
+                contribution = E + TL
 
-            if dr.hint(reverse, mode="scalar"):
-                adj = dr.select(valid, rec["adj"], 0.0)
-                dr.backward_from(stokes_dot(adj, contribution))
-            else:
-                tangent += dr.forward_to(mueller_times(rec["adj"], contribution))
+                if dr.hint(reverse, mode="scalar"):
+                    adj = dr.select(valid, rec["adj"], 0.0)
+                    dr.backward_from(stokes_dot(adj, contribution))
+                else:
+                    tangent += dr.forward_to(mueller_times(rec["adj"], contribution))
 
-        # W_k L_{k+1} = T_k L_{k+1}'s value: W_k is the BSDF's sampled weight
-        # f / pdf (roulette included)
-        L = dr.select(here, dr.detach(contribution), L)
+            # W_k L_{k+1} = T_k L_{k+1}'s value: W_k is the BSDF's sampled weight
+            # f / pdf (roulette included)
+            L = dr.select(here, dr.detach(contribution), L)
 
     if dr.hint(reverse, mode="scalar"):
         return None
