@@ -195,55 +195,76 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
         mis_bsdf = dr.select(prev_pdf > 0, mis_weight(prev_pdf, em_pdf), 0.0)
         if dr.hint(not reverse, mode="scalar"):
             E = column0(ds.emitter.eval(si, prev_pdf > 0)) * mis_bsdf
+        else:
+            E = dr.zeros(mi.SpectrumEntry, width)  # not needed: no Stokes estimate
 
         active_next = (depth + 1 < max_depth) & si.is_valid()
-        bsdf = si.bsdf(ray)
-
-        # ---- emitter sampling (visibility tested here, stored for the replay)
-        active_em = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
-        em_sample = sampler.next_2d()
-        ds, em_weight = scene.sample_emitter_direction(si, em_sample, False, active_em)
-        active_em &= ds.pdf != 0.0
-        active_em &= ~scene.ray_test(si.spawn_ray_to(ds.p), active_em)
-        wo_em = si.to_local(ds.d)
-
-        # ---- BSDF: value towards the emitter sample, and a sampled direction
-        s1 = sampler.next_1d()
-        s2 = sampler.next_2d()
-        f_em, pdf_em, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, s1, s2)
-        mis_em = dr.select(ds.delta, 1.0, mis_weight(ds.pdf, pdf_em))
-        if dr.hint(not reverse, mode="scalar"):
-            f_em = to_world_mueller(si, f_em, -wo_em, si.wi)
-            E[active_em] = E + mueller_times(f_em, column0(em_weight)) * mis_em
-            stokes += mueller_times(beta, E)
-
-        weight = to_world_mueller(si, weight, -bs.wo, si.wi)
-        ray_next = si.spawn_ray(si.to_world(bs.wo))
         if dr.hint(reverse, mode="scalar"):
             adj_k = mi.SpectrumEntry(rows[1])
-            rows = (times_mueller(rows[0], weight), times_mueller(rows[1], weight))
-            beta_max = dr.max(rows[0][0])
         else:
             beta_k = mi.Spectrum(beta)
-            beta *= weight
-            beta_max = dr.max(mi.unpolarized_spectrum(beta))
-        eta *= bs.eta
-        valid_ray |= active & si.is_valid() & ~mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null)
-        prev_si = mi.Interaction3f(si)
-        prev_pdf = bs.pdf
-        prev_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
 
-        # ---- Russian roulette (as `path`: after the depth increment)
-        depth[si.is_valid()] += 1
-        rr_prob = dr.minimum(beta_max * dr.square(eta), 0.95)
-        rr_active = depth >= rr_depth
-        rr_continue = sampler.next_1d() < rr_prob
-        rr = dr.select(rr_active, dr.rcp(rr_prob), 1.0)
-        if dr.hint(reverse, mode="scalar"):
-            rows = (rows[0] * rr, rows[1] * rr)
-        else:
-            beta *= rr
-        active_cont = active_next & (~rr_active | rr_continue) & (beta_max != 0.0)
+        # What a path that ends at this vertex leaves: no emitter sample, no
+        # BSDF sample. The rest is a symbolic `if`, which a SIMD packet whose
+        # paths all end here skips.
+        em_sample = dr.zeros(mi.Point2f, width)
+        active_em = mi.Bool(False)
+        mis_em = dr.zeros(mi.Float, width)
+        s1 = dr.zeros(mi.Float, width)
+        s2 = dr.zeros(mi.Point2f, width)
+        bs = dr.zeros(mi.BSDFSample3f, width)
+        rr = dr.ones(mi.Float, width)
+        active_cont = mi.Bool(False)
+        ray_next = mi.Ray3f(ray)
+
+        if active_next:
+            bsdf = si.bsdf(ray)
+
+            # ---- emitter sampling (visibility tested here, stored for the replay)
+            active_em = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
+            em_sample = sampler.next_2d()
+            ds, em_weight = scene.sample_emitter_direction(si, em_sample, False, active_em)
+            active_em &= ds.pdf != 0.0
+            active_em &= ~scene.ray_test(si.spawn_ray_to(ds.p), active_em)
+            wo_em = si.to_local(ds.d)
+
+            # ---- BSDF: value towards the emitter sample, and a sampled direction
+            s1 = sampler.next_1d()
+            s2 = sampler.next_2d()
+            f_em, pdf_em, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, s1, s2)
+            mis_em = dr.select(ds.delta, 1.0, mis_weight(ds.pdf, pdf_em))
+            if dr.hint(not reverse, mode="scalar"):
+                f_em = to_world_mueller(si, f_em, -wo_em, si.wi)
+                E = dr.select(active_em, E + mueller_times(f_em, column0(em_weight)) * mis_em, E)
+
+            weight = to_world_mueller(si, weight, -bs.wo, si.wi)
+            ray_next = si.spawn_ray(si.to_world(bs.wo))
+            if dr.hint(reverse, mode="scalar"):
+                rows = (times_mueller(rows[0], weight), times_mueller(rows[1], weight))
+                beta_max = dr.max(rows[0][0])
+            else:
+                beta *= weight
+                beta_max = dr.max(mi.unpolarized_spectrum(beta))
+            eta *= bs.eta
+            prev_si = mi.Interaction3f(si)
+            prev_pdf = bs.pdf
+            prev_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
+
+            # ---- Russian roulette (as `path`: after the depth increment)
+            depth += 1
+            rr_prob = dr.minimum(beta_max * dr.square(eta), 0.95)
+            rr_active = depth >= rr_depth
+            rr_continue = sampler.next_1d() < rr_prob
+            rr = dr.select(rr_active, dr.rcp(rr_prob), 1.0)
+            if dr.hint(reverse, mode="scalar"):
+                rows = (rows[0] * rr, rows[1] * rr)
+            else:
+                beta *= rr
+            active_cont = (~rr_active | rr_continue) & (beta_max != 0.0)
+
+        if dr.hint(not reverse, mode="scalar"):
+            stokes += mueller_times(beta_k, E)
+        valid_ray |= active & si.is_valid() & ~mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null)
 
         if dr.hint(store is not None, mode="scalar"):
             store.write(
