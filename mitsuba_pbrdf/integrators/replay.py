@@ -121,8 +121,11 @@ class VertexStore:
                         for name, tp in self.fields(adjoint).items()}
 
     def write(self, k, **values):
+        """Write record ``k``; returns :attr:`buffers`, which a symbolic loop
+        that writes must keep as its loop state (:func:`trace`)."""
         for name, value in values.items():
             self.buffers[name][k] = value
+        return self.buffers
 
     def read(self, k):
         return {name: buf[k] for name, buf in self.buffers.items()}
@@ -177,6 +180,11 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
     prev_pdf = mi.Float(1.0)
     prev_delta = mi.Bool(True)
     active = mi.Bool(max_depth > 0)
+    # The local arrays are loop state (assigned in the body): Dr.Jit records
+    # the body twice when it finds loop-invariant state, and writes made
+    # outside the state would keep the first recording's computation in the
+    # kernel (the whole iteration, computed twice).
+    buffers = store.buffers if store is not None else None
     pi = scene.ray_intersect_preliminary(ray, coherent=True, reorder=False, active=active)
 
     if dr.hint(integrator.hide_emitters, mode="scalar"):
@@ -267,7 +275,7 @@ def trace(integrator, scene, sampler, ray, store=None, delta0=None):
         valid_ray |= active & si.is_valid() & ~mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null)
 
         if dr.hint(store is not None, mode="scalar"):
-            store.write(
+            buffers = store.write(
                 count, o=ray.o, d=ray.d, t=pi.t, prim_uv=pi.prim_uv, prim_index=pi.prim_index,
                 shape_index=pi.shape_index, shape=dr.reinterpret_array(mi.UInt32, pi.shape),
                 instance=dr.reinterpret_array(mi.UInt32, pi.instance), mis_bsdf=mis_bsdf,

@@ -223,6 +223,38 @@ def test_forward_equals_reverse_with_mixture_sampling():
                  reverse_gradient(scene, keys, weights, integrator=replay))
 
 
+def _largest_kernel_ir(history):
+    kernels = [h for h in history if h.get("ir") is not None]
+    ir = max(kernels, key=lambda h: h.get("operation_count", 0))["ir"]
+    return ir.getvalue() if hasattr(ir, "getvalue") else ir
+
+
+def test_the_adjoint_kernel_traces_each_path_once():
+    """Dr.Jit records a loop body a second time when it finds loop-invariant
+    state. Local-memory writes made outside the loop state kept the first
+    recording's computation in the kernel: the adjoint kernel held the whole
+    trace iteration twice. Its trace must hold the BSDF-sample call sites that
+    the primal render's trace holds, no more (LLVM IR, which names each call)."""
+    scene = mi.load_dict(scene_dict("stokes_prb", max_depth=3, bsdf=pbrdf("mixture")))
+    params = mi.traverse(scene)
+    dr.enable_grad(params[PBRDF_KEYS[0]])
+    params.update()
+    marker = "; Call: BSDF::eval_pdf_sample()"
+    try:
+        with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+            dr.kernel_history()
+            image = mi.render(scene, params, spp=SPP, seed=1)
+            dr.eval(image)
+            primal = _largest_kernel_ir(dr.kernel_history())
+            dr.backward(dr.sum(image, axis=None))
+            adjoint = _largest_kernel_ir(dr.kernel_history())
+    finally:
+        dr.disable_grad(params[PBRDF_KEYS[0]])
+        params.update()
+    assert primal.count(marker) > 0
+    assert adjoint.count(marker) == primal.count(marker)
+
+
 # ---------------------------------------------------------------- wiring
 
 @pytest.mark.slow
