@@ -251,8 +251,8 @@ def profile(args):
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     scene, params, keys, loss = make(args.size)
     primal(scene, 1)
-    for code in codes:
-        gradient(scene, params, keys, loss, 4, code)  # compiles
+    first = {code: gradient(scene, params, keys, loss, 4, code)[2]  # compiles
+             for code in codes}
     phases.take()
     per_phase, ratios, cpu_ratios, primals, grads_s = {}, {}, {}, [], {}
     for rep in range(args.reps):
@@ -289,6 +289,25 @@ def profile(args):
               f"(min {min(c):.2f}, max {max(c):.2f}); gradient "
               f"{statistics.median(grads_s[code]):.3f} s, primal render "
               f"{statistics.median(primals):.3f} s (wall)")
+    if args.baseline:
+        print(f"* gradients of the two codes with the same seed: largest difference "
+              f"{gradient_difference(first[codes[0]], first[codes[1]]):.1e} of each "
+              f"parameter's largest magnitude")
+
+
+def gradient_difference(a, b):
+    """The largest ``|a - b|`` over the entries of each parameter, relative to
+    that parameter's largest ``|a|`` (parameters whose gradient is 0 left out):
+    0.0 when two codes give the same gradients bit for bit."""
+    import numpy as np
+
+    worst = 0.0
+    for key in a:
+        x, y = np.ravel(np.asarray(a[key], float)), np.ravel(np.asarray(b[key], float))
+        scale = np.max(np.abs(x)) if x.size else 0.0
+        if scale > 0:
+            worst = max(worst, float(np.max(np.abs(x - y)) / scale))
+    return worst
 
 
 COLD_HEADER = ["| process | size | gradient | seconds | kernels compiled | their operations "

@@ -92,8 +92,7 @@ class VertexStore:
     vector) or ``"forward"`` (store the prefix throughput ``beta_k``, a
     Mueller matrix). Floats per vertex: 28 + 16 or 64 (~0.2 or 0.4 kB). The
     sampled weight ``W_k`` is not stored: the replay evaluates it anyway (with
-    derivatives) and reads its value there (local memory costs more than that
-    evaluation: benchmarks/gradient_profile.md)."""
+    derivatives) and reads its value there."""
 
     @staticmethod
     def fields(adjoint):

@@ -34,6 +34,13 @@ def test_ir_counts_count_call_sites_in_llvm_ir():
                       "lines": 11}
 
 
+def test_gradient_difference_is_relative_to_each_parameters_largest():
+    a = {"eta": [2.0], "map": [4.0, -1.0, 0.0], "zero": [0.0]}
+    assert gradient_profile.gradient_difference(a, a) == 0.0
+    b = {"eta": [2.0], "map": [4.0, -1.5, 0.0], "zero": [1.0]}
+    assert gradient_profile.gradient_difference(a, b) == 0.5 / 4.0
+
+
 def test_baseline_is_another_checkouts_integrator():
     """--baseline DIR: DIR's stokes_prb module builds its class (in the suite's
     variant) and its methods run on this checkout's integrator."""
