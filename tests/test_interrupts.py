@@ -115,6 +115,29 @@ def test_a_keyboard_interrupt_wrapped_by_drjit_is_an_interruption(capfd):
     assert err.strip().splitlines()[-1] == "pbrdf recover-normals: interrupted"
 
 
+def test_a_keyboard_interrupt_in_an_extensions_import_is_an_interruption(capfd):
+    """A Ctrl-C inside a pybind11 extension's module init during a command's
+    long work comes back as ``ImportError: initialization failed`` raised from
+    the KeyboardInterrupt (a fit's lazy SciPy import met it): interrupted,
+    exit 130, not an internal error."""
+    from mitsuba_pbrdf.cli.errors import run_command
+
+    def command(args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as e:
+            raise ImportError("initialization failed") from e
+
+    assert run_command(command, None, "fit") == 130
+    assert capfd.readouterr().err.strip() == "pbrdf fit: interrupted"
+
+    def bug(args):
+        raise ImportError("initialization failed")
+
+    assert run_command(bug, None, "fit") == 1
+    assert "internal error: ImportError" in capfd.readouterr().err
+
+
 def test_on_the_command_line_a_sigint_after_the_outputs_changes_nothing(tmp_path, capfd, monkeypatch):
     """Once together() has replaced the outputs the command has finished: on
     the command line SIGINT stays held to the end, then is ignored (SIG_IGN

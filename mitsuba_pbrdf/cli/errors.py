@@ -85,6 +85,10 @@ def run_command(func, args, command: str) -> int:
         return EXIT_ERROR
     except Exception as e:  # a bug: still one line, and how to see more
         settle()
+        if interrupted(e):  # Ctrl-C inside an extension's lazy import (pybind11's
+            sys.stdout.flush()  # "ImportError: initialization failed" from it)
+            print(f"{prefix}: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
         print(f"{prefix}: internal error: {type(e).__name__}: {describe_error(e)} "
               f"(set {TRACEBACK_VARIABLE}=1 for the traceback)", file=sys.stderr)
         return EXIT_INTERNAL
