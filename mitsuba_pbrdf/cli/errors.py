@@ -9,7 +9,8 @@ Every command, present and future, reports through :func:`run_command`:
   library's errors name its parameters (:class:`mitsuba_pbrdf.errors.ParameterError`),
   and where the command has that parameter as an option the message names the
   option instead (``--wavelength: ...``);
-* ``KeyboardInterrupt`` (Ctrl-C, SIGINT): ``pbrdf COMMAND: interrupted``, exit
+* ``KeyboardInterrupt`` (Ctrl-C, SIGINT), also one that a library wrapped in
+  another exception: ``pbrdf COMMAND: interrupted``, exit
   status 130 (128 + SIGINT, as shells report it). Outputs are written
   atomically (:mod:`mitsuba_pbrdf.outputs`), so nothing partial is left;
 * anything else is a bug: ``pbrdf COMMAND: internal error: ...``, exit status 1.
@@ -71,26 +72,22 @@ def run_command(func, args, command: str) -> int:
         settle()                 # done: every output is written, a late SIGINT changes nothing
         return status
     except KeyboardInterrupt:
-        settle()
-        sys.stdout.flush()
-        print(f"{prefix}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except (CliError, OSError, ValueError, RuntimeError, MemoryError) as e:
-        settle()
-        if interrupted(e):  # Ctrl-C that Dr.Jit or Mitsuba wrapped (dr.while_loop ...)
-            sys.stdout.flush()
-            print(f"{prefix}: interrupted", file=sys.stderr)
-            return EXIT_INTERRUPTED
-        print(f"{prefix}: error: {option_message(e, args)}", file=sys.stderr)
-        return EXIT_ERROR
-    except Exception as e:  # a bug: still one line, and how to see more
-        settle()
-        if interrupted(e):  # Ctrl-C inside an extension's lazy import (pybind11's
-            sys.stdout.flush()  # "ImportError: initialization failed" from it)
-            print(f"{prefix}: interrupted", file=sys.stderr)
-            return EXIT_INTERRUPTED
-        print(f"{prefix}: internal error: {type(e).__name__}: {describe_error(e)} "
-              f"(set {TRACEBACK_VARIABLE}=1 for the traceback)", file=sys.stderr)
-        return EXIT_INTERNAL
+        pass
+    except Exception as e:
+        # Ctrl-C that Dr.Jit or Mitsuba wrapped (dr.while_loop, a plugin) or an
+        # extension's import did (pybind11's "ImportError: initialization failed")
+        # is an interruption; anything else is reported here
+        if not interrupted(e):
+            settle()
+            if isinstance(e, (CliError, OSError, ValueError, RuntimeError, MemoryError)):
+                print(f"{prefix}: error: {option_message(e, args)}", file=sys.stderr)
+                return EXIT_ERROR
+            # a bug: still one line, and how to see more
+            print(f"{prefix}: internal error: {type(e).__name__}: {describe_error(e)} "
+                  f"(set {TRACEBACK_VARIABLE}=1 for the traceback)", file=sys.stderr)
+            return EXIT_INTERNAL
     finally:
         settle()  # also for SystemExit and the like, which pass through
+    sys.stdout.flush()
+    print(f"{prefix}: interrupted", file=sys.stderr)
+    return EXIT_INTERRUPTED
